@@ -1,0 +1,45 @@
+//! Loading measured data from CSV files by column name, with errors that name the file, the
+//! row and the column. Nothing is silently dropped: a NaN or non-numeric cell is an error.
+use crate::error::{Result, SmidError};
+use std::path::Path;
+
+/// Columns `u` and `y` (rows whose `part` column equals `part`, when given).
+pub fn read_columns(file: &Path, u: &str, y: &str, part: Option<&str>) -> Result<(Vec<f64>, Vec<f64>)> {
+    let data_err = |location: String, message: String| SmidError::Data { file: file.to_path_buf(), location, message };
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .comment(Some(b'#'))
+        .from_path(file)
+        .map_err(|e| data_err("opening".into(), e.to_string()))?;
+    let headers = rdr.headers().map_err(|e| data_err("header".into(), e.to_string()))?.clone();
+    let col = |name: &str| {
+        headers.iter().position(|h| h == name).ok_or_else(|| {
+            data_err("header".into(), format!("no column `{name}`; columns are: {}", headers.iter().collect::<Vec<_>>().join(", ")))
+        })
+    };
+    let (iu, iy) = (col(u)?, col(y)?);
+    let ip = part.map(|_| col("part")).transpose()?;
+    let (mut us, mut ys) = (Vec::new(), Vec::new());
+    for (r, rec) in rdr.records().enumerate() {
+        let row = r + 2; // 1-based, after the header
+        let rec = rec.map_err(|e| data_err(format!("row {row}"), e.to_string()))?;
+        if let (Some(ip), Some(p)) = (ip, part) {
+            if rec.get(ip) != Some(p) {
+                continue;
+            }
+        }
+        let num = |i: usize, name: &str| -> Result<f64> {
+            let cell = rec.get(i).unwrap_or("");
+            let v: f64 = cell
+                .parse()
+                .map_err(|_| data_err(format!("row {row}, column `{name}`"), format!("expected a number, got `{cell}`")))?;
+            if !v.is_finite() {
+                return Err(data_err(format!("row {row}, column `{name}`"), format!("expected a finite number, got `{cell}`")));
+            }
+            Ok(v)
+        };
+        us.push(num(iu, u)?);
+        ys.push(num(iy, y)?);
+    }
+    Ok((us, ys))
+}

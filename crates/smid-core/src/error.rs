@@ -1,0 +1,90 @@
+//! Typed errors of the smid core.
+//!
+//! Every error names where it comes from: the spec file and field, the data file and sample,
+//! or the identification stage and the first sample that falsified the model. An empty
+//! feasible set is not a crash but [`SmidError::Inconsistent`]: the data are inconsistent with
+//! the model and noise bound, which is a finding about the plant.
+use std::path::PathBuf;
+
+/// Identification stage, used to say where a feasible set became empty.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum Stage {
+    /// Stage 1: nonlinearity parameters from steady-state data (paper Section 3).
+    SteadyState,
+    /// Stage 2: inner-signal bounds (paper Section 4).
+    InnerSignal,
+    /// Stage 3: linear-block parameters (paper Section 5).
+    Linear,
+}
+
+impl std::fmt::Display for Stage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Stage::SteadyState => "stage 1 (nonlinearity parameters from steady-state data)",
+            Stage::InnerSignal => "stage 2 (inner-signal bounds)",
+            Stage::Linear => "stage 3 (linear-block parameters)",
+        })
+    }
+}
+
+/// Everything that can go wrong in the core, each variant naming its origin.
+#[derive(Debug, thiserror::Error)]
+pub enum SmidError {
+    /// A spec file could not be read or parsed.
+    #[error("{file}{line}: field `{field}`: {message}", line = line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Spec {
+        file: PathBuf,
+        line: Option<usize>,
+        field: String,
+        message: String,
+    },
+    /// A data file (CSV) is missing, malformed or holds a bad sample.
+    #[error("{file}: {location}: {message}")]
+    Data {
+        file: PathBuf,
+        location: String,
+        message: String,
+    },
+    /// An invalid parameter or option given programmatically or in a spec.
+    #[error("invalid `{field}`: {message}")]
+    Invalid { field: String, message: String },
+    /// The feasible set is empty: the data falsify the model.
+    #[error("the data are inconsistent with the model and noise bound: {stage}: first offending sample {sample} ({detail})")]
+    Inconsistent {
+        stage: Stage,
+        sample: usize,
+        detail: String,
+    },
+    /// The data do not determine a bounded set (e.g. too few distinct amplitudes).
+    #[error("the data do not bound `{parameter}`: {message}")]
+    Unbounded { parameter: String, message: String },
+    /// The LP solver failed numerically (not infeasibility).
+    #[error("LP solver: {0}")]
+    Solver(String),
+    /// A plant (simulator, FMU) failed.
+    #[error("plant `{plant}`: {message}")]
+    Plant { plant: String, message: String },
+    /// I/O on a named path.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A capability that this plugin does not provide.
+    #[error("`{plugin}` does not support {what}")]
+    Unsupported { plugin: String, what: String },
+}
+
+impl SmidError {
+    /// Shorthand for [`SmidError::Invalid`].
+    pub fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
+        SmidError::Invalid {
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+}
+
+/// Result alias of the core.
+pub type Result<T, E = SmidError> = std::result::Result<T, E>;

@@ -1,0 +1,202 @@
+//! Experiments on a [`Plant`]: the filter-pole search of the Appendix, the filtered square-wave
+//! steady-state experiment of Section 3.2 (eqs 9-12), and the PRBS dynamic experiment of
+//! Section 4, with bounded noise added to the plant's output (eq 4).
+//!
+//! Filter design: the Appendix bisection compares the steady-state output reached through a
+//! filter with pole `a*` against the one reached through the reference pole `ā`, and keeps the
+//! last pole that passed (`a_U`). `ā >= 1` is the quasi-static limit, run with the pole
+//! `1 - 1e-4`. The search runs on the noise-free plant: the noisy variant of the Remark
+//! (threshold `2Δη + ε`) accepts overshooting poles at 12 bits and below and breaks the guarantee
+//! of stage 1, so it is not offered; with measured data give the pole directly.
+use crate::error::{Result, SmidError};
+use crate::nonlinearity::{SteadyPoint, SteadyStateData};
+use crate::plant::Plant;
+use crate::signals::{filter_settling, lowpass, prbs};
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+/// Pole used for the reference when `ā >= 1`.
+pub const QUASI_STATIC_POLE: f64 = 1.0 - 1e-4;
+
+/// Options of the Appendix search.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct BisectionOptions {
+    /// `ā`, the reference (slowest) pole.
+    pub a_bar: f64,
+    /// Stop when `|a_U - a_L| < tol`.
+    pub tol: f64,
+    /// `ε`: largest accepted steady-state difference.
+    pub epsilon: f64,
+    /// `r̄_F`: amplitude of the test step.
+    pub step: f64,
+    /// Samples the plant is given to settle after the filter has.
+    pub settle: usize,
+}
+
+/// One tested pole.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BisectionTrial {
+    pub pole: f64,
+    pub steady_output: f64,
+    pub passed: bool,
+}
+
+/// Outcome of the filter design.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FilterDesign {
+    pub pole: f64,
+    /// `r̄_F` used by the search (enters α of eqs 14-15); `None` when the pole was given.
+    pub step: Option<f64>,
+    pub reference_output: Option<f64>,
+    pub trials: Vec<BisectionTrial>,
+}
+
+fn steady_output(plant: &mut dyn Plant, pole: f64, step: f64, settle: usize) -> Result<f64> {
+    let a = if pole >= 1.0 { QUASI_STATIC_POLE } else { pole };
+    let n = filter_settling(a) + settle;
+    let w = plant.run(&lowpass(a, &vec![step; n]))?;
+    w.last().copied().ok_or_else(|| SmidError::Plant { plant: plant.name(), message: "returned no samples".into() })
+}
+
+/// The Appendix search for the filter pole (noise-free).
+pub fn design_filter_pole(plant: &mut dyn Plant, o: &BisectionOptions) -> Result<FilterDesign> {
+    if !(o.a_bar > 0.0 && o.a_bar <= 1.0) {
+        return Err(SmidError::invalid("experiment.filter.a_bar", format!("expected 0 < ā <= 1, got {}", o.a_bar)));
+    }
+    if !(o.tol > 0.0 && o.tol < 1.0) {
+        return Err(SmidError::invalid("experiment.filter.tol", format!("expected 0 < tol < 1, got {}", o.tol)));
+    }
+    if !(o.epsilon > 0.0 && o.epsilon.is_finite()) {
+        return Err(SmidError::invalid("experiment.filter.epsilon", format!("expected ε > 0, got {}", o.epsilon)));
+    }
+    if !(o.step.is_finite() && o.step != 0.0) {
+        return Err(SmidError::invalid("experiment.filter.step", "expected a non-zero finite step amplitude"));
+    }
+    let w_ref = steady_output(plant, o.a_bar, o.step, o.settle)?;
+    let (mut a_u, mut a_l, mut a_star) = (o.a_bar, 0.0f64, 0.0f64);
+    let mut trials = Vec::new();
+    let mut passed_any = false;
+    loop {
+        let ws = steady_output(plant, a_star, o.step, o.settle)?;
+        let passed = (w_ref - ws).abs() <= o.epsilon;
+        trials.push(BisectionTrial { pole: a_star, steady_output: ws, passed });
+        if passed {
+            a_u = a_star;
+            passed_any = true;
+        } else {
+            a_l = a_star;
+        }
+        if (a_u - a_l).abs() >= o.tol {
+            a_star = 0.5 * (a_u + a_l);
+        } else {
+            break;
+        }
+    }
+    if !passed_any && o.a_bar >= 1.0 {
+        return Err(SmidError::invalid(
+            "experiment.filter",
+            "no filter pole below ā passed the no-overshoot test: raise `epsilon` or lower `tol`",
+        ));
+    }
+    Ok(FilterDesign { pole: a_u, step: Some(o.step), reference_output: Some(w_ref), trials })
+}
+
+/// Options of the steady-state experiment.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SteadyStateOptions {
+    /// `M`, the number of square-wave amplitudes.
+    pub amplitudes: usize,
+    pub min: f64,
+    pub max: f64,
+    /// Samples per half-wave; `None` = filter settling time + `settle`.
+    pub half_period: Option<usize>,
+    pub settle: usize,
+}
+
+/// The noise-free steady-state record: the whole filtered square wave and where it was sampled.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct SteadyRecord {
+    pub u: Vec<f64>,
+    pub w: Vec<f64>,
+    /// `(time index, ū, rising)` of each steady-state sample.
+    pub samples: Vec<(usize, f64, bool)>,
+}
+
+/// Run the square wave through the filter and the plant: for each amplitude a positive then a
+/// negative half-wave, sampled at the end of each half (2M samples).
+pub fn steady_state_experiment(plant: &mut dyn Plant, pole: f64, o: &SteadyStateOptions) -> Result<SteadyRecord> {
+    if o.amplitudes < 2 {
+        return Err(SmidError::invalid("experiment.steady_state.amplitudes", "need at least 2 amplitudes (M >= 2)"));
+    }
+    if !(o.min > 0.0 && o.max > o.min && o.max.is_finite()) {
+        return Err(SmidError::invalid("experiment.steady_state", format!("expected 0 < min < max, got min {} max {}", o.min, o.max)));
+    }
+    if !(0.0..1.0).contains(&pole) {
+        return Err(SmidError::invalid("experiment.filter.pole", format!("expected 0 <= a < 1, got {pole}")));
+    }
+    let half = o.half_period.unwrap_or_else(|| filter_settling(pole) + o.settle).max(2);
+    let m = o.amplitudes;
+    let mut r = Vec::with_capacity(2 * m * half);
+    let mut samples = Vec::with_capacity(2 * m);
+    for k in 0..m {
+        let amp = o.min + (o.max - o.min) * k as f64 / (m - 1) as f64;
+        for sign in [1.0, -1.0] {
+            r.extend(std::iter::repeat(sign * amp).take(half));
+            samples.push((r.len() - 1, sign * amp, sign > 0.0));
+        }
+    }
+    // The filter delays by one sample: extend by one so the last sample has settled too.
+    let u = lowpass(pole, &r);
+    let w = plant.run(&u)?;
+    if let Some(i) = w.iter().position(|v| !v.is_finite()) {
+        return Err(SmidError::Plant { plant: plant.name(), message: format!("non-finite output at sample {i}") });
+    }
+    Ok(SteadyRecord { u, w, samples })
+}
+
+/// Noisy steady-state data from a record: `ȳ = w + η̄`, `|η̄| <= Δη`.
+pub fn noisy_steady_state(rec: &SteadyRecord, delta: f64, rng: &mut impl Rng) -> SteadyStateData {
+    SteadyStateData {
+        points: rec
+            .samples
+            .iter()
+            .enumerate()
+            .map(|(i, &(t, u, rising))| SteadyPoint {
+                u,
+                y: rec.w[t] + rng.gen_range(-delta..=delta),
+                dy: delta,
+                alpha: 0.0,
+                rising,
+                index: i,
+            })
+            .collect(),
+    }
+}
+
+/// Set α of eqs (14)-(15) on every point: `α = 2Δη|ū|/r̄_F`, made non-negative (the paper's
+/// signed `ū_j` would shrink the left branch's interval, which is unsound).
+pub fn apply_alpha(data: &mut SteadyStateData, step: f64) {
+    for p in &mut data.points {
+        p.alpha = 2.0 * p.dy * p.u.abs() / step.abs();
+    }
+}
+
+/// Options of the dynamic experiment.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DynamicOptions {
+    /// `N`, the PRBS length.
+    pub length: usize,
+    pub amplitude: f64,
+    pub hold: usize,
+}
+
+/// The PRBS input for the dynamic experiment.
+pub fn dynamic_input(o: &DynamicOptions, rng: &mut impl Rng) -> Result<Vec<f64>> {
+    if o.length < 10 {
+        return Err(SmidError::invalid("experiment.dynamic.length", format!("expected N >= 10, got {}", o.length)));
+    }
+    if !(o.amplitude.is_finite() && o.amplitude > 0.0) {
+        return Err(SmidError::invalid("experiment.dynamic.amplitude", "expected a finite amplitude > 0"));
+    }
+    Ok(prbs(o.length, o.amplitude, o.hold, rng))
+}

@@ -1,0 +1,91 @@
+//! Closed real intervals with outward rounding.
+//!
+//! Bounds in smid are guarantees, so every interval computed in floating point is widened
+//! outward by a few units in the last place ([`Interval::outward`]); a bound may be slightly
+//! loose, never tight past the truth.
+use serde::{Deserialize, Serialize};
+
+/// Relative widening applied to every computed bound (covers floating-point rounding of the
+/// closed-form evaluations; solver tolerances are handled separately and more generously).
+pub const REL_PAD: f64 = 1e-12;
+/// Absolute widening applied next to [`REL_PAD`].
+pub const ABS_PAD: f64 = 1e-15;
+
+/// A closed interval `[lo, hi]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Interval {
+    pub lo: f64,
+    pub hi: f64,
+}
+
+impl Interval {
+    /// The interval `[lo, hi]` (the caller ensures `lo <= hi`).
+    pub fn new(lo: f64, hi: f64) -> Self {
+        Interval { lo, hi }
+    }
+    /// The whole real line.
+    pub fn entire() -> Self {
+        Interval::new(f64::NEG_INFINITY, f64::INFINITY)
+    }
+    /// Center `(lo + hi) / 2` (paper eqs 19, 28).
+    pub fn center(&self) -> f64 {
+        0.5 * (self.lo + self.hi)
+    }
+    /// Radius `(hi - lo) / 2` (paper eqs 19, 28).
+    pub fn radius(&self) -> f64 {
+        0.5 * (self.hi - self.lo)
+    }
+    /// Whether `v` lies in the interval.
+    pub fn contains(&self, v: f64) -> bool {
+        self.lo <= v && v <= self.hi
+    }
+    /// Whether both ends are finite.
+    pub fn is_finite(&self) -> bool {
+        self.lo.is_finite() && self.hi.is_finite()
+    }
+    /// Widen by `rel * max(|lo|,|hi|) + abs` on both sides.
+    pub fn widen(&self, rel: f64, abs: f64) -> Self {
+        let m = self.lo.abs().max(self.hi.abs());
+        let pad = rel * m + abs;
+        Interval::new(self.lo - pad, self.hi + pad)
+    }
+    /// Widen by the default rounding pad ([`REL_PAD`], [`ABS_PAD`]).
+    pub fn outward(&self) -> Self {
+        self.widen(REL_PAD, ABS_PAD)
+    }
+    /// Smallest interval holding all `values` (None if empty or any value is NaN).
+    pub fn hull_of(values: impl IntoIterator<Item = f64>) -> Option<Self> {
+        let mut lo = f64::INFINITY;
+        let mut hi = f64::NEG_INFINITY;
+        let mut any = false;
+        for v in values {
+            if v.is_nan() {
+                return None;
+            }
+            lo = lo.min(v);
+            hi = hi.max(v);
+            any = true;
+        }
+        any.then_some(Interval::new(lo, hi))
+    }
+    /// Intersection, `None` when empty.
+    pub fn intersect(&self, other: &Interval) -> Option<Interval> {
+        let lo = self.lo.max(other.lo);
+        let hi = self.hi.min(other.hi);
+        (lo <= hi).then_some(Interval::new(lo, hi))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    #[test]
+    fn outward_only_grows() {
+        let i = Interval::new(-1.0, 2.0);
+        let o = i.outward();
+        assert!(o.lo < i.lo && o.hi > i.hi);
+        assert_eq!(Interval::hull_of([3.0, -1.0, 2.0]), Some(Interval::new(-1.0, 3.0)));
+        assert_eq!(Interval::hull_of([1.0, f64::NAN]), None);
+        assert!(Interval::new(0.0, 1.0).intersect(&Interval::new(2.0, 3.0)).is_none());
+    }
+}

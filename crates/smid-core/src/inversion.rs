@@ -1,0 +1,50 @@
+//! The interval-inversion engine (paper Section 4, Props 2-4).
+//!
+//! Given an uncertain nonlinearity whose parameter set is a convex polygon (known by its
+//! vertices) and a measured output `y_t` with `|eta_t| <= Δη_t`, the inner signal on a branch
+//! is a function `x = f(vertex, w)` with `w = y - eta`. When `f` is quasi-linear in the vertex
+//! coordinates and monotone in `w` (true of every branch inverse of a piecewise-linear
+//! nonlinearity written in `(m, m·c)`), its extremes occur at the polygon's vertices and
+//! `eta = ±Δη` (Prop 4): that is all this engine evaluates. The result is widened outward.
+use crate::interval::Interval;
+use crate::polygon::Polygon;
+
+/// Range of `f(vertex, w)` over the polygon's vertices and `w in {y - Δη, y + Δη}`.
+pub fn invert_branch(poly: &Polygon, y: f64, dy: f64, f: impl Fn([f64; 2], f64) -> f64) -> Interval {
+    let ws = [y - dy, y + dy];
+    Interval::hull_of(
+        poly.vertices
+            .iter()
+            .flat_map(|&v| ws.iter().map(move |&w| (v, w)))
+            .map(|(v, w)| f(v, w)),
+    )
+    .unwrap_or(Interval::new(f64::NAN, f64::NAN))
+    .outward()
+}
+
+/// How a sample of the inner signal was bounded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InnerKind {
+    /// The output moved by more than 2Δη: the sample was inverted on one branch (eqs 24-27).
+    Inverted,
+    /// The output may not have moved: the inner signal is only known to lie in the dead band
+    /// (or another set the plugin derives); the bound is valid but wide.
+    Band,
+    /// Nothing is known (e.g. the first sample).
+    Unknown,
+}
+
+/// A guaranteed bound on one inner-signal sample.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct InnerBound {
+    pub interval: Interval,
+    pub kind: InnerKind,
+}
+
+impl InnerBound {
+    /// An unknown sample (the whole line).
+    pub fn unknown() -> Self {
+        InnerBound { interval: Interval::entire(), kind: InnerKind::Unknown }
+    }
+}

@@ -1,0 +1,42 @@
+//! # smid-core
+//!
+//! The core of smid, a framework for set-membership (bounded-error) identification of
+//! block-oriented nonlinear systems. It holds the plugin traits ([`nonlinearity`]), the
+//! engines (exact 2-D [`polygon`]s, interval [`inversion`], the [`lp`] polytope bounder and the
+//! errors-in-variables stage [`eiv`]), plants and experiments, the YAML [`spec`], the
+//! three-stage [`pipeline`], reports and plots. It names no nonlinearity plugin.
+//!
+//! Equation numbers refer to Cerone, Piga & Regruto, "Parameter bounds evaluation for linear
+//! system with output backlash" (`../shared/paper/output-backlash-paper.md`).
+#![forbid(unsafe_code)]
+
+pub mod data;
+pub mod eiv;
+pub mod error;
+pub mod experiment;
+pub mod interval;
+pub mod inversion;
+pub mod linear;
+pub mod lp;
+pub mod noise;
+pub mod nonlinearity;
+pub mod pipeline;
+pub mod plant;
+pub mod plot;
+pub mod polygon;
+pub mod report;
+pub mod signals;
+pub mod spec;
+
+pub use error::{Result, SmidError, Stage};
+
+/// The names a plugin author needs.
+pub mod prelude {
+    pub use crate::error::{Result, SmidError, Stage};
+    pub use crate::interval::Interval;
+    pub use crate::inversion::{invert_branch, InnerBound, InnerKind};
+    pub use crate::nonlinearity::{
+        Nonlinearity, NonlinearityModel, NonlinearitySet, ParameterBound, Region, SteadyPoint, SteadyStateData, Structure,
+    };
+    pub use crate::polygon::{Polygon, Strip};
+}

@@ -1,0 +1,59 @@
+//! Bounded measurement noise (eqs 4-5): the bound `Δη` given directly or from an absolute encoder
+//! of `n_bit` bits read as one LSB over a revolution, `Δη = 2π / 2^n_bit` (Section 6); noise
+//! drawn uniformly in `[-Δη, Δη]` for simulated plants; the signal-to-noise ratio of Table II.
+use crate::error::{Result, SmidError};
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+/// How the noise bound is declared in a spec: exactly one of the two fields.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseSpec {
+    /// The bound `Δη` itself.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delta: Option<f64>,
+    /// Encoder resolution: `Δη = 2π / 2^encoder_bits`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub encoder_bits: Option<u32>,
+}
+
+impl NoiseSpec {
+    /// The bound `Δη > 0`, checked.
+    pub fn delta(&self) -> Result<f64> {
+        match (self.delta, self.encoder_bits) {
+            (Some(d), None) => {
+                if d.is_finite() && d > 0.0 {
+                    Ok(d)
+                } else {
+                    Err(SmidError::invalid("noise.delta", format!("expected a finite number > 0, got {d}")))
+                }
+            }
+            (None, Some(b)) => {
+                if (1..=52).contains(&b) {
+                    Ok(encoder_delta(b))
+                } else {
+                    Err(SmidError::invalid("noise.encoder_bits", format!("expected 1..=52 bits, got {b}")))
+                }
+            }
+            (Some(_), Some(_)) => Err(SmidError::invalid("noise", "give either `delta` or `encoder_bits`, not both")),
+            (None, None) => Err(SmidError::invalid("noise", "give `delta` (the bound Δη) or `encoder_bits`")),
+        }
+    }
+}
+
+/// `Δη = 2π / 2^n_bit`.
+pub fn encoder_delta(bits: u32) -> f64 {
+    2.0 * std::f64::consts::PI / 2f64.powi(bits as i32)
+}
+
+/// `n` samples uniform in `[-delta, delta]`.
+pub fn uniform(n: usize, delta: f64, rng: &mut impl Rng) -> Vec<f64> {
+    (0..n).map(|_| rng.gen_range(-delta..=delta)).collect()
+}
+
+/// `10 log10(Σ w² / Σ η²)` in dB.
+pub fn snr_db(signal: &[f64], noise: &[f64]) -> f64 {
+    let ps: f64 = signal.iter().map(|v| v * v).sum();
+    let pn: f64 = noise.iter().map(|v| v * v).sum();
+    10.0 * (ps / pn).log10()
+}

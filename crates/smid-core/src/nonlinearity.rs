@@ -1,0 +1,179 @@
+//! Nonlinearity plugin traits: what a plugin implements so the core can simulate it
+//! ([`Nonlinearity`]), bound its parameters from steady-state data ([`NonlinearityModel`],
+//! paper Section 3) and bound the inner signal through the uncertain map ([`NonlinearitySet`],
+//! Section 4). The core names no plugin: a spec selects one by its `type` tag, registered with
+//! `typetag` by the plugin crate.
+//!
+//! Like argmin's capability traits, each trait has one required method and defaults for the rest.
+use crate::error::{Result, SmidError};
+use crate::inversion::InnerBound;
+use crate::interval::Interval;
+use serde::{Deserialize, Serialize};
+use std::fmt::Debug;
+
+/// Where the nonlinearity sits relative to the linear block.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Structure {
+    /// Linear block, then the nonlinearity (the paper's Fig. 2): `w = N(G u)`.
+    #[default]
+    Wiener,
+    /// Nonlinearity, then the linear block: `w = G(N(u))`.
+    Hammerstein,
+}
+
+/// A nonlinearity with known parameters, as a plant simulator runs it.
+///
+/// ```
+/// use smid_core::nonlinearity::Nonlinearity;
+/// use serde::{Deserialize, Serialize};
+///
+/// /// `w = k x`: the smallest possible plugin.
+/// #[derive(Debug, Serialize, Deserialize)]
+/// struct Gain { k: f64 }
+///
+/// #[typetag::serde(name = "doc_gain")]
+/// impl Nonlinearity for Gain {
+///     fn step(&self, _memory: &mut Vec<f64>, x: f64) -> f64 { self.k * x }
+///     fn parameters(&self) -> Vec<(String, f64)> { vec![("k".into(), self.k)] }
+/// }
+///
+/// let g: Box<dyn Nonlinearity> = serde_json::from_str(r#"{"type":"doc_gain","k":2.0}"#).unwrap();
+/// let mut mem = g.initial_memory();
+/// assert_eq!(g.step(&mut mem, 1.5), 3.0);
+/// ```
+#[typetag::serde(tag = "type")]
+pub trait Nonlinearity: Debug + Send + Sync {
+    /// Map one input sample to one output sample, updating the memory (for maps with memory
+    /// such as backlash). Required.
+    fn step(&self, memory: &mut Vec<f64>, x: f64) -> f64;
+    /// The memory at rest (before the first sample).
+    fn initial_memory(&self) -> Vec<f64> {
+        Vec::new()
+    }
+    /// Parameter names and values, in report order.
+    fn parameters(&self) -> Vec<(String, f64)> {
+        Vec::new()
+    }
+    /// Check the parameters; errors name the field.
+    fn validate(&self) -> Result<()> {
+        Ok(())
+    }
+    /// Run a whole sequence from rest.
+    fn simulate(&self, x: &[f64]) -> Vec<f64> {
+        let mut mem = self.initial_memory();
+        x.iter().map(|&v| self.step(&mut mem, v)).collect()
+    }
+}
+
+/// One steady-state sample of the filtered square-wave experiment (paper Section 3.2).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SteadyPoint {
+    /// Steady-state input `ū` (signed; equals the steady inner signal under unit gain, eq 8).
+    pub u: f64,
+    /// Measured steady-state output `ȳ`.
+    pub y: f64,
+    /// Noise bound `Δη̄` of this sample.
+    pub dy: f64,
+    /// Extra allowance for a possible overshoot bias (α of eqs 14-15, made non-negative);
+    /// the plugin widens the interval on the side the bias would push the output.
+    pub alpha: f64,
+    /// The input reached `ū` by rising (positive half-wave) rather than falling.
+    pub rising: bool,
+    /// Index of the sample in the steady-state record (for error messages).
+    pub index: usize,
+}
+
+/// Steady-state data for stage 1.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct SteadyStateData {
+    pub points: Vec<SteadyPoint>,
+}
+
+/// A named guaranteed parameter interval.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ParameterBound {
+    pub name: String,
+    pub interval: Interval,
+}
+
+/// A two-dimensional feasible region for plots: a polygon in the plugin's linear coordinates.
+#[derive(Debug, Clone, Serialize)]
+pub struct Region {
+    /// File-friendly name, e.g. `left_branch`.
+    pub name: String,
+    /// Axis labels of the polygon's coordinates.
+    pub axes: [String; 2],
+    pub vertices: Vec<[f64; 2]>,
+    /// The true parameters in the same coordinates, when known.
+    pub truth: Option<[f64; 2]>,
+}
+
+/// The model structure's nonlinearity, as a spec declares it for identification: a `type`
+/// plus the plugin's options, never its (unknown) parameters.
+///
+/// ```
+/// use smid_core::prelude::*;
+/// use serde::{Deserialize, Serialize};
+///
+/// /// Identify `w = k x` from steady-state data: `k` in the hull of `(ȳ ± Δη)/ū`.
+/// #[derive(Debug, Serialize, Deserialize)]
+/// struct GainModel;
+/// #[derive(Debug)]
+/// struct GainSet(Interval);
+/// impl NonlinearitySet for GainSet {
+///     fn parameters(&self) -> Vec<ParameterBound> {
+///         vec![ParameterBound { name: "k".into(), interval: self.0 }]
+///     }
+/// }
+/// #[typetag::serde(name = "doc_gain_model")]
+/// impl NonlinearityModel for GainModel {
+///     fn bound_steady_state(&self, d: &SteadyStateData) -> Result<Box<dyn NonlinearitySet>> {
+///         let mut k = Interval::entire();
+///         for p in &d.points {
+///             let (a, b) = ((p.y - p.dy) / p.u, (p.y + p.dy) / p.u);
+///             k = k.intersect(&Interval::new(a.min(b), a.max(b))).ok_or(SmidError::Inconsistent {
+///                 stage: Stage::SteadyState, sample: p.index, detail: "k".into() })?;
+///         }
+///         Ok(Box::new(GainSet(k.outward())))
+///     }
+/// }
+/// let pts = vec![SteadyPoint { u: 2.0, y: 4.0, dy: 0.1, alpha: 0.0, rising: true, index: 0 }];
+/// let set = GainModel.bound_steady_state(&SteadyStateData { points: pts }).unwrap();
+/// assert!(set.parameters()[0].interval.contains(2.0));
+/// ```
+#[typetag::serde(tag = "type")]
+pub trait NonlinearityModel: Debug + Send + Sync {
+    /// Stage 1: guaranteed bounds on the parameters from steady-state data. Required.
+    fn bound_steady_state(&self, data: &SteadyStateData) -> Result<Box<dyn NonlinearitySet>>;
+    /// Whether the plugin can sit in this structure.
+    fn supports(&self, structure: Structure) -> bool {
+        structure == Structure::Wiener
+    }
+}
+
+/// The uncertain nonlinearity left after stage 1: parameter bounds, and the inner-signal bounds
+/// it implies (inversion of the output for Wiener, propagation of the input for Hammerstein).
+pub trait NonlinearitySet: Debug + Send + Sync {
+    /// Guaranteed parameter intervals, in report order. Required.
+    fn parameters(&self) -> Vec<ParameterBound>;
+    /// Stage 2 (Wiener): bound every inner-signal sample `x_t` from the outputs `y` with
+    /// per-sample noise bounds `dy`.
+    fn invert(&self, _y: &[f64], _dy: &[f64]) -> Result<Vec<InnerBound>> {
+        Err(SmidError::Unsupported { plugin: format!("{self:?}"), what: "output inversion (Wiener)".into() })
+    }
+    /// Stage 2 (Hammerstein): bound every inner-signal sample from the known input.
+    fn propagate(&self, _u: &[f64]) -> Result<Vec<InnerBound>> {
+        Err(SmidError::Unsupported { plugin: format!("{self:?}"), what: "input propagation (Hammerstein)".into() })
+    }
+    /// Feasible regions to plot (with the truth marked when `truth` is given in the order of
+    /// [`NonlinearitySet::parameters`]).
+    fn regions(&self, _truth: Option<&[f64]>) -> Vec<Region> {
+        Vec::new()
+    }
+    /// Whether the true parameters (in report order) lie in the feasible set. The default
+    /// checks the parameter box.
+    fn contains(&self, truth: &[f64]) -> bool {
+        self.parameters().iter().zip(truth).all(|(b, &t)| b.interval.contains(t))
+    }
+}

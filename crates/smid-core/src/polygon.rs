@@ -1,0 +1,236 @@
+//! Exact two-dimensional feasible sets: convex polygons cut out by strips `lo <= n·z <= hi`.
+//!
+//! For a branch of a two-parameter nonlinearity written linearly in `z = (m, m·c)`, each
+//! steady-state sample gives one strip (paper constraints (16)-(17)); the intersection is the
+//! exact feasible set of that branch. Vertices come from successive half-plane clipping
+//! (Sutherland-Hodgman on a convex polygon). Every half-plane is relaxed outward by a tiny
+//! rounding pad so the computed polygon contains the exact one. The first sample whose strip
+//! empties the polygon is reported, so an empty set names the offending sample.
+use crate::error::{Result, SmidError, Stage};
+use crate::interval::Interval;
+
+/// One linear two-sided constraint `lo <= n[0] z0 + n[1] z1 <= hi`, tagged by its sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Strip {
+    pub n: [f64; 2],
+    pub lo: f64,
+    pub hi: f64,
+    /// Index of the sample that produced it (reported when the set becomes empty).
+    pub sample: usize,
+}
+
+/// A convex polygon given by its vertices in counter-clockwise order.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Polygon {
+    pub vertices: Vec<[f64; 2]>,
+}
+
+fn pad(v: f64) -> f64 {
+    1e-12 * (1.0 + v.abs())
+}
+
+impl Polygon {
+    /// The axis-aligned box `[x0,x1] x [y0,y1]`.
+    pub fn rect(x: Interval, y: Interval) -> Self {
+        Polygon {
+            vertices: vec![[x.lo, y.lo], [x.hi, y.lo], [x.hi, y.hi], [x.lo, y.hi]],
+        }
+    }
+
+    /// Clip by the half-plane `n·z <= d` (relaxed outward by a rounding pad).
+    pub fn clip(&self, n: [f64; 2], d: f64) -> Polygon {
+        let d = d + pad(d);
+        let k = self.vertices.len();
+        let mut out = Vec::with_capacity(k + 1);
+        for i in 0..k {
+            let p = self.vertices[i];
+            let q = self.vertices[(i + 1) % k];
+            let fp = n[0] * p[0] + n[1] * p[1] - d;
+            let fq = n[0] * q[0] + n[1] * q[1] - d;
+            if fp <= 0.0 {
+                out.push(p);
+            }
+            if (fp < 0.0 && fq > 0.0) || (fp > 0.0 && fq < 0.0) {
+                let t = fp / (fp - fq);
+                out.push([p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])]);
+            }
+        }
+        // Drop consecutive duplicates produced by degenerate cuts.
+        out.dedup_by(|a, b| a == b);
+        if out.len() > 1 && out.first() == out.last() {
+            out.pop();
+        }
+        Polygon { vertices: out }
+    }
+
+    /// Whether no point survives.
+    pub fn is_empty(&self) -> bool {
+        self.vertices.is_empty()
+    }
+
+    /// Intersect every strip (in sample order) with the `domain` half-planes `g·z <= d`.
+    /// The polygon starts as the exact parallelogram of the first strip and the first strip not
+    /// parallel to it (no large starting box, so no loss of precision). An empty result names
+    /// the first sample whose strip emptied it ([`SmidError::Inconsistent`], stage 1); strips
+    /// that are all parallel leave the set unbounded ([`SmidError::Unbounded`]).
+    pub fn from_strips(strips: &[Strip], domain: &[([f64; 2], f64)], what: &str) -> Result<Polygon> {
+        for s in strips {
+            if !(s.lo.is_finite() && s.hi.is_finite() && s.n.iter().all(|v| v.is_finite()) && s.lo <= s.hi) {
+                return Err(SmidError::invalid(format!("{what}: steady-state sample {}", s.sample), "non-finite or reversed bounds"));
+            }
+        }
+        let empty_at = |sample: usize| SmidError::Inconsistent {
+            stage: Stage::SteadyState,
+            sample,
+            detail: format!("{what}: no parameter pair fits this sample and the ones before it"),
+        };
+        let unbounded = || SmidError::Unbounded {
+            parameter: what.to_string(),
+            message: "the steady-state samples do not bound this branch (need at least two distinct amplitudes)".into(),
+        };
+        let first = strips.first().ok_or_else(unbounded)?;
+        let norm0 = first.n[0].hypot(first.n[1]);
+        let cross = |s: &Strip| (first.n[0] * s.n[1] - first.n[1] * s.n[0]) / (norm0 * s.n[0].hypot(s.n[1]));
+        // Strips parallel to the first one, before the first non-parallel: a 1-D consistency check.
+        let k = strips.iter().position(|s| cross(s).abs() > 1e-9);
+        let mut lo1 = first.lo / norm0;
+        let mut hi1 = first.hi / norm0;
+        for s in &strips[1..k.unwrap_or(strips.len())] {
+            let nn = s.n[0].hypot(s.n[1]);
+            let sign = if s.n[0] * first.n[0] + s.n[1] * first.n[1] >= 0.0 { 1.0 } else { -1.0 };
+            let (a, b) = if sign > 0.0 { (s.lo / nn, s.hi / nn) } else { (-s.hi / nn, -s.lo / nn) };
+            lo1 = lo1.max(a);
+            hi1 = hi1.min(b);
+            if lo1 > hi1 + pad(hi1) {
+                return Err(empty_at(s.sample));
+            }
+        }
+        let Some(k) = k else { return Err(unbounded()) };
+        let (a, b) = (first, &strips[k]);
+        let det = a.n[0] * b.n[1] - a.n[1] * b.n[0];
+        let solve = |da: f64, db: f64| [(da * b.n[1] - db * a.n[1]) / det, (a.n[0] * db - b.n[0] * da) / det];
+        let (alo, ahi) = (a.lo - pad(a.lo), a.hi + pad(a.hi));
+        let (blo, bhi) = (b.lo - pad(b.lo), b.hi + pad(b.hi));
+        let mut poly = Polygon { vertices: vec![solve(alo, blo), solve(ahi, blo), solve(ahi, bhi), solve(alo, bhi)] };
+        for s in strips.iter().enumerate().filter(|(i, _)| *i != 0 && *i != k).map(|(_, s)| s) {
+            poly = poly.clip(s.n, s.hi).clip([-s.n[0], -s.n[1]], -s.lo);
+            if poly.is_empty() {
+                return Err(empty_at(s.sample.max(b.sample)));
+            }
+        }
+        for (g, d) in domain {
+            poly = poly.clip(*g, *d);
+            if poly.is_empty() {
+                return Err(SmidError::Inconsistent {
+                    stage: Stage::SteadyState,
+                    sample: strips.last().map(|s| s.sample).unwrap_or(0),
+                    detail: format!("{what}: the samples fit no parameters with positive slope and offset"),
+                });
+            }
+        }
+        Ok(poly)
+    }
+
+    /// The half-planes `z0 >= 0`, `z1 >= 0`.
+    pub fn positive_quadrant() -> [([f64; 2], f64); 2] {
+        [([-1.0, 0.0], 0.0), ([0.0, -1.0], 0.0)]
+    }
+
+    /// Range of `f` over the vertices, widened outward. Exact for functions that are
+    /// quasi-linear on the polygon (linear or linear-fractional with positive denominator):
+    /// their extremes over a convex polygon lie on its vertices.
+    pub fn extremes(&self, f: impl Fn([f64; 2]) -> f64) -> Interval {
+        Interval::hull_of(self.vertices.iter().map(|&v| f(v)))
+            .unwrap_or(Interval::new(f64::NAN, f64::NAN))
+            .outward()
+    }
+
+    /// Whether `z` lies in the polygon (up to the rounding pad).
+    pub fn contains(&self, z: [f64; 2]) -> bool {
+        let k = self.vertices.len();
+        match k {
+            0 => false,
+            1 => {
+                let v = self.vertices[0];
+                (v[0] - z[0]).abs() <= pad(v[0]) * 10.0 && (v[1] - z[1]).abs() <= pad(v[1]) * 10.0
+            }
+            _ => {
+                // Orientation-agnostic: z is inside when it is on the same side of every edge.
+                let sides: Vec<f64> = (0..k)
+                    .map(|i| {
+                        let p = self.vertices[i];
+                        let q = self.vertices[(i + 1) % k];
+                        let cross = (q[0] - p[0]) * (z[1] - p[1]) - (q[1] - p[1]) * (z[0] - p[0]);
+                        let scale = (q[0] - p[0]).hypot(q[1] - p[1]) * (1.0 + z[0].abs() + z[1].abs());
+                        cross / scale.max(f64::MIN_POSITIVE)
+                    })
+                    .collect();
+                sides.iter().all(|&c| c >= -1e-10) || sides.iter().all(|&c| c <= 1e-10)
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn two_strips_make_a_parallelogram() {
+        let strips = [
+            Strip { n: [1.0, -1.0], lo: -0.1, hi: 0.1, sample: 0 },
+            Strip { n: [2.0, -1.0], lo: 0.9, hi: 1.1, sample: 1 },
+        ];
+        let p = Polygon::from_strips(&strips, &Polygon::positive_quadrant(), "test").unwrap();
+        assert_eq!(p.vertices.len(), 4);
+        let x = p.extremes(|v| v[0]);
+        assert!((x.lo - 0.8).abs() < 1e-9 && (x.hi - 1.2).abs() < 1e-9, "{x:?}");
+    }
+
+    #[test]
+    fn empty_names_first_offending_sample() {
+        let strips = [
+            Strip { n: [1.0, 0.0], lo: 1.0, hi: 2.0, sample: 0 },
+            Strip { n: [0.0, 1.0], lo: 1.0, hi: 2.0, sample: 1 },
+            Strip { n: [1.0, 0.0], lo: 3.0, hi: 4.0, sample: 7 },
+        ];
+        match Polygon::from_strips(&strips, &Polygon::positive_quadrant(), "t") {
+            Err(SmidError::Inconsistent { sample, stage, .. }) => {
+                assert_eq!(sample, 7);
+                assert_eq!(stage, Stage::SteadyState);
+            }
+            other => panic!("expected inconsistency, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn single_direction_is_unbounded() {
+        let strips = [Strip { n: [1.0, -1.0], lo: -0.1, hi: 0.1, sample: 0 }];
+        assert!(matches!(
+            Polygon::from_strips(&strips, &Polygon::positive_quadrant(), "t"),
+            Err(SmidError::Unbounded { .. })
+        ));
+    }
+
+    proptest! {
+        /// Any point satisfying all strips lies inside the computed polygon.
+        #[test]
+        fn polygon_contains_every_feasible_point(
+            z0 in 0.1f64..2.0, z1 in 0.0f64..0.5,
+            us in proptest::collection::vec(0.3f64..3.0, 2..20),
+            w in 1e-5f64..1e-2,
+        ) {
+            let strips: Vec<Strip> = us.iter().enumerate().map(|(i, &u)| {
+                let c = u * z0 - z1;
+                Strip { n: [u, -1.0], lo: c - w, hi: c + w * 0.3, sample: i }
+            }).collect();
+            // need two distinct amplitudes for boundedness
+            prop_assume!(us.iter().any(|&u| (u - us[0]).abs() > 0.05));
+            let p = Polygon::from_strips(&strips, &Polygon::positive_quadrant(), "t").unwrap();
+            prop_assert!(p.contains([z0, z1]));
+            let r = p.extremes(|v| v[0]);
+            prop_assert!(r.contains(z0));
+        }
+    }
+}

@@ -1,0 +1,127 @@
+//! Reports of an identification: the parameter table printed by `smid run` (true value, center,
+//! radius, lower, upper: the columns of Tables I-II), `result.json`, `data.csv` holding the
+//! experiment's data so anyone can rerun on the same data, and the SVG plots.
+use crate::error::{Result, SmidError};
+use crate::inversion::InnerKind;
+use crate::pipeline::Identification;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+fn fmt_opt(v: Option<f64>) -> String {
+    v.map(|x| format!("{x:.6}")).unwrap_or_else(|| "-".into())
+}
+
+/// The parameter table.
+pub fn table(id: &Identification) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "{}: Δη = {:.3e}, SNR = {:.1} dB", id.name, id.delta_eta, id.snr_db);
+    if let Some(f) = &id.data.filter {
+        let _ = writeln!(s, "filter pole a = {}{}", f.pole, if f.trials.is_empty() { " (given)" } else { " (Appendix search)" });
+    }
+    let _ = writeln!(
+        s,
+        "{:<6} {:>10} {:>10} {:>10} {:>10} {:>10} {:>6}",
+        "param", "true", "center", "radius", "lower", "upper", "inside"
+    );
+    for p in &id.parameters {
+        let _ = writeln!(
+            s,
+            "{:<6} {:>10} {:>10.6} {:>10.2e} {:>10.6} {:>10.6} {:>6}",
+            p.name,
+            fmt_opt(p.truth),
+            p.center,
+            p.radius,
+            p.lower,
+            p.upper,
+            match p.contains {
+                Some(true) => "yes",
+                Some(false) => "NO",
+                None => "-",
+            }
+        );
+    }
+    let inverted = id.inner.iter().filter(|b| b.kind == InnerKind::Inverted).count();
+    let _ = writeln!(
+        s,
+        "inner signal: {inverted} of {} samples inverted; {} equations in stage 3",
+        id.inner.len(),
+        id.equations.len()
+    );
+    if let Some(all) = id.all_contain_truth() {
+        let _ = writeln!(s, "truth inside every bound: {}", if all { "yes" } else { "NO" });
+    }
+    s
+}
+
+/// `result.json` content.
+pub fn result_json(id: &Identification) -> serde_json::Value {
+    serde_json::json!({
+        "name": id.name,
+        "consistent": true,
+        "delta_eta": id.delta_eta,
+        "snr_db": id.snr_db,
+        "filter": id.data.filter,
+        "parameters": id.parameters,
+        "truth_in_nonlinearity_set": id.truth_in_nonlinearity_set,
+        "inner_signal": {
+            "samples": id.inner.len(),
+            "inverted": id.inner.iter().filter(|b| b.kind == InnerKind::Inverted).count(),
+            "truth_violations": id.inner_violations,
+            "bounds": id.inner,
+        },
+        "equations": id.equations,
+        "regions": id.set.regions(None),
+    })
+}
+
+fn cell(v: Option<f64>) -> String {
+    v.map(|x| format!("{x:.17e}")).unwrap_or_default()
+}
+
+/// `data.csv`: rows `part,index,t,u,y,w,x` for the steady-state samples (`part = steady`,
+/// `u = ū`, `y = ȳ`) and the dynamic record (`part = dynamic`). Rerun with a `plant.data` spec
+/// selecting `part: steady` and `part: dynamic`.
+pub fn data_csv(id: &Identification) -> String {
+    let mut s = String::from("part,index,t,u,y,w,x\n");
+    let d = &id.data;
+    for p in &d.steady.points {
+        let (t, w) = match &d.steady_record {
+            Some(r) => {
+                let t = r.samples[p.index].0;
+                (t.to_string(), Some(r.w[t]))
+            }
+            None => (String::new(), None),
+        };
+        let _ = writeln!(s, "steady,{},{},{:.17e},{:.17e},{},", p.index, t, p.u, p.y, cell(w));
+    }
+    for t in 0..d.u.len() {
+        let w = d.w.as_ref().map(|w| w[t]);
+        let x = d.x.as_ref().map(|x| x[t]);
+        let _ = writeln!(s, "dynamic,{t},{t},{:.17e},{:.17e},{},{}", d.u[t], d.y[t], cell(w), cell(x));
+    }
+    s
+}
+
+fn write(path: &Path, text: &str) -> Result<PathBuf> {
+    std::fs::write(path, text).map_err(|source| SmidError::Io { path: path.to_path_buf(), source })?;
+    Ok(path.to_path_buf())
+}
+
+/// Write `result.json`, `data.csv` and the SVG plots into `dir`; returns the files written.
+pub fn write_all(id: &Identification, dir: &Path) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|source| SmidError::Io { path: dir.to_path_buf(), source })?;
+    let mut out = vec![
+        write(&dir.join("result.json"), &serde_json::to_string_pretty(&result_json(id)).unwrap_or_default())?,
+        write(&dir.join("data.csv"), &data_csv(id))?,
+    ];
+    let truth: Option<Vec<f64>> = id.set.parameters().iter().map(|b| id.parameter(&b.name).and_then(|p| p.truth)).collect();
+    for region in id.set.regions(truth.as_deref()) {
+        let path = dir.join(format!("region_{}.svg", region.name));
+        crate::plot::region_svg(&region, &path)?;
+        out.push(path);
+    }
+    let path = dir.join("inner_signal.svg");
+    crate::plot::inner_svg(&id.inner, id.data.x.as_deref(), &path)?;
+    out.push(path);
+    Ok(out)
+}

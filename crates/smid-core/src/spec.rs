@@ -1,0 +1,412 @@
+//! The YAML model spec: plant (built-in simulator or measured CSV data; other plant kinds are
+//! added by the crates that provide them), noise bound (eqs 4-5), experiment (Sections 3.2, 4,
+//! Appendix), model structure and orders (eqs 1, 6-8) and method options. Unknown fields are
+//! rejected; every error names the file, the line where the parser gives one, and the field.
+use crate::error::{Result, SmidError};
+use crate::experiment::{BisectionOptions, DynamicOptions, SteadyStateOptions};
+use crate::linear::LinearModel;
+use crate::noise::NoiseSpec;
+use crate::nonlinearity::{Nonlinearity, NonlinearityModel, Structure};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A whole spec.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Spec {
+    /// Free-form name shown in reports.
+    #[serde(default)]
+    pub name: Option<String>,
+    pub plant: PlantSpec,
+    pub noise: NoiseSpec,
+    #[serde(default)]
+    pub experiment: ExperimentSpec,
+    pub model: ModelSpec,
+    #[serde(default)]
+    pub method: MethodSpec,
+}
+
+/// Exactly one plant kind.
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlantSpec {
+    /// The built-in simulator with its true parameters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub simulator: Option<SimulatorSpec>,
+    /// Measured data from CSV files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data: Option<DataSpec>,
+    /// An FMI 2.0 co-simulation unit (path to the .fmu), with the fields below.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fmu: Option<PathBuf>,
+    /// FMU input variable name.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub input: Option<String>,
+    /// FMU output variable name.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
+    /// FMU communication step (one sample).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub step: Option<f64>,
+    /// FMU parameter values by name.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub parameters: BTreeMap<String, f64>,
+    /// True parameter values (for reports), by parameter name (`m_l`, `a1`, ...).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub truth: BTreeMap<String, f64>,
+}
+
+/// The built-in simulator.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulatorSpec {
+    #[serde(default)]
+    pub structure: Structure,
+    /// `[a_1..a_na]`.
+    pub a: Vec<f64>,
+    /// `[b_0..b_nb]`.
+    pub b: Vec<f64>,
+    pub nonlinearity: Box<dyn Nonlinearity>,
+}
+
+impl SimulatorSpec {
+    /// The linear block.
+    pub fn linear(&self) -> LinearModel {
+        LinearModel { a: self.a.clone(), b: self.b.clone() }
+    }
+}
+
+/// Columns of a CSV file (optionally only the rows whose `part` column equals a value).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CsvColumns {
+    pub file: PathBuf,
+    /// Input column.
+    pub u: String,
+    /// Output column.
+    pub y: String,
+    /// Keep only rows whose `part` column equals this.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub part: Option<String>,
+}
+
+/// Measured data: steady-state samples (`u` = steady input `ū`, signed; `y` = `ȳ`) and a
+/// dynamic record.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DataSpec {
+    pub steady_state: CsvColumns,
+    pub dynamic: CsvColumns,
+}
+
+fn d_seed() -> u64 {
+    1
+}
+fn d_abar() -> f64 {
+    1.0
+}
+fn d_tol() -> f64 {
+    0.1
+}
+fn d_eps() -> f64 {
+    1e-5
+}
+fn d_step() -> f64 {
+    3.0
+}
+fn d_settle() -> usize {
+    500
+}
+fn d_m() -> usize {
+    50
+}
+fn d_min() -> f64 {
+    0.6
+}
+fn d_max() -> f64 {
+    3.0
+}
+fn d_n() -> usize {
+    100
+}
+fn d_one() -> f64 {
+    1.0
+}
+fn d_hold() -> usize {
+    1
+}
+fn d_true() -> bool {
+    true
+}
+
+/// Experiment design.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentSpec {
+    /// Seed of the noise and of the PRBS.
+    #[serde(default = "d_seed")]
+    pub seed: u64,
+    #[serde(default)]
+    pub filter: FilterSpec,
+    #[serde(default)]
+    pub steady_state: SteadySpec,
+    #[serde(default)]
+    pub dynamic: DynamicSpec,
+}
+impl Default for ExperimentSpec {
+    fn default() -> Self {
+        ExperimentSpec { seed: 1, filter: FilterSpec::default(), steady_state: SteadySpec::default(), dynamic: DynamicSpec::default() }
+    }
+}
+
+/// The low-pass filter: a given `pole`, or the Appendix search with these options.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FilterSpec {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pole: Option<f64>,
+    #[serde(default = "d_abar")]
+    pub a_bar: f64,
+    #[serde(default = "d_tol")]
+    pub tol: f64,
+    #[serde(default = "d_eps")]
+    pub epsilon: f64,
+    /// `r̄_F`.
+    #[serde(default = "d_step")]
+    pub step: f64,
+    #[serde(default = "d_settle")]
+    pub settle: usize,
+}
+impl Default for FilterSpec {
+    fn default() -> Self {
+        FilterSpec { pole: None, a_bar: 1.0, tol: 0.1, epsilon: 1e-5, step: 3.0, settle: 500 }
+    }
+}
+impl FilterSpec {
+    /// Options of the Appendix search.
+    pub fn bisection(&self) -> BisectionOptions {
+        BisectionOptions { a_bar: self.a_bar, tol: self.tol, epsilon: self.epsilon, step: self.step, settle: self.settle }
+    }
+}
+
+/// Steady-state experiment: `M` amplitudes equally spaced in `[min, max]`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SteadySpec {
+    #[serde(default = "d_m")]
+    pub amplitudes: usize,
+    #[serde(default = "d_min")]
+    pub min: f64,
+    #[serde(default = "d_max")]
+    pub max: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub half_period: Option<usize>,
+}
+impl Default for SteadySpec {
+    fn default() -> Self {
+        SteadySpec { amplitudes: 50, min: 0.6, max: 3.0, half_period: None }
+    }
+}
+
+/// Dynamic experiment: a PRBS of `length` samples, `±amplitude`, each bit held `hold` samples.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DynamicSpec {
+    #[serde(default = "d_n")]
+    pub length: usize,
+    #[serde(default = "d_one")]
+    pub amplitude: f64,
+    #[serde(default = "d_hold")]
+    pub hold: usize,
+}
+impl Default for DynamicSpec {
+    fn default() -> Self {
+        DynamicSpec { length: 100, amplitude: 1.0, hold: 1 }
+    }
+}
+
+impl ExperimentSpec {
+    pub fn steady_options(&self) -> SteadyStateOptions {
+        SteadyStateOptions {
+            amplitudes: self.steady_state.amplitudes,
+            min: self.steady_state.min,
+            max: self.steady_state.max,
+            half_period: self.steady_state.half_period,
+            settle: self.filter.settle,
+        }
+    }
+    pub fn dynamic_options(&self) -> DynamicOptions {
+        DynamicOptions { length: self.dynamic.length, amplitude: self.dynamic.amplitude, hold: self.dynamic.hold }
+    }
+}
+
+/// The model structure to identify.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelSpec {
+    #[serde(default)]
+    pub structure: Structure,
+    pub nonlinearity: Box<dyn NonlinearityModel>,
+    /// Order of `A(q^-1)`.
+    pub na: usize,
+    /// Order of `B(q^-1)` (coefficients `b_0..b_nb`).
+    pub nb: usize,
+    /// Coefficients known in advance, by name (`a1`.., `b0`..), e.g. `{b0: 0}`.
+    #[serde(default)]
+    pub fixed: BTreeMap<String, f64>,
+    /// Impose the unit steady-state gain of eq (8).
+    #[serde(default = "d_true")]
+    pub unit_gain: bool,
+}
+
+/// The α allowance of eqs (14)-(15).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum AlphaSpec {
+    /// `α = 2Δη|ū|/r̄_F`, on the side of the possible overshoot bias of each branch.
+    #[default]
+    Bias,
+    /// `α = 0`: the filter is known to be overshoot-free (e.g. designed noise-free).
+    Zero,
+}
+
+/// Stage-3 method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum EivMethod {
+    /// Orthant-wise LP outer set of Section 5 (Cerone 1993).
+    #[default]
+    Classical,
+}
+
+/// Method options.
+#[derive(Debug, Clone, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct MethodSpec {
+    #[serde(default)]
+    pub alpha: AlphaSpec,
+    #[serde(default)]
+    pub eiv: EivMethod,
+    /// Also use equations whose inner samples are only known to lie in the dead band.
+    #[serde(default)]
+    pub band_samples: bool,
+}
+
+/// 1-based line of the first `key:` in `text` (a best effort when the parser gave none).
+fn line_of(text: &str, key: &str) -> Option<usize> {
+    let key = key.trim_start_matches('.');
+    let last = key.rsplit('.').next()?.split('[').next()?;
+    if last.is_empty() {
+        return None;
+    }
+    text.lines().position(|l| {
+        let t = l.trim_start().trim_start_matches("- ");
+        t.starts_with(&format!("{last}:")) || t.contains(&format!(" {last}:")) || t.contains(&format!("{{{last}:"))
+    })
+    .map(|i| i + 1)
+}
+
+impl Spec {
+    /// Parse a spec from text; `file` names it in errors.
+    pub fn parse(text: &str, file: &Path) -> Result<Spec> {
+        let de = serde_norway::Deserializer::from_str(text);
+        let spec: Spec = serde_path_to_error::deserialize(de).map_err(|e| {
+            let field = e.path().to_string();
+            let inner = e.into_inner();
+            let line = inner.location().map(|l| l.line()).or_else(|| line_of(text, &field));
+            SmidError::Spec { file: file.to_path_buf(), line, field, message: inner.to_string() }
+        })?;
+        spec.validate().map_err(|e| match e {
+            SmidError::Invalid { field, message } => {
+                SmidError::Spec { file: file.to_path_buf(), line: line_of(text, &field), field, message }
+            }
+            other => other,
+        })?;
+        Ok(spec)
+    }
+
+    /// Read and parse a spec file.
+    pub fn from_file(path: &Path) -> Result<Spec> {
+        let text = std::fs::read_to_string(path).map_err(|source| SmidError::Io { path: path.to_path_buf(), source })?;
+        Spec::parse(&text, path)
+    }
+
+    /// Parameter count and the θ-index of each fixed coefficient.
+    pub fn fixed_theta(&self) -> Result<Vec<Option<f64>>> {
+        let names = crate::eiv::theta_names(self.model.na, self.model.nb);
+        let mut out = vec![None; names.len()];
+        for (k, v) in &self.model.fixed {
+            let Some(i) = names.iter().position(|n| n == k) else {
+                return Err(SmidError::invalid(
+                    format!("model.fixed.{k}"),
+                    format!("no such coefficient for na = {}, nb = {}; expected one of {}", self.model.na, self.model.nb, names.join(", ")),
+                ));
+            };
+            if !v.is_finite() {
+                return Err(SmidError::invalid(format!("model.fixed.{k}"), "expected a finite number"));
+            }
+            out[i] = Some(*v);
+        }
+        Ok(out)
+    }
+
+    /// Checks beyond the types; errors name the field.
+    pub fn validate(&self) -> Result<()> {
+        let p = &self.plant;
+        let kinds = [p.simulator.is_some(), p.data.is_some(), p.fmu.is_some()].iter().filter(|b| **b).count();
+        if kinds != 1 {
+            return Err(SmidError::invalid("plant", "give exactly one of `simulator`, `data` or `fmu`"));
+        }
+        if let Some(sim) = &p.simulator {
+            sim.linear().validate("plant.simulator")?;
+            sim.nonlinearity.validate().map_err(|e| match e {
+                SmidError::Invalid { field, message } => SmidError::invalid(format!("plant.simulator.nonlinearity.{field}"), message),
+                o => o,
+            })?;
+        }
+        self.noise.delta()?;
+        if self.model.na > 8 || self.model.nb > 8 {
+            return Err(SmidError::invalid("model.na", "orders above 8 are not supported by the orthant method (2^na LPs)"));
+        }
+        if !self.model.nonlinearity.supports(self.model.structure) {
+            return Err(SmidError::invalid("model.structure", format!("the nonlinearity plugin does not support {:?}", self.model.structure)));
+        }
+        self.fixed_theta()?;
+        let f = &self.experiment.filter;
+        if let Some(a) = f.pole {
+            if !(0.0..1.0).contains(&a) {
+                return Err(SmidError::invalid("experiment.filter.pole", format!("expected 0 <= a < 1, got {a}")));
+            }
+        }
+        if self.method.alpha == AlphaSpec::Bias && !(f.step.is_finite() && f.step != 0.0) {
+            return Err(SmidError::invalid("experiment.filter.step", "α needs a non-zero step amplitude r̄_F"));
+        }
+        let s = &self.experiment.steady_state;
+        if s.amplitudes < 2 {
+            return Err(SmidError::invalid("experiment.steady_state.amplitudes", "need at least 2 amplitudes (M >= 2)"));
+        }
+        if !(s.min > 0.0 && s.max > s.min && s.max.is_finite()) {
+            return Err(SmidError::invalid("experiment.steady_state.min", format!("expected 0 < min < max, got min {} max {}", s.min, s.max)));
+        }
+        let d = &self.experiment.dynamic;
+        if d.length < 10 {
+            return Err(SmidError::invalid("experiment.dynamic.length", format!("expected N >= 10, got {}", d.length)));
+        }
+        if !(d.amplitude.is_finite() && d.amplitude > 0.0) {
+            return Err(SmidError::invalid("experiment.dynamic.amplitude", "expected a finite amplitude > 0"));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::line_of;
+    #[test]
+    fn line_of_finds_nested_keys() {
+        let t = "a:\n  b: 1\n  fixed: {b0: 0}\n";
+        assert_eq!(line_of(t, "a.b"), Some(2));
+        assert_eq!(line_of(t, "model.fixed.b0"), Some(3));
+    }
+}

@@ -1,0 +1,244 @@
+//! # smid-output-backlash
+//!
+//! The backlash of the paper's eq (2) as a smid plugin (`type: output_backlash`):
+//!
+//! * [`Backlash`] simulates `w_t = m_l (x_t + c_l)` for `x_t <= z_l`, `m_r (x_t - c_r)` for
+//!   `x_t >= z_r`, and `w_t = w_{t-1}` in between (the third case of eq 2), with
+//!   `z_l = w_{t-1}/m_l - c_l`, `z_r = w_{t-1}/m_r + c_r` (eq 3).
+//! * [`OutputBacklashModel`] bounds `(m_l, c_l, m_r, c_r)` from steady-state data (Section 3):
+//!   each branch is linear in `(m, m·c)`, so its feasible set (constraints (16)-(17)) is an exact
+//!   polygon; `D_γ` (eq 13) is the Cartesian product of the two branch polygons. Bounds on `m`
+//!   and `c = (m·c)/m` are global optima at the vertices (eqs 18-20).
+//! * [`BacklashSet`] inverts the uncertain backlash (Section 4, Props 2-4) over the polygon
+//!   vertices and `η = ±Δη`, with the corrected left branch `x = w/m_l - c_l` (eqs 24, 26 print
+//!   `+γ2`); a sample whose output may not have moved still bounds `x_t` to the dead band
+//!   `[w/m_l - c_l, w/m_r + c_r]`.
+#![forbid(unsafe_code)]
+
+use serde::{Deserialize, Serialize};
+use smid_core::prelude::*;
+
+/// Backlash with known parameters (simulation).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Backlash {
+    pub m_l: f64,
+    pub c_l: f64,
+    pub m_r: f64,
+    pub c_r: f64,
+}
+
+impl Backlash {
+    /// One step of eq (2) given `w_{t-1}`.
+    pub fn map(&self, w_prev: f64, x: f64) -> f64 {
+        let z_l = w_prev / self.m_l - self.c_l;
+        let z_r = w_prev / self.m_r + self.c_r;
+        if x <= z_l {
+            self.m_l * (x + self.c_l)
+        } else if x >= z_r {
+            self.m_r * (x - self.c_r)
+        } else {
+            w_prev
+        }
+    }
+}
+
+#[typetag::serde(name = "output_backlash")]
+impl Nonlinearity for Backlash {
+    fn step(&self, memory: &mut Vec<f64>, x: f64) -> f64 {
+        if memory.is_empty() {
+            memory.push(0.0);
+        }
+        let w = self.map(memory[0], x);
+        memory[0] = w;
+        w
+    }
+    fn initial_memory(&self) -> Vec<f64> {
+        vec![0.0]
+    }
+    fn parameters(&self) -> Vec<(String, f64)> {
+        vec![("m_l".into(), self.m_l), ("c_l".into(), self.c_l), ("m_r".into(), self.m_r), ("c_r".into(), self.c_r)]
+    }
+    fn validate(&self) -> Result<()> {
+        for (name, v) in self.parameters() {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(SmidError::invalid(name, format!("expected a finite number > 0, got {v}")));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The output backlash as a model structure to identify (no options).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputBacklashModel {}
+
+/// The two branch polygons in `(m, m·c)` coordinates.
+#[derive(Debug, Clone)]
+pub struct BacklashSet {
+    /// Left branch: `w = m_l x + m_l c_l`, coordinates `(m_l, m_l c_l)`.
+    pub left: Polygon,
+    /// Right branch: `w = m_r x - m_r c_r`, coordinates `(m_r, m_r c_r)`.
+    pub right: Polygon,
+}
+
+/// Stage 1: the exact branch polygons from steady-state data.
+pub fn branch_polygons(data: &SteadyStateData) -> Result<BacklashSet> {
+    let mut left = Vec::new();
+    let mut right = Vec::new();
+    for p in &data.points {
+        if !(p.u.is_finite() && p.y.is_finite()) {
+            return Err(SmidError::invalid(format!("steady-state sample {}", p.index), "non-finite value"));
+        }
+        if !(p.dy > 0.0 && p.dy.is_finite()) {
+            return Err(SmidError::invalid(format!("steady-state sample {}", p.index), "noise bound must be > 0"));
+        }
+        if p.rising {
+            // ȳ = m_r ū - m_r c_r + η̄, η̄ in [-Δη, Δη + α] (overshoot can only raise ȳ).
+            right.push(Strip { n: [p.u, -1.0], lo: p.y - p.dy - p.alpha, hi: p.y + p.dy, sample: p.index });
+        } else {
+            // ȳ = m_l ū + m_l c_l + η̄, η̄ in [-Δη - α, Δη] (undershoot can only lower ȳ).
+            left.push(Strip { n: [p.u, 1.0], lo: p.y - p.dy, hi: p.y + p.dy + p.alpha, sample: p.index });
+        }
+    }
+    let left = Polygon::from_strips(&left, &Polygon::positive_quadrant(), "left branch (m_l, m_l·c_l)")?;
+    let right = Polygon::from_strips(&right, &Polygon::positive_quadrant(), "right branch (m_r, m_r·c_r)")?;
+    for (poly, name) in [(&left, "m_l"), (&right, "m_r")] {
+        if poly.vertices.iter().any(|v| v[0] <= 0.0) {
+            return Err(SmidError::Unbounded {
+                parameter: name.into(),
+                message: "the feasible slope reaches 0: the noise bound is too large for these amplitudes".into(),
+            });
+        }
+    }
+    Ok(BacklashSet { left, right })
+}
+
+#[typetag::serde(name = "output_backlash")]
+impl NonlinearityModel for OutputBacklashModel {
+    fn bound_steady_state(&self, data: &SteadyStateData) -> Result<Box<dyn NonlinearitySet>> {
+        Ok(Box::new(branch_polygons(data)?))
+    }
+}
+
+impl BacklashSet {
+    /// `[min, max]` of `x = (w - m_l c_l)/m_l` over the left polygon and `w` in `[y-d, y+d]`.
+    pub fn invert_left(&self, y: f64, d: f64) -> Interval {
+        invert_branch(&self.left, y, d, |v, w| (w - v[1]) / v[0])
+    }
+    /// `[min, max]` of `x = (w + m_r c_r)/m_r` over the right polygon.
+    pub fn invert_right(&self, y: f64, d: f64) -> Interval {
+        invert_branch(&self.right, y, d, |v, w| (w + v[1]) / v[0])
+    }
+    /// The dead band `[w/m_l - c_l, w/m_r + c_r]`, valid for every sample.
+    pub fn band(&self, y: f64, d: f64) -> Interval {
+        Interval::new(self.invert_left(y, d).lo, self.invert_right(y, d).hi)
+    }
+}
+
+impl NonlinearitySet for BacklashSet {
+    fn parameters(&self) -> Vec<ParameterBound> {
+        let b = |name: &str, i: Interval| ParameterBound { name: name.into(), interval: i };
+        vec![
+            b("m_l", self.left.extremes(|v| v[0])),
+            b("c_l", self.left.extremes(|v| v[1] / v[0])),
+            b("m_r", self.right.extremes(|v| v[0])),
+            b("c_r", self.right.extremes(|v| v[1] / v[0])),
+        ]
+    }
+
+    fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
+        if y.len() != dy.len() {
+            return Err(SmidError::invalid("dynamic data", "y and its noise bounds differ in length"));
+        }
+        let mut out = Vec::with_capacity(y.len());
+        for t in 0..y.len() {
+            if !y[t].is_finite() {
+                return Err(SmidError::invalid(format!("dynamic sample {t}"), "non-finite output"));
+            }
+            let band = self.band(y[t], dy[t]);
+            let moved = if t == 0 { 0.0 } else { y[t] - y[t - 1] };
+            let thr = if t == 0 { f64::INFINITY } else { dy[t] + dy[t - 1] };
+            let (interval, kind) = if moved < -thr {
+                // Prop 2: the output fell by more than the noise allows: left branch (eq 24, 26).
+                (self.invert_left(y[t], dy[t]), InnerKind::Inverted)
+            } else if moved > thr {
+                // Right branch (eqs 25, 27).
+                (self.invert_right(y[t], dy[t]), InnerKind::Inverted)
+            } else {
+                (band, InnerKind::Band)
+            };
+            let interval = interval.intersect(&band).unwrap_or(interval);
+            out.push(InnerBound { interval, kind });
+        }
+        Ok(out)
+    }
+
+    fn regions(&self, truth: Option<&[f64]>) -> Vec<Region> {
+        let t = |i: usize| truth.map(|t| [t[i], t[i] * t[i + 1]]);
+        vec![
+            Region {
+                name: "left_branch".into(),
+                axes: ["m_l".into(), "m_l·c_l".into()],
+                vertices: self.left.vertices.clone(),
+                truth: t(0),
+            },
+            Region {
+                name: "right_branch".into(),
+                axes: ["m_r".into(), "m_r·c_r".into()],
+                vertices: self.right.vertices.clone(),
+                truth: t(2),
+            },
+        ]
+    }
+
+    fn contains(&self, truth: &[f64]) -> bool {
+        truth.len() == 4
+            && self.left.contains([truth[0], truth[0] * truth[1]])
+            && self.right.contains([truth[2], truth[2] * truth[3]])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    const PAPER: Backlash = Backlash { m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 };
+
+    #[test]
+    fn eq2_branches_and_dead_band() {
+        let b = PAPER;
+        let w = b.simulate(&[0.0, 1.0, 0.99, 0.95, -1.0, -0.9]);
+        assert_eq!(w[0], 0.0, "x = 0 lies in the initial band [-c_l, c_r]");
+        assert!((w[1] - 0.252 * (1.0 - 0.0349)).abs() < 1e-15);
+        assert_eq!(w[2], w[1], "small reversal stays in the band");
+        assert_eq!(w[3], w[1]);
+        assert!((w[4] - 0.248 * (-1.0 + 0.0698)).abs() < 1e-15);
+        assert_eq!(w[5], w[4]);
+    }
+
+    #[test]
+    fn exact_inversion_recovers_inner_signal_with_tiny_noise() {
+        let x: Vec<f64> = (0..40).map(|t| (t as f64 * 0.7).sin() * 2.0).collect();
+        let w = PAPER.simulate(&x);
+        let pts: Vec<SteadyPoint> = (0..20)
+            .flat_map(|k| {
+                let a = 0.6 + k as f64 * 0.12;
+                [
+                    SteadyPoint { u: a, y: PAPER.m_r * (a - PAPER.c_r), dy: 1e-9, alpha: 0.0, rising: true, index: 2 * k },
+                    SteadyPoint { u: -a, y: PAPER.m_l * (-a + PAPER.c_l), dy: 1e-9, alpha: 0.0, rising: false, index: 2 * k + 1 },
+                ]
+            })
+            .collect();
+        let set = branch_polygons(&SteadyStateData { points: pts }).unwrap();
+        assert!(set.contains(&[PAPER.m_l, PAPER.c_l, PAPER.m_r, PAPER.c_r]));
+        let inner = set.invert(&w, &vec![1e-9; w.len()]).unwrap();
+        for (t, (b, xt)) in inner.iter().zip(&x).enumerate() {
+            assert!(b.interval.contains(*xt), "t={t}: {b:?} misses {xt}");
+            if b.kind == InnerKind::Inverted {
+                assert!(b.interval.radius() < 1e-6, "t={t}: {b:?}");
+            }
+        }
+        assert!(inner.iter().filter(|b| b.kind == InnerKind::Inverted).count() > 10);
+    }
+}
