@@ -4,17 +4,35 @@ use crate::error::{Result, SmidError};
 use std::path::Path;
 
 /// Columns `u` and `y` (rows whose `part` column equals `part`, when given).
-pub fn read_columns(file: &Path, u: &str, y: &str, part: Option<&str>) -> Result<(Vec<f64>, Vec<f64>)> {
-    let data_err = |location: String, message: String| SmidError::Data { file: file.to_path_buf(), location, message };
+pub fn read_columns(
+    file: &Path,
+    u: &str,
+    y: &str,
+    part: Option<&str>,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let data_err = |location: String, message: String| SmidError::Data {
+        file: file.to_path_buf(),
+        location,
+        message,
+    };
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .comment(Some(b'#'))
         .from_path(file)
         .map_err(|e| data_err("opening".into(), e.to_string()))?;
-    let headers = rdr.headers().map_err(|e| data_err("header".into(), e.to_string()))?.clone();
+    let headers = rdr
+        .headers()
+        .map_err(|e| data_err("header".into(), e.to_string()))?
+        .clone();
     let col = |name: &str| {
         headers.iter().position(|h| h == name).ok_or_else(|| {
-            data_err("header".into(), format!("no column `{name}`; columns are: {}", headers.iter().collect::<Vec<_>>().join(", ")))
+            data_err(
+                "header".into(),
+                format!(
+                    "no column `{name}`; columns are: {}",
+                    headers.iter().collect::<Vec<_>>().join(", ")
+                ),
+            )
         })
     };
     let (iu, iy) = (col(u)?, col(y)?);
@@ -30,11 +48,17 @@ pub fn read_columns(file: &Path, u: &str, y: &str, part: Option<&str>) -> Result
         }
         let num = |i: usize, name: &str| -> Result<f64> {
             let cell = rec.get(i).unwrap_or("");
-            let v: f64 = cell
-                .parse()
-                .map_err(|_| data_err(format!("row {row}, column `{name}`"), format!("expected a number, got `{cell}`")))?;
+            let v: f64 = cell.parse().map_err(|_| {
+                data_err(
+                    format!("row {row}, column `{name}`"),
+                    format!("expected a number, got `{cell}`"),
+                )
+            })?;
             if !v.is_finite() {
-                return Err(data_err(format!("row {row}, column `{name}`"), format!("expected a finite number, got `{cell}`")));
+                return Err(data_err(
+                    format!("row {row}, column `{name}`"),
+                    format!("expected a finite number, got `{cell}`"),
+                ));
             }
             Ok(v)
         };

@@ -46,12 +46,17 @@ pub struct EivResult {
 
 /// Parameter names in θ order: `a1..a_na, b0..b_nb`.
 pub fn theta_names(na: usize, nb: usize) -> Vec<String> {
-    (1..=na).map(|i| format!("a{i}")).chain((0..=nb).map(|j| format!("b{j}"))).collect()
+    (1..=na)
+        .map(|i| format!("a{i}"))
+        .chain((0..=nb).map(|j| format!("b{j}")))
+        .collect()
 }
 
 impl EivProblem<'_> {
     fn usable(&self, b: &InnerBound) -> bool {
-        b.interval.is_finite() && (b.kind == InnerKind::Inverted || (self.use_band_samples && b.kind == InnerKind::Band))
+        b.interval.is_finite()
+            && (b.kind == InnerKind::Inverted
+                || (self.use_band_samples && b.kind == InnerKind::Band))
     }
 
     /// Time indices whose equation involves only usable samples.
@@ -68,12 +73,18 @@ impl EivProblem<'_> {
     fn uncertain_coefficients(&self, times: &[usize]) -> Vec<usize> {
         let mut out = Vec::new();
         for i in 1..=self.na {
-            if self.fixed[i - 1].is_none() && times.iter().any(|&t| self.output[t - i].interval.radius() > 0.0) {
+            if self.fixed[i - 1].is_none()
+                && times
+                    .iter()
+                    .any(|&t| self.output[t - i].interval.radius() > 0.0)
+            {
                 out.push(i - 1);
             }
         }
         for j in 0..=self.nb {
-            if self.fixed[self.na + j].is_none() && times.iter().any(|&t| self.input[t - j].radius() > 0.0) {
+            if self.fixed[self.na + j].is_none()
+                && times.iter().any(|&t| self.input[t - j].radius() > 0.0)
+            {
                 out.push(self.na + j);
             }
         }
@@ -178,7 +189,10 @@ impl EivProblem<'_> {
     pub fn solve(&self) -> Result<EivResult> {
         let p = self.na + self.nb + 1;
         if self.fixed.len() != p {
-            return Err(SmidError::invalid("model.fixed", format!("expected {p} entries, got {}", self.fixed.len())));
+            return Err(SmidError::invalid(
+                "model.fixed",
+                format!("expected {p} entries, got {}", self.fixed.len()),
+            ));
         }
         let times = self.equation_times();
         let free: Vec<usize> = (0..p).filter(|&k| self.fixed[k].is_none()).collect();
@@ -223,7 +237,10 @@ impl EivProblem<'_> {
             return Err(SmidError::Inconsistent {
                 stage: Stage::Linear,
                 sample: times[bad - 1],
-                detail: format!("no θ satisfies the equations up to t = {} within their error bounds", times[bad - 1]),
+                detail: format!(
+                    "no θ satisfies the equations up to t = {} within their error bounds",
+                    times[bad - 1]
+                ),
             });
         }
         let bounds = (0..p)
@@ -232,7 +249,11 @@ impl EivProblem<'_> {
                 None => Interval::new(lo[k], hi[k]),
             })
             .collect();
-        Ok(EivResult { bounds, equations: times, feasible_orthants: feasible })
+        Ok(EivResult {
+            bounds,
+            equations: times,
+            feasible_orthants: feasible,
+        })
     }
 }
 
@@ -243,14 +264,22 @@ mod tests {
 
     fn bounds_from(x: &[f64], dx: f64) -> Vec<InnerBound> {
         x.iter()
-            .map(|&v| InnerBound { interval: Interval::new(v - dx, v + dx), kind: InnerKind::Inverted })
+            .map(|&v| InnerBound {
+                interval: Interval::new(v - dx, v + dx),
+                kind: InnerKind::Inverted,
+            })
             .collect()
     }
 
     #[test]
     fn recovers_paper_linear_block_from_exact_and_noisy_inner_signal() {
-        let m = LinearModel { a: vec![0.5, 0.7], b: vec![0.0, 1.4, 0.8] };
-        let u: Vec<f64> = (0..120).map(|t| if (t * 7 + 3) % 11 < 5 { 1.0 } else { -1.0 }).collect();
+        let m = LinearModel {
+            a: vec![0.5, 0.7],
+            b: vec![0.0, 1.4, 0.8],
+        };
+        let u: Vec<f64> = (0..120)
+            .map(|t| if (t * 7 + 3) % 11 < 5 { 1.0 } else { -1.0 })
+            .collect();
         let x = m.simulate(&u);
         let input: Vec<Interval> = u.iter().map(|&v| Interval::new(v, v)).collect();
         for dx in [1e-6, 1e-3] {
@@ -275,8 +304,13 @@ mod tests {
 
     #[test]
     fn inconsistent_data_name_the_first_offending_equation() {
-        let m = LinearModel { a: vec![0.5], b: vec![0.0, 1.5] };
-        let u: Vec<f64> = (0..60).map(|t| if t % 3 == 0 { 1.0 } else { -1.0 }).collect();
+        let m = LinearModel {
+            a: vec![0.5],
+            b: vec![0.0, 1.5],
+        };
+        let u: Vec<f64> = (0..60)
+            .map(|t| if t % 3 == 0 { 1.0 } else { -1.0 })
+            .collect();
         let mut x = m.simulate(&u);
         x[40] += 0.5; // an outlier far beyond the bound
         let out = bounds_from(&x, 1e-4);
@@ -291,7 +325,11 @@ mod tests {
             use_band_samples: false,
         };
         match prob.solve() {
-            Err(SmidError::Inconsistent { stage: Stage::Linear, sample, .. }) => assert!(sample == 40 || sample == 41, "{sample}"),
+            Err(SmidError::Inconsistent {
+                stage: Stage::Linear,
+                sample,
+                ..
+            }) => assert!(sample == 40 || sample == 41, "{sample}"),
             other => panic!("expected inconsistency, got {other:?}"),
         }
     }

@@ -49,28 +49,61 @@ pub struct FilterDesign {
     pub step: Option<f64>,
     pub reference_output: Option<f64>,
     pub trials: Vec<BisectionTrial>,
+    /// Overshoot bias measured at the chosen pole, noise-free, for a step of `+r̄_F`
+    /// (`w(a) - w(ā)`, clamped at 0) and of `-r̄_F` (`w(ā) - w(a)`, clamped at 0), with a
+    /// rounding pad. It bounds the bias of every steady-state sample after scaling by the step
+    /// size `2|ū|/r̄_F` (linearity of the block): the `design` α of eqs (14)-(15).
+    pub overshoot: Option<[f64; 2]>,
+}
+
+impl FilterDesign {
+    /// A given pole (no search, no overshoot measurement).
+    pub fn given(pole: f64) -> Self {
+        FilterDesign {
+            pole,
+            step: None,
+            reference_output: None,
+            trials: Vec::new(),
+            overshoot: None,
+        }
+    }
 }
 
 fn steady_output(plant: &mut dyn Plant, pole: f64, step: f64, settle: usize) -> Result<f64> {
     let a = if pole >= 1.0 { QUASI_STATIC_POLE } else { pole };
     let n = filter_settling(a) + settle;
     let w = plant.run(&lowpass(a, &vec![step; n]))?;
-    w.last().copied().ok_or_else(|| SmidError::Plant { plant: plant.name(), message: "returned no samples".into() })
+    w.last().copied().ok_or_else(|| SmidError::Plant {
+        plant: plant.name(),
+        message: "returned no samples".into(),
+    })
 }
 
 /// The Appendix search for the filter pole (noise-free).
 pub fn design_filter_pole(plant: &mut dyn Plant, o: &BisectionOptions) -> Result<FilterDesign> {
     if !(o.a_bar > 0.0 && o.a_bar <= 1.0) {
-        return Err(SmidError::invalid("experiment.filter.a_bar", format!("expected 0 < ā <= 1, got {}", o.a_bar)));
+        return Err(SmidError::invalid(
+            "experiment.filter.a_bar",
+            format!("expected 0 < ā <= 1, got {}", o.a_bar),
+        ));
     }
     if !(o.tol > 0.0 && o.tol < 1.0) {
-        return Err(SmidError::invalid("experiment.filter.tol", format!("expected 0 < tol < 1, got {}", o.tol)));
+        return Err(SmidError::invalid(
+            "experiment.filter.tol",
+            format!("expected 0 < tol < 1, got {}", o.tol),
+        ));
     }
     if !(o.epsilon > 0.0 && o.epsilon.is_finite()) {
-        return Err(SmidError::invalid("experiment.filter.epsilon", format!("expected ε > 0, got {}", o.epsilon)));
+        return Err(SmidError::invalid(
+            "experiment.filter.epsilon",
+            format!("expected ε > 0, got {}", o.epsilon),
+        ));
     }
     if !(o.step.is_finite() && o.step != 0.0) {
-        return Err(SmidError::invalid("experiment.filter.step", "expected a non-zero finite step amplitude"));
+        return Err(SmidError::invalid(
+            "experiment.filter.step",
+            "expected a non-zero finite step amplitude",
+        ));
     }
     let w_ref = steady_output(plant, o.a_bar, o.step, o.settle)?;
     let (mut a_u, mut a_l, mut a_star) = (o.a_bar, 0.0f64, 0.0f64);
@@ -79,7 +112,11 @@ pub fn design_filter_pole(plant: &mut dyn Plant, o: &BisectionOptions) -> Result
     loop {
         let ws = steady_output(plant, a_star, o.step, o.settle)?;
         let passed = (w_ref - ws).abs() <= o.epsilon;
-        trials.push(BisectionTrial { pole: a_star, steady_output: ws, passed });
+        trials.push(BisectionTrial {
+            pole: a_star,
+            steady_output: ws,
+            passed,
+        });
         if passed {
             a_u = a_star;
             passed_any = true;
@@ -98,7 +135,28 @@ pub fn design_filter_pole(plant: &mut dyn Plant, o: &BisectionOptions) -> Result
             "no filter pole below ā passed the no-overshoot test: raise `epsilon` or lower `tol`",
         ));
     }
-    Ok(FilterDesign { pole: a_u, step: Some(o.step), reference_output: Some(w_ref), trials })
+    // Measure the overshoot bias of the chosen pole in both directions.
+    let pad = |v: f64| 1e-12 * (1.0 + v.abs());
+    let w_pos = trials
+        .iter()
+        .rev()
+        .find(|t| t.pole == a_u)
+        .map(|t| t.steady_output);
+    let w_pos = match w_pos {
+        Some(w) => w,
+        None => steady_output(plant, a_u, o.step, o.settle)?,
+    };
+    let w_ref_neg = steady_output(plant, o.a_bar, -o.step, o.settle)?;
+    let w_neg = steady_output(plant, a_u, -o.step, o.settle)?;
+    let right = (w_pos - w_ref).max(0.0) + pad(w_ref);
+    let left = (w_ref_neg - w_neg).max(0.0) + pad(w_ref_neg);
+    Ok(FilterDesign {
+        pole: a_u,
+        step: Some(o.step),
+        reference_output: Some(w_ref),
+        trials,
+        overshoot: Some([right, left]),
+    })
 }
 
 /// Options of the steady-state experiment.
@@ -124,17 +182,33 @@ pub struct SteadyRecord {
 
 /// Run the square wave through the filter and the plant: for each amplitude a positive then a
 /// negative half-wave, sampled at the end of each half (2M samples).
-pub fn steady_state_experiment(plant: &mut dyn Plant, pole: f64, o: &SteadyStateOptions) -> Result<SteadyRecord> {
+pub fn steady_state_experiment(
+    plant: &mut dyn Plant,
+    pole: f64,
+    o: &SteadyStateOptions,
+) -> Result<SteadyRecord> {
     if o.amplitudes < 2 {
-        return Err(SmidError::invalid("experiment.steady_state.amplitudes", "need at least 2 amplitudes (M >= 2)"));
+        return Err(SmidError::invalid(
+            "experiment.steady_state.amplitudes",
+            "need at least 2 amplitudes (M >= 2)",
+        ));
     }
     if !(o.min > 0.0 && o.max > o.min && o.max.is_finite()) {
-        return Err(SmidError::invalid("experiment.steady_state", format!("expected 0 < min < max, got min {} max {}", o.min, o.max)));
+        return Err(SmidError::invalid(
+            "experiment.steady_state",
+            format!("expected 0 < min < max, got min {} max {}", o.min, o.max),
+        ));
     }
     if !(0.0..1.0).contains(&pole) {
-        return Err(SmidError::invalid("experiment.filter.pole", format!("expected 0 <= a < 1, got {pole}")));
+        return Err(SmidError::invalid(
+            "experiment.filter.pole",
+            format!("expected 0 <= a < 1, got {pole}"),
+        ));
     }
-    let half = o.half_period.unwrap_or_else(|| filter_settling(pole) + o.settle).max(2);
+    let half = o
+        .half_period
+        .unwrap_or_else(|| filter_settling(pole) + o.settle)
+        .max(2);
     let m = o.amplitudes;
     let mut r = Vec::with_capacity(2 * m * half);
     let mut samples = Vec::with_capacity(2 * m);
@@ -149,7 +223,10 @@ pub fn steady_state_experiment(plant: &mut dyn Plant, pole: f64, o: &SteadyState
     let u = lowpass(pole, &r);
     let w = plant.run(&u)?;
     if let Some(i) = w.iter().position(|v| !v.is_finite()) {
-        return Err(SmidError::Plant { plant: plant.name(), message: format!("non-finite output at sample {i}") });
+        return Err(SmidError::Plant {
+            plant: plant.name(),
+            message: format!("non-finite output at sample {i}"),
+        });
     }
     Ok(SteadyRecord { u, w, samples })
 }
@@ -173,11 +250,20 @@ pub fn noisy_steady_state(rec: &SteadyRecord, delta: f64, rng: &mut impl Rng) ->
     }
 }
 
-/// Set α of eqs (14)-(15) on every point: `α = 2Δη|ū|/r̄_F`, made non-negative (the paper's
-/// signed `ū_j` would shrink the left branch's interval, which is unsound).
+/// Set α of eqs (14)-(15) on every point as the paper does, `α = 2Δη|ū|/r̄_F`, made
+/// non-negative (the paper's signed `ū_j` would shrink the left branch's interval, unsound).
 pub fn apply_alpha(data: &mut SteadyStateData, step: f64) {
     for p in &mut data.points {
         p.alpha = 2.0 * p.dy * p.u.abs() / step.abs();
+    }
+}
+
+/// Set α from the overshoot measured by the design: `α = d · 2|ū|/r̄_F`, with `d` the measured
+/// bias for a rising (`overshoot[0]`) or falling (`overshoot[1]`) step.
+pub fn apply_design_alpha(data: &mut SteadyStateData, overshoot: [f64; 2], step: f64) {
+    for p in &mut data.points {
+        let d = if p.rising { overshoot[0] } else { overshoot[1] };
+        p.alpha = d * 2.0 * p.u.abs() / step.abs();
     }
 }
 
@@ -193,10 +279,16 @@ pub struct DynamicOptions {
 /// The PRBS input for the dynamic experiment.
 pub fn dynamic_input(o: &DynamicOptions, rng: &mut impl Rng) -> Result<Vec<f64>> {
     if o.length < 10 {
-        return Err(SmidError::invalid("experiment.dynamic.length", format!("expected N >= 10, got {}", o.length)));
+        return Err(SmidError::invalid(
+            "experiment.dynamic.length",
+            format!("expected N >= 10, got {}", o.length),
+        ));
     }
     if !(o.amplitude.is_finite() && o.amplitude > 0.0) {
-        return Err(SmidError::invalid("experiment.dynamic.amplitude", "expected a finite amplitude > 0"));
+        return Err(SmidError::invalid(
+            "experiment.dynamic.amplitude",
+            "expected a finite amplitude > 0",
+        ));
     }
     Ok(prbs(o.length, o.amplitude, o.hold, rng))
 }

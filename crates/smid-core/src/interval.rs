@@ -84,8 +84,13 @@ mod tests {
         let i = Interval::new(-1.0, 2.0);
         let o = i.outward();
         assert!(o.lo < i.lo && o.hi > i.hi);
-        assert_eq!(Interval::hull_of([3.0, -1.0, 2.0]), Some(Interval::new(-1.0, 3.0)));
+        assert_eq!(
+            Interval::hull_of([3.0, -1.0, 2.0]),
+            Some(Interval::new(-1.0, 3.0))
+        );
         assert_eq!(Interval::hull_of([1.0, f64::NAN]), None);
-        assert!(Interval::new(0.0, 1.0).intersect(&Interval::new(2.0, 3.0)).is_none());
+        assert!(Interval::new(0.0, 1.0)
+            .intersect(&Interval::new(2.0, 3.0))
+            .is_none());
     }
 }

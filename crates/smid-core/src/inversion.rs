@@ -10,7 +10,12 @@ use crate::interval::Interval;
 use crate::polygon::Polygon;
 
 /// Range of `f(vertex, w)` over the polygon's vertices and `w in {y - Δη, y + Δη}`.
-pub fn invert_branch(poly: &Polygon, y: f64, dy: f64, f: impl Fn([f64; 2], f64) -> f64) -> Interval {
+pub fn invert_branch(
+    poly: &Polygon,
+    y: f64,
+    dy: f64,
+    f: impl Fn([f64; 2], f64) -> f64,
+) -> Interval {
     let ws = [y - dy, y + dy];
     Interval::hull_of(
         poly.vertices
@@ -45,6 +50,9 @@ pub struct InnerBound {
 impl InnerBound {
     /// An unknown sample (the whole line).
     pub fn unknown() -> Self {
-        InnerBound { interval: Interval::entire(), kind: InnerKind::Unknown }
+        InnerBound {
+            interval: Interval::entire(),
+            kind: InnerKind::Unknown,
+        }
     }
 }

@@ -36,7 +36,8 @@ pub mod prelude {
     pub use crate::interval::Interval;
     pub use crate::inversion::{invert_branch, InnerBound, InnerKind};
     pub use crate::nonlinearity::{
-        Nonlinearity, NonlinearityModel, NonlinearitySet, ParameterBound, Region, SteadyPoint, SteadyStateData, Structure,
+        Nonlinearity, NonlinearityModel, NonlinearitySet, ParameterBound, Region, SteadyPoint,
+        SteadyStateData, Structure,
     };
     pub use crate::polygon::{Polygon, Strip};
 }

@@ -42,11 +42,17 @@ impl LinearModel {
     /// Check finiteness, asymptotic stability and a non-zero gain (Section 2, (i)-(ii)).
     pub fn validate(&self, field: &str) -> Result<()> {
         if self.b.is_empty() {
-            return Err(SmidError::invalid(format!("{field}.b"), "needs at least one coefficient"));
+            return Err(SmidError::invalid(
+                format!("{field}.b"),
+                "needs at least one coefficient",
+            ));
         }
         for (name, v) in [("a", &self.a), ("b", &self.b)] {
             if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-                return Err(SmidError::invalid(format!("{field}.{name}[{i}]"), "must be a finite number"));
+                return Err(SmidError::invalid(
+                    format!("{field}.{name}[{i}]"),
+                    "must be a finite number",
+                ));
             }
         }
         let r = self.spectral_radius();
@@ -57,7 +63,10 @@ impl LinearModel {
             ));
         }
         if self.b.iter().sum::<f64>() == 0.0 {
-            return Err(SmidError::invalid(format!("{field}.b"), "steady-state gain must not be zero"));
+            return Err(SmidError::invalid(
+                format!("{field}.b"),
+                "steady-state gain must not be zero",
+            ));
         }
         Ok(())
     }
@@ -109,7 +118,10 @@ impl LinearSim<'_> {
 mod tests {
     use super::*;
     fn paper() -> LinearModel {
-        LinearModel { a: vec![0.5, 0.7], b: vec![0.0, 1.4, 0.8] }
+        LinearModel {
+            a: vec![0.5, 0.7],
+            b: vec![0.0, 1.4, 0.8],
+        }
     }
     #[test]
     fn paper_system_has_unit_gain_and_is_stable() {
@@ -124,7 +136,10 @@ mod tests {
     }
     #[test]
     fn unstable_is_rejected_with_field() {
-        let m = LinearModel { a: vec![-2.0], b: vec![1.0] };
+        let m = LinearModel {
+            a: vec![-2.0],
+            b: vec![1.0],
+        };
         let e = m.validate("plant").unwrap_err().to_string();
         assert!(e.contains("plant.a") && e.contains("stable"), "{e}");
     }

@@ -8,7 +8,10 @@
 //! reported interval contains the exact one.
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
-use good_lp::{solvers::clarabel::clarabel, Expression, ProblemVariables, ResolutionError, Solution, SolverModel, Variable};
+use good_lp::{
+    solvers::clarabel::clarabel, Expression, ProblemVariables, ResolutionError, Solution,
+    SolverModel, Variable,
+};
 
 /// Relative outward relaxation of each right-hand side.
 pub const ROW_PAD: f64 = 1e-9;
@@ -42,7 +45,10 @@ enum Sense {
 impl Polytope {
     /// An empty description in `n` variables.
     pub fn new(n: usize) -> Self {
-        Polytope { n, ..Default::default() }
+        Polytope {
+            n,
+            ..Default::default()
+        }
     }
 
     fn solve(&self, objective: Option<(usize, Sense)>) -> Result<Option<f64>> {
@@ -54,10 +60,20 @@ impl Polytope {
             None => Expression::from(0.0),
         };
         let lin = |coefs: &[f64]| -> Expression {
-            coefs.iter().zip(&th).filter(|(c, _)| **c != 0.0).map(|(c, v)| *c * *v).sum()
+            coefs
+                .iter()
+                .zip(&th)
+                .filter(|(c, _)| **c != 0.0)
+                .map(|(c, v)| *c * *v)
+                .sum()
         };
         let mut problem = clarabel(vars.minimise(obj));
-        problem.settings().tol_gap_abs(1e-10).tol_gap_rel(1e-10).tol_feas(1e-10).max_iter(400);
+        problem
+            .settings()
+            .tol_gap_abs(1e-10)
+            .tol_gap_rel(1e-10)
+            .tol_feas(1e-10)
+            .max_iter(400);
         for (g, h, _) in &self.le {
             let h = h + ROW_PAD * (1.0 + h.abs());
             problem = problem.with(lin(g).leq(h));
@@ -127,7 +143,10 @@ mod tests {
         match p.bound(&[0, 1]).unwrap() {
             LpOutcome::Bounds(b) => {
                 assert!(b[0].contains(0.0) && b[0].contains(0.75));
-                assert!((b[0].hi - 0.75).abs() < 1e-6 && b[0].lo.abs() < 1e-6, "{b:?}");
+                assert!(
+                    (b[0].hi - 0.75).abs() < 1e-6 && b[0].lo.abs() < 1e-6,
+                    "{b:?}"
+                );
             }
             LpOutcome::Infeasible => panic!("feasible"),
         }

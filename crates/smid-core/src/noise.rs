@@ -25,18 +25,30 @@ impl NoiseSpec {
                 if d.is_finite() && d > 0.0 {
                     Ok(d)
                 } else {
-                    Err(SmidError::invalid("noise.delta", format!("expected a finite number > 0, got {d}")))
+                    Err(SmidError::invalid(
+                        "noise.delta",
+                        format!("expected a finite number > 0, got {d}"),
+                    ))
                 }
             }
             (None, Some(b)) => {
                 if (1..=52).contains(&b) {
                     Ok(encoder_delta(b))
                 } else {
-                    Err(SmidError::invalid("noise.encoder_bits", format!("expected 1..=52 bits, got {b}")))
+                    Err(SmidError::invalid(
+                        "noise.encoder_bits",
+                        format!("expected 1..=52 bits, got {b}"),
+                    ))
                 }
             }
-            (Some(_), Some(_)) => Err(SmidError::invalid("noise", "give either `delta` or `encoder_bits`, not both")),
-            (None, None) => Err(SmidError::invalid("noise", "give `delta` (the bound Δη) or `encoder_bits`")),
+            (Some(_), Some(_)) => Err(SmidError::invalid(
+                "noise",
+                "give either `delta` or `encoder_bits`, not both",
+            )),
+            (None, None) => Err(SmidError::invalid(
+                "noise",
+                "give `delta` (the bound Δη) or `encoder_bits`",
+            )),
         }
     }
 }

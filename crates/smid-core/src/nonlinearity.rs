@@ -6,8 +6,8 @@
 //!
 //! Like argmin's capability traits, each trait has one required method and defaults for the rest.
 use crate::error::{Result, SmidError};
-use crate::inversion::InnerBound;
 use crate::interval::Interval;
+use crate::inversion::InnerBound;
 use serde::{Deserialize, Serialize};
 use std::fmt::Debug;
 
@@ -160,11 +160,17 @@ pub trait NonlinearitySet: Debug + Send + Sync {
     /// Stage 2 (Wiener): bound every inner-signal sample `x_t` from the outputs `y` with
     /// per-sample noise bounds `dy`.
     fn invert(&self, _y: &[f64], _dy: &[f64]) -> Result<Vec<InnerBound>> {
-        Err(SmidError::Unsupported { plugin: format!("{self:?}"), what: "output inversion (Wiener)".into() })
+        Err(SmidError::Unsupported {
+            plugin: format!("{self:?}"),
+            what: "output inversion (Wiener)".into(),
+        })
     }
     /// Stage 2 (Hammerstein): bound every inner-signal sample from the known input.
     fn propagate(&self, _u: &[f64]) -> Result<Vec<InnerBound>> {
-        Err(SmidError::Unsupported { plugin: format!("{self:?}"), what: "input propagation (Hammerstein)".into() })
+        Err(SmidError::Unsupported {
+            plugin: format!("{self:?}"),
+            what: "input propagation (Hammerstein)".into(),
+        })
     }
     /// Feasible regions to plot (with the truth marked when `truth` is given in the order of
     /// [`NonlinearitySet::parameters`]).
@@ -174,6 +180,9 @@ pub trait NonlinearitySet: Debug + Send + Sync {
     /// Whether the true parameters (in report order) lie in the feasible set. The default
     /// checks the parameter box.
     fn contains(&self, truth: &[f64]) -> bool {
-        self.parameters().iter().zip(truth).all(|(b, &t)| b.interval.contains(t))
+        self.parameters()
+            .iter()
+            .zip(truth)
+            .all(|(b, &t)| b.interval.contains(t))
     }
 }

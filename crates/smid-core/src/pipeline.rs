@@ -83,7 +83,11 @@ impl Identification {
     /// Whether every parameter with a known truth is inside its bounds.
     pub fn all_contain_truth(&self) -> Option<bool> {
         let c: Vec<bool> = self.parameters.iter().filter_map(|p| p.contains).collect();
-        (!c.is_empty()).then(|| c.iter().all(|b| *b) && self.truth_in_nonlinearity_set != Some(false) && self.inner_violations.unwrap_or(0) == 0)
+        (!c.is_empty()).then(|| {
+            c.iter().all(|b| *b)
+                && self.truth_in_nonlinearity_set != Some(false)
+                && self.inner_violations.unwrap_or(0) == 0
+        })
     }
     /// A parameter by name.
     pub fn parameter(&self, name: &str) -> Option<&ParamResult> {
@@ -106,7 +110,7 @@ pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<Experi
     let ex = &spec.experiment;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(ex.seed);
     let filter = match ex.filter.pole {
-        Some(a) => FilterDesign { pole: a, step: None, reference_output: None, trials: Vec::new() },
+        Some(a) => FilterDesign::given(a),
         None => experiment::design_filter_pole(plant, &ex.filter.bisection())?,
     };
     let rec = experiment::steady_state_experiment(plant, filter.pole, &ex.steady_options())?;
@@ -114,10 +118,16 @@ pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<Experi
     let u = experiment::dynamic_input(&ex.dynamic_options(), &mut rng)?;
     let w = plant.run(&u)?;
     if w.len() != u.len() {
-        return Err(SmidError::Plant { plant: plant.name(), message: format!("returned {} samples for {} inputs", w.len(), u.len()) });
+        return Err(SmidError::Plant {
+            plant: plant.name(),
+            message: format!("returned {} samples for {} inputs", w.len(), u.len()),
+        });
     }
     if let Some(t) = w.iter().position(|v| !v.is_finite()) {
-        return Err(SmidError::Plant { plant: plant.name(), message: format!("non-finite output at sample {t}") });
+        return Err(SmidError::Plant {
+            plant: plant.name(),
+            message: format!("non-finite output at sample {t}"),
+        });
     }
     let eta = noise::uniform(u.len(), delta, &mut rng);
     let y = w.iter().zip(&eta).map(|(a, b)| a + b).collect();
@@ -137,29 +147,42 @@ pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<Experi
 
 /// Load measured data named by the spec (`plant.data`), paths relative to `base`.
 pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
-    let d = spec
-        .plant
-        .data
-        .as_ref()
-        .ok_or_else(|| SmidError::invalid("plant.data", "the spec's plant is not measured data"))?;
+    let d =
+        spec.plant.data.as_ref().ok_or_else(|| {
+            SmidError::invalid("plant.data", "the spec's plant is not measured data")
+        })?;
     let delta = spec.noise.delta()?;
     let ss = &d.steady_state;
-    let (us, ys) = crate::data::read_columns(&base.join(&ss.file), &ss.u, &ss.y, ss.part.as_deref())?;
+    let (us, ys) =
+        crate::data::read_columns(&base.join(&ss.file), &ss.u, &ss.y, ss.part.as_deref())?;
     if us.len() < 4 {
         return Err(SmidError::Data {
             file: base.join(&ss.file),
             location: format!("column `{}`", ss.u),
-            message: format!("too short: {} steady-state samples, need at least 4 (two amplitudes per branch)", us.len()),
+            message: format!(
+                "too short: {} steady-state samples, need at least 4 (two amplitudes per branch)",
+                us.len()
+            ),
         });
     }
     let dynm = &d.dynamic;
-    let (u, y) = crate::data::read_columns(&base.join(&dynm.file), &dynm.u, &dynm.y, dynm.part.as_deref())?;
+    let (u, y) = crate::data::read_columns(
+        &base.join(&dynm.file),
+        &dynm.u,
+        &dynm.y,
+        dynm.part.as_deref(),
+    )?;
     let need = 2 * (spec.model.na + spec.model.nb + 2);
     if u.len() < need {
         return Err(SmidError::Data {
             file: base.join(&dynm.file),
             location: format!("column `{}`", dynm.u),
-            message: format!("too short: {} dynamic samples, need at least {need} for na = {}, nb = {}", u.len(), spec.model.na, spec.model.nb),
+            message: format!(
+                "too short: {} dynamic samples, need at least {need} for na = {}, nb = {}",
+                u.len(),
+                spec.model.na,
+                spec.model.nb
+            ),
         });
     }
     let steady = SteadyStateData {
@@ -167,19 +190,51 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
             .iter()
             .zip(&ys)
             .enumerate()
-            .map(|(i, (&u, &y))| crate::nonlinearity::SteadyPoint { u, y, dy: delta, alpha: 0.0, rising: u > 0.0, index: i })
+            .map(|(i, (&u, &y))| crate::nonlinearity::SteadyPoint {
+                u,
+                y,
+                dy: delta,
+                alpha: 0.0,
+                rising: u > 0.0,
+                index: i,
+            })
             .collect(),
     };
-    let filter = spec.experiment.filter.pole.map(|a| FilterDesign { pole: a, step: None, reference_output: None, trials: Vec::new() });
-    Ok(ExperimentData { steady, dy: vec![delta; u.len()], u, y, filter, ..Default::default() })
+    let filter = spec.experiment.filter.pole.map(|a| FilterDesign::given(a));
+    Ok(ExperimentData {
+        steady,
+        dy: vec![delta; u.len()],
+        u,
+        y,
+        filter,
+        ..Default::default()
+    })
 }
 
 /// Stages 1-3 on acquired data. `truth` holds known true values by parameter name.
-pub fn identify(spec: &Spec, mut data: ExperimentData, truth: &[(String, f64)]) -> Result<Identification> {
+pub fn identify(
+    spec: &Spec,
+    mut data: ExperimentData,
+    truth: &[(String, f64)],
+) -> Result<Identification> {
     let delta = spec.noise.delta()?;
-    if spec.method.alpha == AlphaSpec::Bias {
-        let step = data.filter.as_ref().and_then(|f| f.step).unwrap_or(spec.experiment.filter.step);
-        experiment::apply_alpha(&mut data.steady, step);
+    let step = data
+        .filter
+        .as_ref()
+        .and_then(|f| f.step)
+        .unwrap_or(spec.experiment.filter.step);
+    match spec.method.alpha {
+        AlphaSpec::Bias => experiment::apply_alpha(&mut data.steady, step),
+        AlphaSpec::Design => match data.filter.as_ref().and_then(|f| f.overshoot) {
+            Some(d) => experiment::apply_design_alpha(&mut data.steady, d, step),
+            None => {
+                return Err(SmidError::invalid(
+                    "method.alpha",
+                    "`design` needs the filter pole from the Appendix search on the plant; with a given pole or measured data choose `bias` or `zero`",
+                ))
+            }
+        },
+        AlphaSpec::Zero => {}
     }
     let truth_of = |n: &str| truth.iter().find(|(k, _)| k == n).map(|(_, v)| *v);
 
@@ -202,15 +257,20 @@ pub fn identify(spec: &Spec, mut data: ExperimentData, truth: &[(String, f64)]) 
                 .y
                 .iter()
                 .zip(&data.dy)
-                .map(|(&y, &d)| InnerBound { interval: Interval::new(y - d, y + d).outward(), kind: InnerKind::Inverted })
+                .map(|(&y, &d)| InnerBound {
+                    interval: Interval::new(y - d, y + d).outward(),
+                    kind: InnerKind::Inverted,
+                })
                 .collect();
             (out, prop.iter().map(|b| b.interval).collect(), prop)
         }
     };
-    let inner_violations = data
-        .x
-        .as_ref()
-        .map(|x| x.iter().zip(&inner).filter(|(v, b)| b.interval.is_finite() && !b.interval.contains(**v)).count());
+    let inner_violations = data.x.as_ref().map(|x| {
+        x.iter()
+            .zip(&inner)
+            .filter(|(v, b)| b.interval.is_finite() && !b.interval.contains(**v))
+            .count()
+    });
 
     // Stage 3.
     let fixed = spec.fixed_theta()?;
@@ -225,8 +285,14 @@ pub fn identify(spec: &Spec, mut data: ExperimentData, truth: &[(String, f64)]) 
     }
     .solve()?;
 
-    let mut parameters: Vec<ParamResult> = gamma.iter().map(|b| ParamResult::new(&b.name, b.interval, truth_of(&b.name))).collect();
-    for (name, b) in theta_names(spec.model.na, spec.model.nb).iter().zip(&eiv.bounds) {
+    let mut parameters: Vec<ParamResult> = gamma
+        .iter()
+        .map(|b| ParamResult::new(&b.name, b.interval, truth_of(&b.name)))
+        .collect();
+    for (name, b) in theta_names(spec.model.na, spec.model.nb)
+        .iter()
+        .zip(&eiv.bounds)
+    {
         parameters.push(ParamResult::new(name, *b, truth_of(name)));
     }
     let snr_db = match (&data.w, &data.noise) {
@@ -259,10 +325,18 @@ pub fn run(spec: &Spec, base: &Path) -> Result<Identification> {
     }
     if spec.plant.data.is_some() {
         let data = load_data(spec, base)?;
-        let truth: Vec<(String, f64)> = spec.plant.truth.iter().map(|(k, v)| (k.clone(), *v)).collect();
+        let truth: Vec<(String, f64)> = spec
+            .plant
+            .truth
+            .iter()
+            .map(|(k, v)| (k.clone(), *v))
+            .collect();
         return identify(spec, data, &truth);
     }
-    Err(SmidError::invalid("plant", "this plant kind needs a plant provider (e.g. the FMU crate); use the `smid` CLI"))
+    Err(SmidError::invalid(
+        "plant",
+        "this plant kind needs a plant provider (e.g. the FMU crate); use the `smid` CLI",
+    ))
 }
 
 /// Run the experiments on `plant` and identify. The truth is the plant's own, overridden by

@@ -63,8 +63,20 @@ impl Plant for SimulatedPlant<'_> {
     }
     fn truth(&self) -> Vec<(String, f64)> {
         let mut t = self.nonlinearity.parameters();
-        t.extend(self.linear.a.iter().enumerate().map(|(i, v)| (format!("a{}", i + 1), *v)));
-        t.extend(self.linear.b.iter().enumerate().map(|(j, v)| (format!("b{j}"), *v)));
+        t.extend(
+            self.linear
+                .a
+                .iter()
+                .enumerate()
+                .map(|(i, v)| (format!("a{}", i + 1), *v)),
+        );
+        t.extend(
+            self.linear
+                .b
+                .iter()
+                .enumerate()
+                .map(|(j, v)| (format!("b{j}"), *v)),
+        );
         t
     }
 }

@@ -12,14 +12,22 @@ static FONT: Once = Once::new();
 
 fn ensure_font() {
     FONT.call_once(|| {
-        for style in [FontStyle::Normal, FontStyle::Bold, FontStyle::Italic, FontStyle::Oblique] {
+        for style in [
+            FontStyle::Normal,
+            FontStyle::Bold,
+            FontStyle::Italic,
+            FontStyle::Oblique,
+        ] {
             let _ = plotters::style::register_font("sans-serif", style, dejavu::sans::regular());
         }
     });
 }
 
 fn plot_err(path: &Path, e: impl std::fmt::Display) -> SmidError {
-    SmidError::Io { path: path.to_path_buf(), source: std::io::Error::other(e.to_string()) }
+    SmidError::Io {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e.to_string()),
+    }
 }
 
 fn padded(lo: f64, hi: f64) -> (f64, f64) {
@@ -30,13 +38,27 @@ fn padded(lo: f64, hi: f64) -> (f64, f64) {
 /// Plot a feasible polygon with its vertices and the truth.
 pub fn region_svg(region: &Region, path: &Path) -> Result<()> {
     ensure_font();
-    let pts: Vec<[f64; 2]> = region.vertices.iter().copied().chain(region.truth).collect();
-    let (x0, x1) = padded(pts.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min), pts.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max));
-    let (y0, y1) = padded(pts.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min), pts.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max));
+    let pts: Vec<[f64; 2]> = region
+        .vertices
+        .iter()
+        .copied()
+        .chain(region.truth)
+        .collect();
+    let (x0, x1) = padded(
+        pts.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min),
+        pts.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max),
+    );
+    let (y0, y1) = padded(
+        pts.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min),
+        pts.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max),
+    );
     let root = SVGBackend::new(path, (640, 520)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
     let mut chart = ChartBuilder::on(&root)
-        .caption(format!("feasible set: {}", region.name.replace('_', " ")), ("sans-serif", 20))
+        .caption(
+            format!("feasible set: {}", region.name.replace('_', " ")),
+            ("sans-serif", 20),
+        )
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(80)
@@ -52,7 +74,10 @@ pub fn region_svg(region: &Region, path: &Path) -> Result<()> {
         .map_err(|e| plot_err(path, e))?;
     let poly: Vec<(f64, f64)> = region.vertices.iter().map(|v| (v[0], v[1])).collect();
     chart
-        .draw_series(std::iter::once(Polygon::new(poly.clone(), BLUE.mix(0.25).filled())))
+        .draw_series(std::iter::once(Polygon::new(
+            poly.clone(),
+            BLUE.mix(0.25).filled(),
+        )))
         .map_err(|e| plot_err(path, e))?
         .label("feasible set")
         .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 15, y + 5)], BLUE.mix(0.25).filled()));
@@ -60,13 +85,19 @@ pub fn region_svg(region: &Region, path: &Path) -> Result<()> {
     if let Some(f) = poly.first() {
         closed.push(*f);
     }
-    chart.draw_series(LineSeries::new(closed, BLUE.stroke_width(2))).map_err(|e| plot_err(path, e))?;
+    chart
+        .draw_series(LineSeries::new(closed, BLUE.stroke_width(2)))
+        .map_err(|e| plot_err(path, e))?;
     chart
         .draw_series(poly.iter().map(|&p| Circle::new(p, 3, BLUE.filled())))
         .map_err(|e| plot_err(path, e))?;
     if let Some(t) = region.truth {
         chart
-            .draw_series(std::iter::once(Cross::new((t[0], t[1]), 7, RED.stroke_width(2))))
+            .draw_series(std::iter::once(Cross::new(
+                (t[0], t[1]),
+                7,
+                RED.stroke_width(2),
+            )))
             .map_err(|e| plot_err(path, e))?
             .label("true parameters")
             .legend(|(x, y)| Cross::new((x + 7, y), 5, RED.stroke_width(2)));
@@ -84,9 +115,19 @@ pub fn region_svg(region: &Region, path: &Path) -> Result<()> {
 /// Plot inner-signal bounds over time: inverted samples dark, band-only samples light.
 pub fn inner_svg(inner: &[InnerBound], truth: Option<&[f64]>, path: &Path) -> Result<()> {
     ensure_font();
-    let finite: Vec<(usize, &InnerBound)> = inner.iter().enumerate().filter(|(_, b)| b.interval.is_finite()).collect();
-    let mut lo = finite.iter().map(|(_, b)| b.interval.lo).fold(f64::INFINITY, f64::min);
-    let mut hi = finite.iter().map(|(_, b)| b.interval.hi).fold(f64::NEG_INFINITY, f64::max);
+    let finite: Vec<(usize, &InnerBound)> = inner
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.interval.is_finite())
+        .collect();
+    let mut lo = finite
+        .iter()
+        .map(|(_, b)| b.interval.lo)
+        .fold(f64::INFINITY, f64::min);
+    let mut hi = finite
+        .iter()
+        .map(|(_, b)| b.interval.hi)
+        .fold(f64::NEG_INFINITY, f64::max);
     if let Some(x) = truth {
         lo = lo.min(x.iter().copied().fold(f64::INFINITY, f64::min));
         hi = hi.max(x.iter().copied().fold(f64::NEG_INFINITY, f64::max));
@@ -106,15 +147,27 @@ pub fn inner_svg(inner: &[InnerBound], truth: Option<&[f64]>, path: &Path) -> Re
         .y_label_area_size(60)
         .build_cartesian_2d(-0.5..(n as f64 - 0.5), y0..y1)
         .map_err(|e| plot_err(path, e))?;
-    chart.configure_mesh().x_desc("t").y_desc("x_t").draw().map_err(|e| plot_err(path, e))?;
+    chart
+        .configure_mesh()
+        .x_desc("t")
+        .y_desc("x_t")
+        .draw()
+        .map_err(|e| plot_err(path, e))?;
     for (kind, color, label) in [
-        (InnerKind::Band, RGBColor(150, 190, 230).mix(0.7), "dead-band bound"),
+        (
+            InnerKind::Band,
+            RGBColor(150, 190, 230).mix(0.7),
+            "dead-band bound",
+        ),
         (InnerKind::Inverted, BLUE.mix(0.9), "inverted bound"),
     ] {
         chart
             .draw_series(finite.iter().filter(|(_, b)| b.kind == kind).map(|(t, b)| {
                 let t = *t as f64;
-                Rectangle::new([(t - 0.3, b.interval.lo), (t + 0.3, b.interval.hi)], color.filled())
+                Rectangle::new(
+                    [(t - 0.3, b.interval.lo), (t + 0.3, b.interval.hi)],
+                    color.filled(),
+                )
             }))
             .map_err(|e| plot_err(path, e))?
             .label(label)
@@ -122,7 +175,10 @@ pub fn inner_svg(inner: &[InnerBound], truth: Option<&[f64]>, path: &Path) -> Re
     }
     if let Some(x) = truth {
         chart
-            .draw_series(LineSeries::new(x.iter().enumerate().map(|(t, v)| (t as f64, *v)), RED.stroke_width(1)))
+            .draw_series(LineSeries::new(
+                x.iter().enumerate().map(|(t, v)| (t as f64, *v)),
+                RED.stroke_width(1),
+            ))
             .map_err(|e| plot_err(path, e))?
             .label("true x_t")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RED));

@@ -73,10 +73,21 @@ impl Polygon {
     /// parallel to it (no large starting box, so no loss of precision). An empty result names
     /// the first sample whose strip emptied it ([`SmidError::Inconsistent`], stage 1); strips
     /// that are all parallel leave the set unbounded ([`SmidError::Unbounded`]).
-    pub fn from_strips(strips: &[Strip], domain: &[([f64; 2], f64)], what: &str) -> Result<Polygon> {
+    pub fn from_strips(
+        strips: &[Strip],
+        domain: &[([f64; 2], f64)],
+        what: &str,
+    ) -> Result<Polygon> {
         for s in strips {
-            if !(s.lo.is_finite() && s.hi.is_finite() && s.n.iter().all(|v| v.is_finite()) && s.lo <= s.hi) {
-                return Err(SmidError::invalid(format!("{what}: steady-state sample {}", s.sample), "non-finite or reversed bounds"));
+            if !(s.lo.is_finite()
+                && s.hi.is_finite()
+                && s.n.iter().all(|v| v.is_finite())
+                && s.lo <= s.hi)
+            {
+                return Err(SmidError::invalid(
+                    format!("{what}: steady-state sample {}", s.sample),
+                    "non-finite or reversed bounds",
+                ));
             }
         }
         let empty_at = |sample: usize| SmidError::Inconsistent {
@@ -84,21 +95,33 @@ impl Polygon {
             sample,
             detail: format!("{what}: no parameter pair fits this sample and the ones before it"),
         };
-        let unbounded = || SmidError::Unbounded {
+        let unbounded = || {
+            SmidError::Unbounded {
             parameter: what.to_string(),
             message: "the steady-state samples do not bound this branch (need at least two distinct amplitudes)".into(),
+        }
         };
         let first = strips.first().ok_or_else(unbounded)?;
         let norm0 = first.n[0].hypot(first.n[1]);
-        let cross = |s: &Strip| (first.n[0] * s.n[1] - first.n[1] * s.n[0]) / (norm0 * s.n[0].hypot(s.n[1]));
+        let cross = |s: &Strip| {
+            (first.n[0] * s.n[1] - first.n[1] * s.n[0]) / (norm0 * s.n[0].hypot(s.n[1]))
+        };
         // Strips parallel to the first one, before the first non-parallel: a 1-D consistency check.
         let k = strips.iter().position(|s| cross(s).abs() > 1e-9);
         let mut lo1 = first.lo / norm0;
         let mut hi1 = first.hi / norm0;
         for s in &strips[1..k.unwrap_or(strips.len())] {
             let nn = s.n[0].hypot(s.n[1]);
-            let sign = if s.n[0] * first.n[0] + s.n[1] * first.n[1] >= 0.0 { 1.0 } else { -1.0 };
-            let (a, b) = if sign > 0.0 { (s.lo / nn, s.hi / nn) } else { (-s.hi / nn, -s.lo / nn) };
+            let sign = if s.n[0] * first.n[0] + s.n[1] * first.n[1] >= 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
+            let (a, b) = if sign > 0.0 {
+                (s.lo / nn, s.hi / nn)
+            } else {
+                (-s.hi / nn, -s.lo / nn)
+            };
             lo1 = lo1.max(a);
             hi1 = hi1.min(b);
             if lo1 > hi1 + pad(hi1) {
@@ -108,11 +131,28 @@ impl Polygon {
         let Some(k) = k else { return Err(unbounded()) };
         let (a, b) = (first, &strips[k]);
         let det = a.n[0] * b.n[1] - a.n[1] * b.n[0];
-        let solve = |da: f64, db: f64| [(da * b.n[1] - db * a.n[1]) / det, (a.n[0] * db - b.n[0] * da) / det];
+        let solve = |da: f64, db: f64| {
+            [
+                (da * b.n[1] - db * a.n[1]) / det,
+                (a.n[0] * db - b.n[0] * da) / det,
+            ]
+        };
         let (alo, ahi) = (a.lo - pad(a.lo), a.hi + pad(a.hi));
         let (blo, bhi) = (b.lo - pad(b.lo), b.hi + pad(b.hi));
-        let mut poly = Polygon { vertices: vec![solve(alo, blo), solve(ahi, blo), solve(ahi, bhi), solve(alo, bhi)] };
-        for s in strips.iter().enumerate().filter(|(i, _)| *i != 0 && *i != k).map(|(_, s)| s) {
+        let mut poly = Polygon {
+            vertices: vec![
+                solve(alo, blo),
+                solve(ahi, blo),
+                solve(ahi, bhi),
+                solve(alo, bhi),
+            ],
+        };
+        for s in strips
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| *i != 0 && *i != k)
+            .map(|(_, s)| s)
+        {
             poly = poly.clip(s.n, s.hi).clip([-s.n[0], -s.n[1]], -s.lo);
             if poly.is_empty() {
                 return Err(empty_at(s.sample.max(b.sample)));
@@ -124,7 +164,9 @@ impl Polygon {
                 return Err(SmidError::Inconsistent {
                     stage: Stage::SteadyState,
                     sample: strips.last().map(|s| s.sample).unwrap_or(0),
-                    detail: format!("{what}: the samples fit no parameters with positive slope and offset"),
+                    detail: format!(
+                        "{what}: the samples fit no parameters with positive slope and offset"
+                    ),
                 });
             }
         }
@@ -161,7 +203,8 @@ impl Polygon {
                         let p = self.vertices[i];
                         let q = self.vertices[(i + 1) % k];
                         let cross = (q[0] - p[0]) * (z[1] - p[1]) - (q[1] - p[1]) * (z[0] - p[0]);
-                        let scale = (q[0] - p[0]).hypot(q[1] - p[1]) * (1.0 + z[0].abs() + z[1].abs());
+                        let scale =
+                            (q[0] - p[0]).hypot(q[1] - p[1]) * (1.0 + z[0].abs() + z[1].abs());
                         cross / scale.max(f64::MIN_POSITIVE)
                     })
                     .collect();
@@ -179,21 +222,49 @@ mod tests {
     #[test]
     fn two_strips_make_a_parallelogram() {
         let strips = [
-            Strip { n: [1.0, -1.0], lo: -0.1, hi: 0.1, sample: 0 },
-            Strip { n: [2.0, -1.0], lo: 0.9, hi: 1.1, sample: 1 },
+            Strip {
+                n: [1.0, -1.0],
+                lo: -0.1,
+                hi: 0.1,
+                sample: 0,
+            },
+            Strip {
+                n: [2.0, -1.0],
+                lo: 0.9,
+                hi: 1.1,
+                sample: 1,
+            },
         ];
         let p = Polygon::from_strips(&strips, &Polygon::positive_quadrant(), "test").unwrap();
         assert_eq!(p.vertices.len(), 4);
         let x = p.extremes(|v| v[0]);
-        assert!((x.lo - 0.8).abs() < 1e-9 && (x.hi - 1.2).abs() < 1e-9, "{x:?}");
+        assert!(
+            (x.lo - 0.8).abs() < 1e-9 && (x.hi - 1.2).abs() < 1e-9,
+            "{x:?}"
+        );
     }
 
     #[test]
     fn empty_names_first_offending_sample() {
         let strips = [
-            Strip { n: [1.0, 0.0], lo: 1.0, hi: 2.0, sample: 0 },
-            Strip { n: [0.0, 1.0], lo: 1.0, hi: 2.0, sample: 1 },
-            Strip { n: [1.0, 0.0], lo: 3.0, hi: 4.0, sample: 7 },
+            Strip {
+                n: [1.0, 0.0],
+                lo: 1.0,
+                hi: 2.0,
+                sample: 0,
+            },
+            Strip {
+                n: [0.0, 1.0],
+                lo: 1.0,
+                hi: 2.0,
+                sample: 1,
+            },
+            Strip {
+                n: [1.0, 0.0],
+                lo: 3.0,
+                hi: 4.0,
+                sample: 7,
+            },
         ];
         match Polygon::from_strips(&strips, &Polygon::positive_quadrant(), "t") {
             Err(SmidError::Inconsistent { sample, stage, .. }) => {
@@ -206,7 +277,12 @@ mod tests {
 
     #[test]
     fn single_direction_is_unbounded() {
-        let strips = [Strip { n: [1.0, -1.0], lo: -0.1, hi: 0.1, sample: 0 }];
+        let strips = [Strip {
+            n: [1.0, -1.0],
+            lo: -0.1,
+            hi: 0.1,
+            sample: 0,
+        }];
         assert!(matches!(
             Polygon::from_strips(&strips, &Polygon::positive_quadrant(), "t"),
             Err(SmidError::Unbounded { .. })

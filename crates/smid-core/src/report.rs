@@ -14,9 +14,22 @@ fn fmt_opt(v: Option<f64>) -> String {
 /// The parameter table.
 pub fn table(id: &Identification) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "{}: Δη = {:.3e}, SNR = {:.1} dB", id.name, id.delta_eta, id.snr_db);
+    let _ = writeln!(
+        s,
+        "{}: Δη = {:.3e}, SNR = {:.1} dB",
+        id.name, id.delta_eta, id.snr_db
+    );
     if let Some(f) = &id.data.filter {
-        let _ = writeln!(s, "filter pole a = {}{}", f.pole, if f.trials.is_empty() { " (given)" } else { " (Appendix search)" });
+        let _ = writeln!(
+            s,
+            "filter pole a = {}{}",
+            f.pole,
+            if f.trials.is_empty() {
+                " (given)"
+            } else {
+                " (Appendix search)"
+            }
+        );
     }
     let _ = writeln!(
         s,
@@ -40,7 +53,11 @@ pub fn table(id: &Identification) -> String {
             }
         );
     }
-    let inverted = id.inner.iter().filter(|b| b.kind == InnerKind::Inverted).count();
+    let inverted = id
+        .inner
+        .iter()
+        .filter(|b| b.kind == InnerKind::Inverted)
+        .count();
     let _ = writeln!(
         s,
         "inner signal: {inverted} of {} samples inverted; {} equations in stage 3",
@@ -48,7 +65,11 @@ pub fn table(id: &Identification) -> String {
         id.equations.len()
     );
     if let Some(all) = id.all_contain_truth() {
-        let _ = writeln!(s, "truth inside every bound: {}", if all { "yes" } else { "NO" });
+        let _ = writeln!(
+            s,
+            "truth inside every bound: {}",
+            if all { "yes" } else { "NO" }
+        );
     }
     s
 }
@@ -92,29 +113,58 @@ pub fn data_csv(id: &Identification) -> String {
             }
             None => (String::new(), None),
         };
-        let _ = writeln!(s, "steady,{},{},{:.17e},{:.17e},{},", p.index, t, p.u, p.y, cell(w));
+        let _ = writeln!(
+            s,
+            "steady,{},{},{:.17e},{:.17e},{},",
+            p.index,
+            t,
+            p.u,
+            p.y,
+            cell(w)
+        );
     }
     for t in 0..d.u.len() {
         let w = d.w.as_ref().map(|w| w[t]);
         let x = d.x.as_ref().map(|x| x[t]);
-        let _ = writeln!(s, "dynamic,{t},{t},{:.17e},{:.17e},{},{}", d.u[t], d.y[t], cell(w), cell(x));
+        let _ = writeln!(
+            s,
+            "dynamic,{t},{t},{:.17e},{:.17e},{},{}",
+            d.u[t],
+            d.y[t],
+            cell(w),
+            cell(x)
+        );
     }
     s
 }
 
 fn write(path: &Path, text: &str) -> Result<PathBuf> {
-    std::fs::write(path, text).map_err(|source| SmidError::Io { path: path.to_path_buf(), source })?;
+    std::fs::write(path, text).map_err(|source| SmidError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
     Ok(path.to_path_buf())
 }
 
 /// Write `result.json`, `data.csv` and the SVG plots into `dir`; returns the files written.
 pub fn write_all(id: &Identification, dir: &Path) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).map_err(|source| SmidError::Io { path: dir.to_path_buf(), source })?;
+    std::fs::create_dir_all(dir).map_err(|source| SmidError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
     let mut out = vec![
-        write(&dir.join("result.json"), &serde_json::to_string_pretty(&result_json(id)).unwrap_or_default())?,
+        write(
+            &dir.join("result.json"),
+            &serde_json::to_string_pretty(&result_json(id)).unwrap_or_default(),
+        )?,
         write(&dir.join("data.csv"), &data_csv(id))?,
     ];
-    let truth: Option<Vec<f64>> = id.set.parameters().iter().map(|b| id.parameter(&b.name).and_then(|p| p.truth)).collect();
+    let truth: Option<Vec<f64>> = id
+        .set
+        .parameters()
+        .iter()
+        .map(|b| id.parameter(&b.name).and_then(|p| p.truth))
+        .collect();
     for region in id.set.regions(truth.as_deref()) {
         let path = dir.join(format!("region_{}.svg", region.name));
         crate::plot::region_svg(&region, &path)?;

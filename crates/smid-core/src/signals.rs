@@ -94,7 +94,9 @@ mod tests {
             let mut reg = 1u32;
             let mut period = 0u32;
             loop {
-                let bit = taps(bits).iter().fold(0, |acc, &k| acc ^ ((reg >> (k - 1)) & 1));
+                let bit = taps(bits)
+                    .iter()
+                    .fold(0, |acc, &k| acc ^ ((reg >> (k - 1)) & 1));
                 reg = ((reg << 1) | bit) & mask;
                 period += 1;
                 if reg == 1 || period > mask {

@@ -73,7 +73,10 @@ pub struct SimulatorSpec {
 impl SimulatorSpec {
     /// The linear block.
     pub fn linear(&self) -> LinearModel {
-        LinearModel { a: self.a.clone(), b: self.b.clone() }
+        LinearModel {
+            a: self.a.clone(),
+            b: self.b.clone(),
+        }
     }
 }
 
@@ -156,7 +159,12 @@ pub struct ExperimentSpec {
 }
 impl Default for ExperimentSpec {
     fn default() -> Self {
-        ExperimentSpec { seed: 1, filter: FilterSpec::default(), steady_state: SteadySpec::default(), dynamic: DynamicSpec::default() }
+        ExperimentSpec {
+            seed: 1,
+            filter: FilterSpec::default(),
+            steady_state: SteadySpec::default(),
+            dynamic: DynamicSpec::default(),
+        }
     }
 }
 
@@ -180,13 +188,26 @@ pub struct FilterSpec {
 }
 impl Default for FilterSpec {
     fn default() -> Self {
-        FilterSpec { pole: None, a_bar: 1.0, tol: 0.1, epsilon: 1e-5, step: 3.0, settle: 500 }
+        FilterSpec {
+            pole: None,
+            a_bar: 1.0,
+            tol: 0.1,
+            epsilon: 1e-5,
+            step: 3.0,
+            settle: 500,
+        }
     }
 }
 impl FilterSpec {
     /// Options of the Appendix search.
     pub fn bisection(&self) -> BisectionOptions {
-        BisectionOptions { a_bar: self.a_bar, tol: self.tol, epsilon: self.epsilon, step: self.step, settle: self.settle }
+        BisectionOptions {
+            a_bar: self.a_bar,
+            tol: self.tol,
+            epsilon: self.epsilon,
+            step: self.step,
+            settle: self.settle,
+        }
     }
 }
 
@@ -205,7 +226,12 @@ pub struct SteadySpec {
 }
 impl Default for SteadySpec {
     fn default() -> Self {
-        SteadySpec { amplitudes: 50, min: 0.6, max: 3.0, half_period: None }
+        SteadySpec {
+            amplitudes: 50,
+            min: 0.6,
+            max: 3.0,
+            half_period: None,
+        }
     }
 }
 
@@ -222,7 +248,11 @@ pub struct DynamicSpec {
 }
 impl Default for DynamicSpec {
     fn default() -> Self {
-        DynamicSpec { length: 100, amplitude: 1.0, hold: 1 }
+        DynamicSpec {
+            length: 100,
+            amplitude: 1.0,
+            hold: 1,
+        }
     }
 }
 
@@ -237,7 +267,11 @@ impl ExperimentSpec {
         }
     }
     pub fn dynamic_options(&self) -> DynamicOptions {
-        DynamicOptions { length: self.dynamic.length, amplitude: self.dynamic.amplitude, hold: self.dynamic.hold }
+        DynamicOptions {
+            length: self.dynamic.length,
+            amplitude: self.dynamic.amplitude,
+            hold: self.dynamic.hold,
+        }
     }
 }
 
@@ -264,8 +298,11 @@ pub struct ModelSpec {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum AlphaSpec {
-    /// `α = 2Δη|ū|/r̄_F`, on the side of the possible overshoot bias of each branch.
+    /// From the overshoot the noise-free filter design measured at the chosen pole, scaled to
+    /// each step (guaranteed when the design ran on the plant; needs the Appendix search).
     #[default]
+    Design,
+    /// The paper's `α = 2Δη|ū|/r̄_F`, on the side of the possible overshoot bias of each branch.
     Bias,
     /// `α = 0`: the filter is known to be overshoot-free (e.g. designed noise-free).
     Zero,
@@ -300,11 +337,14 @@ fn line_of(text: &str, key: &str) -> Option<usize> {
     if last.is_empty() {
         return None;
     }
-    text.lines().position(|l| {
-        let t = l.trim_start().trim_start_matches("- ");
-        t.starts_with(&format!("{last}:")) || t.contains(&format!(" {last}:")) || t.contains(&format!("{{{last}:"))
-    })
-    .map(|i| i + 1)
+    text.lines()
+        .position(|l| {
+            let t = l.trim_start().trim_start_matches("- ");
+            t.starts_with(&format!("{last}:"))
+                || t.contains(&format!(" {last}:"))
+                || t.contains(&format!("{{{last}:"))
+        })
+        .map(|i| i + 1)
 }
 
 impl Spec {
@@ -314,13 +354,24 @@ impl Spec {
         let spec: Spec = serde_path_to_error::deserialize(de).map_err(|e| {
             let field = e.path().to_string();
             let inner = e.into_inner();
-            let line = inner.location().map(|l| l.line()).or_else(|| line_of(text, &field));
-            SmidError::Spec { file: file.to_path_buf(), line, field, message: inner.to_string() }
+            let line = inner
+                .location()
+                .map(|l| l.line())
+                .or_else(|| line_of(text, &field));
+            SmidError::Spec {
+                file: file.to_path_buf(),
+                line,
+                field,
+                message: inner.to_string(),
+            }
         })?;
         spec.validate().map_err(|e| match e {
-            SmidError::Invalid { field, message } => {
-                SmidError::Spec { file: file.to_path_buf(), line: line_of(text, &field), field, message }
-            }
+            SmidError::Invalid { field, message } => SmidError::Spec {
+                file: file.to_path_buf(),
+                line: line_of(text, &field),
+                field,
+                message,
+            },
             other => other,
         })?;
         Ok(spec)
@@ -328,7 +379,10 @@ impl Spec {
 
     /// Read and parse a spec file.
     pub fn from_file(path: &Path) -> Result<Spec> {
-        let text = std::fs::read_to_string(path).map_err(|source| SmidError::Io { path: path.to_path_buf(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| SmidError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
         Spec::parse(&text, path)
     }
 
@@ -340,11 +394,19 @@ impl Spec {
             let Some(i) = names.iter().position(|n| n == k) else {
                 return Err(SmidError::invalid(
                     format!("model.fixed.{k}"),
-                    format!("no such coefficient for na = {}, nb = {}; expected one of {}", self.model.na, self.model.nb, names.join(", ")),
+                    format!(
+                        "no such coefficient for na = {}, nb = {}; expected one of {}",
+                        self.model.na,
+                        self.model.nb,
+                        names.join(", ")
+                    ),
                 ));
             };
             if !v.is_finite() {
-                return Err(SmidError::invalid(format!("model.fixed.{k}"), "expected a finite number"));
+                return Err(SmidError::invalid(
+                    format!("model.fixed.{k}"),
+                    "expected a finite number",
+                ));
             }
             out[i] = Some(*v);
         }
@@ -354,47 +416,82 @@ impl Spec {
     /// Checks beyond the types; errors name the field.
     pub fn validate(&self) -> Result<()> {
         let p = &self.plant;
-        let kinds = [p.simulator.is_some(), p.data.is_some(), p.fmu.is_some()].iter().filter(|b| **b).count();
+        let kinds = [p.simulator.is_some(), p.data.is_some(), p.fmu.is_some()]
+            .iter()
+            .filter(|b| **b)
+            .count();
         if kinds != 1 {
-            return Err(SmidError::invalid("plant", "give exactly one of `simulator`, `data` or `fmu`"));
+            return Err(SmidError::invalid(
+                "plant",
+                "give exactly one of `simulator`, `data` or `fmu`",
+            ));
         }
         if let Some(sim) = &p.simulator {
             sim.linear().validate("plant.simulator")?;
             sim.nonlinearity.validate().map_err(|e| match e {
-                SmidError::Invalid { field, message } => SmidError::invalid(format!("plant.simulator.nonlinearity.{field}"), message),
+                SmidError::Invalid { field, message } => {
+                    SmidError::invalid(format!("plant.simulator.nonlinearity.{field}"), message)
+                }
                 o => o,
             })?;
         }
         self.noise.delta()?;
         if self.model.na > 8 || self.model.nb > 8 {
-            return Err(SmidError::invalid("model.na", "orders above 8 are not supported by the orthant method (2^na LPs)"));
+            return Err(SmidError::invalid(
+                "model.na",
+                "orders above 8 are not supported by the orthant method (2^na LPs)",
+            ));
         }
         if !self.model.nonlinearity.supports(self.model.structure) {
-            return Err(SmidError::invalid("model.structure", format!("the nonlinearity plugin does not support {:?}", self.model.structure)));
+            return Err(SmidError::invalid(
+                "model.structure",
+                format!(
+                    "the nonlinearity plugin does not support {:?}",
+                    self.model.structure
+                ),
+            ));
         }
         self.fixed_theta()?;
         let f = &self.experiment.filter;
         if let Some(a) = f.pole {
             if !(0.0..1.0).contains(&a) {
-                return Err(SmidError::invalid("experiment.filter.pole", format!("expected 0 <= a < 1, got {a}")));
+                return Err(SmidError::invalid(
+                    "experiment.filter.pole",
+                    format!("expected 0 <= a < 1, got {a}"),
+                ));
             }
         }
         if self.method.alpha == AlphaSpec::Bias && !(f.step.is_finite() && f.step != 0.0) {
-            return Err(SmidError::invalid("experiment.filter.step", "α needs a non-zero step amplitude r̄_F"));
+            return Err(SmidError::invalid(
+                "experiment.filter.step",
+                "α needs a non-zero step amplitude r̄_F",
+            ));
         }
         let s = &self.experiment.steady_state;
         if s.amplitudes < 2 {
-            return Err(SmidError::invalid("experiment.steady_state.amplitudes", "need at least 2 amplitudes (M >= 2)"));
+            return Err(SmidError::invalid(
+                "experiment.steady_state.amplitudes",
+                "need at least 2 amplitudes (M >= 2)",
+            ));
         }
         if !(s.min > 0.0 && s.max > s.min && s.max.is_finite()) {
-            return Err(SmidError::invalid("experiment.steady_state.min", format!("expected 0 < min < max, got min {} max {}", s.min, s.max)));
+            return Err(SmidError::invalid(
+                "experiment.steady_state.min",
+                format!("expected 0 < min < max, got min {} max {}", s.min, s.max),
+            ));
         }
         let d = &self.experiment.dynamic;
         if d.length < 10 {
-            return Err(SmidError::invalid("experiment.dynamic.length", format!("expected N >= 10, got {}", d.length)));
+            return Err(SmidError::invalid(
+                "experiment.dynamic.length",
+                format!("expected N >= 10, got {}", d.length),
+            ));
         }
         if !(d.amplitude.is_finite() && d.amplitude > 0.0) {
-            return Err(SmidError::invalid("experiment.dynamic.amplitude", "expected a finite amplitude > 0"));
+            return Err(SmidError::invalid(
+                "experiment.dynamic.amplitude",
+                "expected a finite amplitude > 0",
+            ));
         }
         Ok(())
     }

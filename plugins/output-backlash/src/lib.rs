@@ -57,12 +57,20 @@ impl Nonlinearity for Backlash {
         vec![0.0]
     }
     fn parameters(&self) -> Vec<(String, f64)> {
-        vec![("m_l".into(), self.m_l), ("c_l".into(), self.c_l), ("m_r".into(), self.m_r), ("c_r".into(), self.c_r)]
+        vec![
+            ("m_l".into(), self.m_l),
+            ("c_l".into(), self.c_l),
+            ("m_r".into(), self.m_r),
+            ("c_r".into(), self.c_r),
+        ]
     }
     fn validate(&self) -> Result<()> {
         for (name, v) in self.parameters() {
             if !(v.is_finite() && v > 0.0) {
-                return Err(SmidError::invalid(name, format!("expected a finite number > 0, got {v}")));
+                return Err(SmidError::invalid(
+                    name,
+                    format!("expected a finite number > 0, got {v}"),
+                ));
             }
         }
         Ok(())
@@ -89,21 +97,45 @@ pub fn branch_polygons(data: &SteadyStateData) -> Result<BacklashSet> {
     let mut right = Vec::new();
     for p in &data.points {
         if !(p.u.is_finite() && p.y.is_finite()) {
-            return Err(SmidError::invalid(format!("steady-state sample {}", p.index), "non-finite value"));
+            return Err(SmidError::invalid(
+                format!("steady-state sample {}", p.index),
+                "non-finite value",
+            ));
         }
         if !(p.dy > 0.0 && p.dy.is_finite()) {
-            return Err(SmidError::invalid(format!("steady-state sample {}", p.index), "noise bound must be > 0"));
+            return Err(SmidError::invalid(
+                format!("steady-state sample {}", p.index),
+                "noise bound must be > 0",
+            ));
         }
         if p.rising {
             // ȳ = m_r ū - m_r c_r + η̄, η̄ in [-Δη, Δη + α] (overshoot can only raise ȳ).
-            right.push(Strip { n: [p.u, -1.0], lo: p.y - p.dy - p.alpha, hi: p.y + p.dy, sample: p.index });
+            right.push(Strip {
+                n: [p.u, -1.0],
+                lo: p.y - p.dy - p.alpha,
+                hi: p.y + p.dy,
+                sample: p.index,
+            });
         } else {
             // ȳ = m_l ū + m_l c_l + η̄, η̄ in [-Δη - α, Δη] (undershoot can only lower ȳ).
-            left.push(Strip { n: [p.u, 1.0], lo: p.y - p.dy, hi: p.y + p.dy + p.alpha, sample: p.index });
+            left.push(Strip {
+                n: [p.u, 1.0],
+                lo: p.y - p.dy,
+                hi: p.y + p.dy + p.alpha,
+                sample: p.index,
+            });
         }
     }
-    let left = Polygon::from_strips(&left, &Polygon::positive_quadrant(), "left branch (m_l, m_l·c_l)")?;
-    let right = Polygon::from_strips(&right, &Polygon::positive_quadrant(), "right branch (m_r, m_r·c_r)")?;
+    let left = Polygon::from_strips(
+        &left,
+        &Polygon::positive_quadrant(),
+        "left branch (m_l, m_l·c_l)",
+    )?;
+    let right = Polygon::from_strips(
+        &right,
+        &Polygon::positive_quadrant(),
+        "right branch (m_r, m_r·c_r)",
+    )?;
     for (poly, name) in [(&left, "m_l"), (&right, "m_r")] {
         if poly.vertices.iter().any(|v| v[0] <= 0.0) {
             return Err(SmidError::Unbounded {
@@ -139,7 +171,10 @@ impl BacklashSet {
 
 impl NonlinearitySet for BacklashSet {
     fn parameters(&self) -> Vec<ParameterBound> {
-        let b = |name: &str, i: Interval| ParameterBound { name: name.into(), interval: i };
+        let b = |name: &str, i: Interval| ParameterBound {
+            name: name.into(),
+            interval: i,
+        };
         vec![
             b("m_l", self.left.extremes(|v| v[0])),
             b("c_l", self.left.extremes(|v| v[1] / v[0])),
@@ -150,16 +185,26 @@ impl NonlinearitySet for BacklashSet {
 
     fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
         if y.len() != dy.len() {
-            return Err(SmidError::invalid("dynamic data", "y and its noise bounds differ in length"));
+            return Err(SmidError::invalid(
+                "dynamic data",
+                "y and its noise bounds differ in length",
+            ));
         }
         let mut out = Vec::with_capacity(y.len());
         for t in 0..y.len() {
             if !y[t].is_finite() {
-                return Err(SmidError::invalid(format!("dynamic sample {t}"), "non-finite output"));
+                return Err(SmidError::invalid(
+                    format!("dynamic sample {t}"),
+                    "non-finite output",
+                ));
             }
             let band = self.band(y[t], dy[t]);
             let moved = if t == 0 { 0.0 } else { y[t] - y[t - 1] };
-            let thr = if t == 0 { f64::INFINITY } else { dy[t] + dy[t - 1] };
+            let thr = if t == 0 {
+                f64::INFINITY
+            } else {
+                dy[t] + dy[t - 1]
+            };
             let (interval, kind) = if moved < -thr {
                 // Prop 2: the output fell by more than the noise allows: left branch (eq 24, 26).
                 (self.invert_left(y[t], dy[t]), InnerKind::Inverted)
@@ -203,7 +248,12 @@ impl NonlinearitySet for BacklashSet {
 #[cfg(test)]
 mod tests {
     use super::*;
-    const PAPER: Backlash = Backlash { m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 };
+    const PAPER: Backlash = Backlash {
+        m_l: 0.248,
+        c_l: 0.0698,
+        m_r: 0.252,
+        c_r: 0.0349,
+    };
 
     #[test]
     fn eq2_branches_and_dead_band() {
@@ -225,8 +275,22 @@ mod tests {
             .flat_map(|k| {
                 let a = 0.6 + k as f64 * 0.12;
                 [
-                    SteadyPoint { u: a, y: PAPER.m_r * (a - PAPER.c_r), dy: 1e-9, alpha: 0.0, rising: true, index: 2 * k },
-                    SteadyPoint { u: -a, y: PAPER.m_l * (-a + PAPER.c_l), dy: 1e-9, alpha: 0.0, rising: false, index: 2 * k + 1 },
+                    SteadyPoint {
+                        u: a,
+                        y: PAPER.m_r * (a - PAPER.c_r),
+                        dy: 1e-9,
+                        alpha: 0.0,
+                        rising: true,
+                        index: 2 * k,
+                    },
+                    SteadyPoint {
+                        u: -a,
+                        y: PAPER.m_l * (-a + PAPER.c_l),
+                        dy: 1e-9,
+                        alpha: 0.0,
+                        rising: false,
+                        index: 2 * k + 1,
+                    },
                 ]
             })
             .collect();
@@ -239,6 +303,12 @@ mod tests {
                 assert!(b.interval.radius() < 1e-6, "t={t}: {b:?}");
             }
         }
-        assert!(inner.iter().filter(|b| b.kind == InnerKind::Inverted).count() > 10);
+        assert!(
+            inner
+                .iter()
+                .filter(|b| b.kind == InnerKind::Inverted)
+                .count()
+                > 10
+        );
     }
 }

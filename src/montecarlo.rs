@@ -1,0 +1,131 @@
+//! Monte Carlo containment check: random stable linear blocks with unit steady-state gain
+//! (eq 8), random output backlash, random noise bound, noise uniform inside its bound; runs the
+//! whole pipeline and counts the trials whose bounds contain the truth. A bound that misses the
+//! truth is the worst bug smid can have; this is the release-mode check that hunts for one.
+use rand::{Rng, SeedableRng};
+use smid_core::linear::LinearModel;
+use smid_core::noise::NoiseSpec;
+use smid_core::pipeline::{self, Identification};
+use smid_core::plant::SimulatedPlant;
+use smid_core::spec::{ExperimentSpec, MethodSpec, ModelSpec, PlantSpec, Spec};
+use smid_core::Result;
+use smid_output_backlash::{Backlash, OutputBacklashModel};
+
+/// One random problem.
+#[derive(Debug, Clone)]
+pub struct Trial {
+    pub linear: LinearModel,
+    pub backlash: Backlash,
+    pub bits: u32,
+    pub seed: u64,
+}
+
+/// A random stable second-order block with `b0 = 0` and unit gain.
+pub fn random_linear(rng: &mut impl Rng) -> LinearModel {
+    let (a1, a2) = if rng.gen_bool(0.6) {
+        let r: f64 = rng.gen_range(0.2..0.85);
+        let phi: f64 = rng.gen_range(0.0..std::f64::consts::PI);
+        (-2.0 * r * phi.cos(), r * r)
+    } else {
+        let p1: f64 = rng.gen_range(-0.8..0.9);
+        let p2: f64 = rng.gen_range(-0.8..0.9);
+        (-(p1 + p2), p1 * p2)
+    };
+    let g = 1.0 + a1 + a2;
+    // A(1) > 0 for a stable A; split the gain between b1 and b2.
+    let b1 = rng.gen_range(0.2..1.5) * g;
+    LinearModel {
+        a: vec![a1, a2],
+        b: vec![0.0, b1, g - b1],
+    }
+}
+
+/// A random backlash.
+pub fn random_backlash(rng: &mut impl Rng) -> Backlash {
+    Backlash {
+        m_l: rng.gen_range(0.1..2.0),
+        c_l: rng.gen_range(0.01..0.3),
+        m_r: rng.gen_range(0.1..2.0),
+        c_r: rng.gen_range(0.01..0.3),
+    }
+}
+
+impl Trial {
+    /// Draw a trial from a seed.
+    pub fn random(seed: u64) -> Trial {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        Trial {
+            linear: random_linear(&mut rng),
+            backlash: random_backlash(&mut rng),
+            bits: rng.gen_range(8..=16),
+            seed,
+        }
+    }
+
+    /// The spec identifying this trial (orders 2/2, `b0 = 0`, α on its bias side).
+    pub fn spec(&self) -> Spec {
+        let mut experiment = ExperimentSpec {
+            seed: self.seed,
+            ..Default::default()
+        };
+        experiment.filter.tol = 0.05;
+        experiment.dynamic.length = 200;
+        Spec {
+            name: Some(format!("trial-{}", self.seed)),
+            plant: PlantSpec::default(),
+            noise: NoiseSpec {
+                delta: None,
+                encoder_bits: Some(self.bits),
+            },
+            experiment,
+            model: ModelSpec {
+                structure: Default::default(),
+                nonlinearity: Box::new(OutputBacklashModel::default()),
+                na: 2,
+                nb: 2,
+                fixed: [("b0".to_string(), 0.0)].into_iter().collect(),
+                unit_gain: true,
+            },
+            method: MethodSpec::default(),
+        }
+    }
+
+    /// Run the whole pipeline on this trial.
+    pub fn run(&self) -> Result<Identification> {
+        let spec = self.spec();
+        let mut plant = SimulatedPlant {
+            linear: self.linear.clone(),
+            nonlinearity: &self.backlash,
+            structure: Default::default(),
+        };
+        pipeline::run_with_plant(&spec, &mut plant)
+    }
+}
+
+/// Outcome counts of a Monte Carlo run.
+#[derive(Debug, Default, Clone, serde::Serialize)]
+pub struct Summary {
+    pub trials: usize,
+    pub contained: usize,
+    /// Trials whose bounds missed the truth (a bug): seeds.
+    pub missed: Vec<u64>,
+    /// Trials that ended in an error (e.g. too few invertible samples): seed and message.
+    pub errors: Vec<(u64, String)>,
+}
+
+/// Run `n` trials with seeds `first..first+n`, calling `tick` after each.
+pub fn run(first: u64, n: usize, mut tick: impl FnMut()) -> Summary {
+    let mut s = Summary {
+        trials: n,
+        ..Default::default()
+    };
+    for seed in first..first + n as u64 {
+        match Trial::random(seed).run() {
+            Ok(id) if id.all_contain_truth() == Some(true) => s.contained += 1,
+            Ok(_) => s.missed.push(seed),
+            Err(e) => s.errors.push((seed, e.to_string())),
+        }
+        tick();
+    }
+    s
+}

@@ -1,0 +1,224 @@
+//! `smid reproduce paper`: Section 6 of the paper for `n_bit` in {15, 12, 10, 8} over several
+//! seeds, laid out like Tables I and II with the paper's values beside the medians over seeds and
+//! the count of runs whose bounds contain the truth.
+use smid_core::pipeline::{self, Identification};
+use smid_core::spec::Spec;
+use smid_core::Result;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The bundled Section 6 spec.
+pub const PAPER_SPEC: &str = include_str!("../examples/paper.yaml");
+
+/// Table I: (n_bit, name, center, radius) from the paper.
+pub const TABLE_I: &[(u32, &str, f64, f64)] = &[
+    (15, "m_l", 0.2481, 1.1e-4),
+    (15, "c_l", 0.0702, 4.8e-4),
+    (15, "m_r", 0.2520, 2.1e-5),
+    (15, "c_r", 0.0349, 1.0e-4),
+    (12, "m_l", 0.2474, 6.6e-4),
+    (12, "c_l", 0.0678, 2.4e-3),
+    (12, "m_r", 0.2521, 1.3e-4),
+    (12, "c_r", 0.0354, 7.0e-4),
+    (10, "m_l", 0.2503, 2.8e-3),
+    (10, "c_l", 0.0825, 1.6e-2),
+    (10, "m_r", 0.2513, 8.0e-4),
+    (10, "c_r", 0.0306, 5.2e-3),
+    (8, "m_l", 0.2475, 2.9e-3),
+    (8, "c_l", 0.0655, 1.8e-2),
+    (8, "m_r", 0.2615, 1.1e-2),
+    (8, "c_r", 0.0625, 3.7e-2),
+];
+
+/// Table II: (n_bit, SNR, name, center, radius); θ1..θ4 are a1, a2, b1, b2.
+pub const TABLE_II: &[(u32, f64, &str, f64, f64)] = &[
+    (15, 73.2, "a1", 0.500, 4.3e-4),
+    (15, 73.2, "a2", 0.700, 2.5e-4),
+    (15, 73.2, "b1", 1.400, 4.3e-4),
+    (15, 73.2, "b2", 0.800, 7.2e-4),
+    (12, 56.2, "a1", 0.500, 4.8e-3),
+    (12, 56.2, "a2", 0.700, 2.8e-3),
+    (12, 56.2, "b1", 1.400, 8.7e-3),
+    (12, 56.2, "b2", 0.800, 1.0e-2),
+    (10, 43.0, "a1", 0.503, 1.8e-2),
+    (10, 43.0, "a2", 0.698, 1.9e-2),
+    (10, 43.0, "b1", 1.400, 4.2e-2),
+    (10, 43.0, "b2", 0.806, 4.6e-2),
+    (8, 30.9, "a1", 0.510, 6.9e-2),
+    (8, 30.9, "a2", 0.706, 5.3e-2),
+    (8, 30.9, "b1", 1.410, 1.1e-1),
+    (8, 30.9, "b2", 0.805, 1.2e-1),
+];
+
+/// The bit counts of the tables.
+pub const BITS: [u32; 4] = [15, 12, 10, 8];
+
+/// The Section 6 spec at `bits` and `seed`.
+pub fn paper_spec(bits: u32, seed: u64) -> Result<Spec> {
+    let mut spec = Spec::parse(PAPER_SPEC, Path::new("examples/paper.yaml"))?;
+    spec.noise.encoder_bits = Some(bits);
+    spec.noise.delta = None;
+    spec.experiment.seed = seed;
+    Ok(spec)
+}
+
+/// Medians over seeds of one parameter at one bit count.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Row {
+    pub bits: u32,
+    pub name: String,
+    pub truth: f64,
+    pub paper_center: f64,
+    pub paper_radius: f64,
+    pub median_center: f64,
+    pub median_radius: f64,
+    pub contained: usize,
+    pub runs: usize,
+}
+
+/// All results of a reproduction.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Reproduction {
+    pub seeds: usize,
+    pub rows: Vec<Row>,
+    /// Median SNR per bit count.
+    pub snr: Vec<(u32, f64)>,
+    /// Runs that ended in an error: (bits, seed, message).
+    pub errors: Vec<(u32, u64, String)>,
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Run the paper for every bit count and seeds `1..=seeds`, calling `tick` after each run.
+pub fn reproduce(seeds: usize, mut tick: impl FnMut()) -> Result<Reproduction> {
+    let mut rows = Vec::new();
+    let mut snr = Vec::new();
+    let mut errors = Vec::new();
+    for bits in BITS {
+        let mut runs: Vec<Identification> = Vec::new();
+        for seed in 1..=seeds as u64 {
+            let spec = paper_spec(bits, seed)?;
+            match pipeline::run(&spec, Path::new(".")) {
+                Ok(id) => runs.push(id),
+                Err(e) => errors.push((bits, seed, e.to_string())),
+            }
+            tick();
+        }
+        snr.push((
+            bits,
+            median(&mut runs.iter().map(|r| r.snr_db).collect::<Vec<_>>()),
+        ));
+        let paper: Vec<(&str, f64, f64)> = TABLE_I
+            .iter()
+            .filter(|r| r.0 == bits)
+            .map(|r| (r.1, r.2, r.3))
+            .chain(
+                TABLE_II
+                    .iter()
+                    .filter(|r| r.0 == bits)
+                    .map(|r| (r.2, r.3, r.4)),
+            )
+            .collect();
+        for (name, pc, pr) in paper {
+            let ps: Vec<_> = runs.iter().filter_map(|r| r.parameter(name)).collect();
+            rows.push(Row {
+                bits,
+                name: name.to_string(),
+                truth: ps.first().and_then(|p| p.truth).unwrap_or(f64::NAN),
+                paper_center: pc,
+                paper_radius: pr,
+                median_center: median(&mut ps.iter().map(|p| p.center).collect::<Vec<_>>()),
+                median_radius: median(&mut ps.iter().map(|p| p.radius).collect::<Vec<_>>()),
+                contained: runs
+                    .iter()
+                    .filter(|r| r.all_contain_truth() == Some(true))
+                    .count(),
+                runs: seeds,
+            });
+        }
+    }
+    Ok(Reproduction {
+        seeds,
+        rows,
+        snr,
+        errors,
+    })
+}
+
+/// Tables I and II side by side with the paper.
+pub fn format_tables(r: &Reproduction) -> String {
+    let mut s = String::new();
+    for (title, names) in [
+        ("Table I: nonlinear block (γ)", ["m_l", "c_l", "m_r", "c_r"]),
+        (
+            "Table II: linear block (θ), N = 100",
+            ["a1", "a2", "b1", "b2"],
+        ),
+    ] {
+        let _ = writeln!(s, "{title}; medians over {} seeds", r.seeds);
+        let _ = writeln!(
+            s,
+            "{:>5} {:>9} {:>5} {:>8} {:>9} {:>9} {:>9} {:>9} {:>10}",
+            "n_bit",
+            "SNR(dB)",
+            "param",
+            "true",
+            "paper c",
+            "smid c",
+            "paper Δ",
+            "smid Δ",
+            "contained"
+        );
+        for bits in BITS {
+            let snr = r
+                .snr
+                .iter()
+                .find(|x| x.0 == bits)
+                .map(|x| x.1)
+                .unwrap_or(f64::NAN);
+            let paper_snr = TABLE_II
+                .iter()
+                .find(|x| x.0 == bits)
+                .map(|x| x.1)
+                .unwrap_or(f64::NAN);
+            for row in r
+                .rows
+                .iter()
+                .filter(|x| x.bits == bits && names.contains(&x.name.as_str()))
+            {
+                let _ = writeln!(
+                    s,
+                    "{:>5} {:>9} {:>5} {:>8.4} {:>9.4} {:>9.4} {:>9.1e} {:>9.1e} {:>10}",
+                    bits,
+                    format!("{snr:.1}/{paper_snr:.1}"),
+                    row.name,
+                    row.truth,
+                    row.paper_center,
+                    row.median_center,
+                    row.paper_radius,
+                    row.median_radius,
+                    format!("{}/{}", row.contained, row.runs)
+                );
+            }
+        }
+        s.push('\n');
+    }
+    if !r.errors.is_empty() {
+        let _ = writeln!(s, "runs that ended in an error:");
+        for (b, seed, e) in &r.errors {
+            let _ = writeln!(s, "  n_bit {b}, seed {seed}: {e}");
+        }
+    }
+    s
+}
