@@ -40,25 +40,38 @@ pub fn random_linear(rng: &mut impl Rng) -> LinearModel {
     }
 }
 
-/// A random backlash.
+/// A random physical backlash: one gear ratio `m` in [0.1, 2] with a slight asymmetry
+/// (|m_l/m_r - 1| <= 5%), plays `c` in [0.01, 0.3].
 pub fn random_backlash(rng: &mut impl Rng) -> Backlash {
+    let m: f64 = rng.gen_range(0.1..2.0);
     Backlash {
-        m_l: rng.gen_range(0.1..2.0),
+        m_l: m * rng.gen_range(0.975..1.025),
         c_l: rng.gen_range(0.01..0.3),
-        m_r: rng.gen_range(0.1..2.0),
+        m_r: m * rng.gen_range(0.975..1.025),
         c_r: rng.gen_range(0.01..0.3),
     }
 }
 
+/// Whether eq (2) describes a backlash for inner signals up to `x_max` in magnitude: the dead
+/// band `[w/m_l - c_l, w/m_r + c_r]` must be non-empty for every output reached.
+pub fn backlash_is_physical(b: &Backlash, x_max: f64) -> bool {
+    let w_max = b.m_l.max(b.m_r) * (x_max + b.c_l.max(b.c_r));
+    w_max * (1.0 / b.m_l - 1.0 / b.m_r).abs() < b.c_l + b.c_r
+}
+
 impl Trial {
-    /// Draw a trial from a seed.
+    /// Draw a trial from a seed, redrawing until the backlash is physical over the range the
+    /// experiments reach (steady-state amplitudes up to 3; the PRBS response up to the L1 norm
+    /// of the impulse response).
     pub fn random(seed: u64) -> Trial {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        Trial {
-            linear: random_linear(&mut rng),
-            backlash: random_backlash(&mut rng),
-            bits: rng.gen_range(8..=16),
-            seed,
+        loop {
+            let linear = random_linear(&mut rng);
+            let backlash = random_backlash(&mut rng);
+            let l1: f64 = linear.simulate(&[1.0; 400]).windows(2).map(|w| (w[1] - w[0]).abs()).sum::<f64>() + 1.0;
+            if backlash_is_physical(&backlash, 3.0f64.max(l1)) {
+                return Trial { linear, backlash, bits: rng.gen_range(8..=16), seed };
+            }
         }
     }
 
@@ -121,6 +134,42 @@ pub fn run(first: u64, n: usize, mut tick: impl FnMut()) -> Summary {
     };
     for seed in first..first + n as u64 {
         match Trial::random(seed).run() {
+            Ok(id) if id.all_contain_truth() == Some(true) => s.contained += 1,
+            Ok(_) => s.missed.push(seed),
+            Err(e) => s.errors.push((seed, e.to_string())),
+        }
+        tick();
+    }
+    s
+}
+
+impl Trial {
+    /// Run the whole pipeline on this trial with stage 3 by `method`.
+    pub fn run_method(&self, method: smid_core::spec::EivMethod) -> Result<Identification> {
+        let mut spec = self.spec();
+        spec.method.eiv = method;
+        let mut plant = SimulatedPlant {
+            linear: self.linear.clone(),
+            nonlinearity: &self.backlash,
+            structure: Default::default(),
+        };
+        pipeline::run_with_plant(&spec, &mut plant)
+    }
+}
+
+/// Like [`run`], with stage 3 by `method`.
+pub fn run_method(
+    first: u64,
+    n: usize,
+    method: smid_core::spec::EivMethod,
+    mut tick: impl FnMut(),
+) -> Summary {
+    let mut s = Summary {
+        trials: n,
+        ..Default::default()
+    };
+    for seed in first..first + n as u64 {
+        match Trial::random(seed).run_method(method) {
             Ok(id) if id.all_contain_truth() == Some(true) => s.contained += 1,
             Ok(_) => s.missed.push(seed),
             Err(e) => s.errors.push((seed, e.to_string())),
