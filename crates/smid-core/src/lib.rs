@@ -24,11 +24,18 @@ pub mod pipeline;
 pub mod plant;
 pub mod plot;
 pub mod polygon;
+pub mod registry;
 pub mod report;
 pub mod signals;
 pub mod spec;
 
 pub use error::{Result, SmidError, Stage};
+
+// Re-exported for the plugin registration macros (`register_nonlinearity!`, `register_model!`).
+#[doc(hidden)]
+pub use inventory;
+#[doc(hidden)]
+pub use schemars;
 
 /// The names a plugin author needs.
 pub mod prelude {

@@ -12,7 +12,9 @@ use serde::{Deserialize, Serialize};
 use std::fmt::Debug;
 
 /// Where the nonlinearity sits relative to the linear block.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum Structure {
     /// Linear block, then the nonlinearity (the paper's Fig. 2): `w = N(G u)`.

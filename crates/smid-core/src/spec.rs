@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// A whole spec.
-#[derive(Debug, Serialize, Deserialize)]
+#[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Spec {
     /// Free-form name shown in reports.
@@ -28,7 +28,7 @@ pub struct Spec {
 }
 
 /// Exactly one plant kind.
-#[derive(Debug, Default, Serialize, Deserialize)]
+#[derive(Debug, Default, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PlantSpec {
     /// The built-in simulator with its true parameters.
@@ -58,7 +58,7 @@ pub struct PlantSpec {
 }
 
 /// The built-in simulator.
-#[derive(Debug, Serialize, Deserialize)]
+#[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SimulatorSpec {
     #[serde(default)]
@@ -81,7 +81,7 @@ impl SimulatorSpec {
 }
 
 /// Columns of a CSV file (optionally only the rows whose `part` column equals a value).
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CsvColumns {
     pub file: PathBuf,
@@ -96,7 +96,7 @@ pub struct CsvColumns {
 
 /// Measured data: steady-state samples (`u` = steady input `ū`, signed; `y` = `ȳ`) and a
 /// dynamic record.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DataSpec {
     pub steady_state: CsvColumns,
@@ -144,7 +144,7 @@ fn d_true() -> bool {
 }
 
 /// Experiment design.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ExperimentSpec {
     /// Seed of the noise and of the PRBS.
@@ -169,7 +169,7 @@ impl Default for ExperimentSpec {
 }
 
 /// The low-pass filter: a given `pole`, or the Appendix search with these options.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FilterSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -212,7 +212,7 @@ impl FilterSpec {
 }
 
 /// Steady-state experiment: `M` amplitudes equally spaced in `[min, max]`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SteadySpec {
     #[serde(default = "d_m")]
@@ -236,7 +236,7 @@ impl Default for SteadySpec {
 }
 
 /// Dynamic experiment: a PRBS of `length` samples, `±amplitude`, each bit held `hold` samples.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DynamicSpec {
     #[serde(default = "d_n")]
@@ -276,7 +276,7 @@ impl ExperimentSpec {
 }
 
 /// The model structure to identify.
-#[derive(Debug, Serialize, Deserialize)]
+#[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ModelSpec {
     #[serde(default)]
@@ -295,7 +295,9 @@ pub struct ModelSpec {
 }
 
 /// The α allowance of eqs (14)-(15).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema, Default,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum AlphaSpec {
     /// From the overshoot the noise-free filter design measured at the chosen pole, scaled to
@@ -309,7 +311,9 @@ pub enum AlphaSpec {
 }
 
 /// Stage-3 method.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema, Default,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum EivMethod {
     /// Orthant-wise LP outer set of Section 5 (Cerone 1993).
@@ -318,7 +322,7 @@ pub enum EivMethod {
 }
 
 /// Method options.
-#[derive(Debug, Clone, Serialize, Deserialize, Default)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema, Default)]
 #[serde(deny_unknown_fields)]
 pub struct MethodSpec {
     #[serde(default)]

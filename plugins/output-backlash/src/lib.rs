@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 use smid_core::prelude::*;
 
 /// Backlash with known parameters (simulation).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Backlash {
     pub m_l: f64,
@@ -78,9 +78,25 @@ impl Nonlinearity for Backlash {
 }
 
 /// The output backlash as a model structure to identify (no options).
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct OutputBacklashModel {}
+
+smid_core::register_nonlinearity!(
+    "output_backlash",
+    Backlash,
+    Backlash {
+        m_l: 0.248,
+        c_l: 0.0698,
+        m_r: 0.252,
+        c_r: 0.0349
+    }
+);
+smid_core::register_model!(
+    "output_backlash",
+    OutputBacklashModel,
+    OutputBacklashModel::default()
+);
 
 /// The two branch polygons in `(m, m·c)` coordinates.
 #[derive(Debug, Clone)]

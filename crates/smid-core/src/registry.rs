@@ -1,0 +1,168 @@
+//! The plugin registry: every nonlinearity plugin registers, next to its `typetag` name, the
+//! JSON Schema of its parameters and an example value. From these the core builds the JSON
+//! Schema of the spec (a `oneOf` over the registered `type`s, see [`spec_schema`]), lists the
+//! valid `type` names in error messages ([`nonlinearity_types`], [`model_types`]) and lets a test
+//! round-trip every registered `type` through YAML. Registration is link-time (`inventory`), so
+//! the core names no plugin: a plugin crate calls [`register_nonlinearity!`] and
+//! [`register_model!`] and is linked into the binary.
+use crate::nonlinearity::{Nonlinearity, NonlinearityModel};
+use schemars::{JsonSchema, Schema, SchemaGenerator};
+use serde_json::{json, Map, Value};
+use std::borrow::Cow;
+
+/// A registered simulation nonlinearity (`plant.simulator.nonlinearity`).
+pub struct NonlinearityEntry {
+    /// The `type` tag (must equal the `typetag` name).
+    pub tag: &'static str,
+    /// JSON Schema of the plugin's fields (without `type`).
+    pub schema: fn(&mut SchemaGenerator) -> Schema,
+    /// A valid example value (used by the round-trip test and the extension guide).
+    pub example: fn() -> Box<dyn Nonlinearity>,
+}
+
+/// A registered model structure (`model.nonlinearity`).
+pub struct ModelEntry {
+    /// The `type` tag (must equal the `typetag` name).
+    pub tag: &'static str,
+    /// JSON Schema of the plugin's options (without `type`).
+    pub schema: fn(&mut SchemaGenerator) -> Schema,
+    /// A valid example value.
+    pub example: fn() -> Box<dyn NonlinearityModel>,
+}
+
+inventory::collect!(NonlinearityEntry);
+inventory::collect!(ModelEntry);
+
+/// Registered simulation nonlinearities, sorted by tag.
+pub fn nonlinearities() -> Vec<&'static NonlinearityEntry> {
+    let mut v: Vec<_> = inventory::iter::<NonlinearityEntry>.into_iter().collect();
+    v.sort_by_key(|e| e.tag);
+    v
+}
+
+/// Registered model structures, sorted by tag.
+pub fn models() -> Vec<&'static ModelEntry> {
+    let mut v: Vec<_> = inventory::iter::<ModelEntry>.into_iter().collect();
+    v.sort_by_key(|e| e.tag);
+    v
+}
+
+/// The valid `type` names of `plant.simulator.nonlinearity`.
+pub fn nonlinearity_types() -> Vec<&'static str> {
+    nonlinearities().iter().map(|e| e.tag).collect()
+}
+
+/// The valid `type` names of `model.nonlinearity`.
+pub fn model_types() -> Vec<&'static str> {
+    models().iter().map(|e| e.tag).collect()
+}
+
+/// Register a simulation nonlinearity: `register_nonlinearity!("tag", Type, example_expr)`.
+/// `Type` must implement `schemars::JsonSchema` and `Nonlinearity` (with the same tag).
+#[macro_export]
+macro_rules! register_nonlinearity {
+    ($tag:literal, $ty:ty, $example:expr) => {
+        $crate::inventory::submit! {
+            $crate::registry::NonlinearityEntry {
+                tag: $tag,
+                schema: |g| <$ty as $crate::schemars::JsonSchema>::json_schema(g),
+                example: || -> ::std::boxed::Box<dyn $crate::nonlinearity::Nonlinearity> {
+                    ::std::boxed::Box::new($example)
+                },
+            }
+        }
+    };
+}
+
+/// Register a model structure: `register_model!("tag", Type, example_expr)`.
+#[macro_export]
+macro_rules! register_model {
+    ($tag:literal, $ty:ty, $example:expr) => {
+        $crate::inventory::submit! {
+            $crate::registry::ModelEntry {
+                tag: $tag,
+                schema: |g| <$ty as $crate::schemars::JsonSchema>::json_schema(g),
+                example: || -> ::std::boxed::Box<dyn $crate::nonlinearity::NonlinearityModel> {
+                    ::std::boxed::Box::new($example)
+                },
+            }
+        }
+    };
+}
+
+/// One `oneOf` branch: the plugin's object schema with `type: const tag` added.
+fn tagged(tag: &str, schema: Schema) -> Value {
+    let mut v = schema.to_value();
+    if !v.is_object() {
+        // `true` or a non-object schema: accept any fields beside the tag.
+        v = json!({});
+    }
+    let obj = v.as_object_mut().expect("object checked above");
+    obj.insert("type".into(), json!("object"));
+    obj.insert("title".into(), json!(tag));
+    let props = obj
+        .entry("properties")
+        .or_insert_with(|| Value::Object(Map::new()));
+    if let Some(p) = props.as_object_mut() {
+        p.insert("type".into(), json!({ "const": tag }));
+    }
+    let req = obj.entry("required").or_insert_with(|| json!([]));
+    if let Some(r) = req.as_array_mut() {
+        r.insert(0, json!("type"));
+    }
+    v
+}
+
+fn one_of(branches: Vec<Value>, what: &str, tags: &[&str]) -> Schema {
+    let v = json!({
+        "description": format!("{what}: one of the registered plugin types ({})", tags.join(", ")),
+        "type": "object",
+        "required": ["type"],
+        "oneOf": branches,
+    });
+    Schema::try_from(v).unwrap_or_default()
+}
+
+impl JsonSchema for dyn Nonlinearity {
+    fn schema_name() -> Cow<'static, str> {
+        "Nonlinearity".into()
+    }
+    fn json_schema(g: &mut SchemaGenerator) -> Schema {
+        let entries = nonlinearities();
+        let tags: Vec<&str> = entries.iter().map(|e| e.tag).collect();
+        let branches = entries
+            .iter()
+            .map(|e| tagged(e.tag, (e.schema)(g)))
+            .collect();
+        one_of(branches, "A nonlinearity with known parameters", &tags)
+    }
+}
+
+impl JsonSchema for dyn NonlinearityModel {
+    fn schema_name() -> Cow<'static, str> {
+        "NonlinearityModel".into()
+    }
+    fn json_schema(g: &mut SchemaGenerator) -> Schema {
+        let entries = models();
+        let tags: Vec<&str> = entries.iter().map(|e| e.tag).collect();
+        let branches = entries
+            .iter()
+            .map(|e| tagged(e.tag, (e.schema)(g)))
+            .collect();
+        one_of(
+            branches,
+            "The model structure's nonlinearity (a type and its options)",
+            &tags,
+        )
+    }
+}
+
+/// The JSON Schema of the whole spec ([`crate::spec::Spec`]) covering every plugin linked into
+/// this binary, pretty-printed with a trailing newline (the committed
+/// `schemas/smid-spec.schema.json`).
+pub fn spec_schema() -> String {
+    let schema = schemars::schema_for!(crate::spec::Spec);
+    let mut s = serde_json::to_string_pretty(&schema).unwrap_or_default();
+    s.push('\n');
+    s
+}

@@ -1,0 +1,139 @@
+//! # smid-example-gain
+//!
+//! The smallest complete smid plugin, written as the worked example of `CONTRIBUTING.md`: a
+//! pure gain `w = k x` (`type: example_gain`, `k > 0`), on either side of the linear block.
+//! It adds a nonlinearity to smid without touching `smid-core`:
+//!
+//! * simulation ([`Gain`], a [`Nonlinearity`]);
+//! * stage 1 ([`GainModel`]): under unit gain (eq 8) each steady-state sample gives
+//!   `ȳ = k ū + η̄`, so `k` lies in `[(ȳ-Δη)/ū, (ȳ+Δη)/ū]` (ordered); the feasible set is the
+//!   intersection of these intervals (the one-dimensional analogue of constraints (16)-(17));
+//! * stage 2 ([`GainSet`]): inversion `x = w/k` over `k` in its interval and `w = y ± Δη`
+//!   (monotone in both, so the ends suffice, as in Prop 4), or propagation `v = k u`;
+//! * registration of its `type` for the spec's JSON Schema ([`smid_core::register_nonlinearity!`]).
+#![forbid(unsafe_code)]
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+use smid_core::prelude::*;
+
+/// `w = k x` with known `k` (simulation).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Gain {
+    /// The gain `k > 0`.
+    pub k: f64,
+}
+
+#[typetag::serde(name = "example_gain")]
+impl Nonlinearity for Gain {
+    fn step(&self, _memory: &mut Vec<f64>, x: f64) -> f64 {
+        self.k * x
+    }
+    fn parameters(&self) -> Vec<(String, f64)> {
+        vec![("k".into(), self.k)]
+    }
+    fn validate(&self) -> Result<()> {
+        if self.k.is_finite() && self.k > 0.0 {
+            Ok(())
+        } else {
+            Err(SmidError::invalid(
+                "k",
+                format!("expected a finite number > 0, got {}", self.k),
+            ))
+        }
+    }
+}
+
+/// The gain as a model structure (no options).
+#[derive(Debug, Clone, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct GainModel {}
+
+/// The feasible interval of `k`.
+#[derive(Debug, Clone, Copy)]
+pub struct GainSet {
+    pub k: Interval,
+}
+
+#[typetag::serde(name = "example_gain")]
+impl NonlinearityModel for GainModel {
+    fn bound_steady_state(&self, data: &SteadyStateData) -> Result<Box<dyn NonlinearitySet>> {
+        let mut k = Interval::new(0.0, f64::INFINITY);
+        for p in &data.points {
+            if !(p.u.is_finite() && p.y.is_finite() && p.dy.is_finite() && p.dy > 0.0) {
+                return Err(SmidError::invalid(
+                    format!("steady-state sample {}", p.index),
+                    "non-finite value or noise bound <= 0",
+                ));
+            }
+            if p.u == 0.0 {
+                continue;
+            }
+            let (a, b) = ((p.y - p.dy) / p.u, (p.y + p.dy) / p.u);
+            let here = Interval::new(a.min(b), a.max(b)).outward();
+            k = k.intersect(&here).ok_or_else(|| SmidError::Inconsistent {
+                stage: Stage::SteadyState,
+                sample: p.index,
+                detail: "no gain k > 0 fits this sample and the ones before it".into(),
+            })?;
+        }
+        if !(k.is_finite() && k.lo > 0.0) {
+            return Err(SmidError::Unbounded {
+                parameter: "k".into(),
+                message: "the steady-state samples do not bound k away from 0 and infinity".into(),
+            });
+        }
+        Ok(Box::new(GainSet { k }))
+    }
+    fn supports(&self, _structure: Structure) -> bool {
+        true
+    }
+}
+
+impl NonlinearitySet for GainSet {
+    fn parameters(&self) -> Vec<ParameterBound> {
+        vec![ParameterBound {
+            name: "k".into(),
+            interval: self.k,
+        }]
+    }
+    fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
+        if y.len() != dy.len() {
+            return Err(SmidError::invalid(
+                "dynamic data",
+                "y and its noise bounds differ in length",
+            ));
+        }
+        let k = self.k;
+        Ok(y.iter()
+            .zip(dy)
+            .map(|(&y, &d)| {
+                let ends = [y - d, y + d].into_iter();
+                let x = ends.flat_map(|w| [w / k.lo, w / k.hi]);
+                match Interval::hull_of(x) {
+                    Some(i) => InnerBound {
+                        interval: i.outward(),
+                        kind: InnerKind::Inverted,
+                    },
+                    None => InnerBound::unknown(),
+                }
+            })
+            .collect())
+    }
+    fn propagate(&self, u: &[f64]) -> Result<Vec<InnerBound>> {
+        let k = self.k;
+        Ok(u.iter()
+            .map(|&u| match Interval::hull_of([k.lo * u, k.hi * u]) {
+                Some(i) => InnerBound {
+                    interval: i.outward(),
+                    kind: InnerKind::Inverted,
+                },
+                None => InnerBound::unknown(),
+            })
+            .collect())
+    }
+}
+
+smid_core::register_nonlinearity!("example_gain", Gain, Gain { k: 2.0 });
+smid_core::register_model!("example_gain", GainModel, GainModel {});

@@ -1,0 +1,454 @@
+//! # smid-saturation
+//!
+//! Output saturation as a smid plugin (`type: saturation`, Wiener structure `w = N(G u)`).
+//!
+//! ## Parameterisation
+//!
+//! Linear inside, clipped outside, with a slope and an output limit per side:
+//!
+//! ```text
+//! N(x) = min(s_r, m_r x)    for x >= 0
+//!        max(-s_l, m_l x)   for x <  0        (m_l, s_l, m_r, s_r > 0)
+//! ```
+//!
+//! `m_l`, `m_r` are the slopes and `s_l`, `s_r` the output limits (`-s_l <= w <= s_r`); the
+//! input break points are `-s_l/m_l` and `s_r/m_r`. A symmetric saturation with one gain is the
+//! special case `m_l = m_r`, `s_l = s_r` (the plugin does not assume it).
+//!
+//! ## Stage 1: exact staircase sets (the analogue of paper Section 3)
+//!
+//! Under unit gain (eq 8), a steady-state sample on the right (`ū > 0`) says
+//! `min(s_r, m_r ū) ∈ [ȳ - Δη, ȳ + Δη]`, that is
+//! `s_r >= ȳ - Δη`, `m_r >= (ȳ - Δη)/ū`, and (`s_r <= ȳ + Δη` **or** `m_r <= (ȳ + Δη)/ū`).
+//! The set is not convex, but every constraint is axis-aligned in `(m, s)`, so the exact
+//! feasible set of a branch is a "staircase": a lower corner `(L_m, L_s)` and the
+//! disjunctions. It is closed downwards towards the corner, so it is empty exactly when the
+//! corner violates a disjunction, and its exact projections are
+//! `m <= M_k` for the smallest `M_i = (ȳ_i+Δη)/ū_i` whose `R_i = ȳ_i + Δη` lies below `L_s`
+//! (such a sample must be linear), and `s <= R_k` for the smallest `R_i` whose `M_i` lies below
+//! `L_m` (such a sample must be clipped). If no sample is surely clipped `s` has no upper
+//! bound (reported as `+inf`, which is the honest guarantee); if no sample is surely linear the
+//! slope is not bounded and stage 1 fails with [`SmidError::Unbounded`].
+//! Saturation is memoryless, so the overshoot allowance `α` (eqs 14-15) is not needed.
+//!
+//! ## Stage 2: inversion (Props 2-4 adapted)
+//!
+//! With `w ∈ [y-Δη, y+Δη]` and `m`, `s` in their intervals: a sample that is surely below the
+//! smallest feasible limit (`y + Δη < s_lo`) is linear and inverts to `x = w/m` (extremes at the
+//! interval ends, the analogue of Prop 4); a sample that may be clipped still bounds `x` from
+//! one side, `x >= (y-Δη)/m_hi` (clipped: `x >= s/m >= w/m`), with `+inf` on the other
+//! (such a bound is valid but not finite, so stage 3 does not use it). Samples whose output may
+//! be 0 join the two sides.
+#![forbid(unsafe_code)]
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+use smid_core::interval::REL_PAD;
+use smid_core::prelude::*;
+
+/// A saturation with known parameters (simulation).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Saturation {
+    /// Slope for `x < 0` (`> 0`).
+    pub m_l: f64,
+    /// Lower output limit is `-s_l` (`s_l > 0`).
+    pub s_l: f64,
+    /// Slope for `x >= 0` (`> 0`).
+    pub m_r: f64,
+    /// Upper output limit `s_r > 0`.
+    pub s_r: f64,
+}
+
+impl Saturation {
+    /// `N(x)`.
+    pub fn map(&self, x: f64) -> f64 {
+        if x >= 0.0 {
+            (self.m_r * x).min(self.s_r)
+        } else {
+            (self.m_l * x).max(-self.s_l)
+        }
+    }
+}
+
+#[typetag::serde(name = "saturation")]
+impl Nonlinearity for Saturation {
+    fn step(&self, _memory: &mut Vec<f64>, x: f64) -> f64 {
+        self.map(x)
+    }
+    fn parameters(&self) -> Vec<(String, f64)> {
+        vec![
+            ("m_l".into(), self.m_l),
+            ("s_l".into(), self.s_l),
+            ("m_r".into(), self.m_r),
+            ("s_r".into(), self.s_r),
+        ]
+    }
+    fn validate(&self) -> Result<()> {
+        for (name, v) in self.parameters() {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(SmidError::invalid(
+                    name,
+                    format!("expected a finite number > 0, got {v}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Saturation as a model structure to identify (no options; Wiener only).
+#[derive(Debug, Clone, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SaturationModel {}
+
+/// One steady-state constraint of a branch, mirrored to `ū > 0`: `min(s, m a) ∈ [lo, hi]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Sample {
+    /// `|ū| > 0`.
+    a: f64,
+    lo: f64,
+    hi: f64,
+    index: usize,
+}
+
+fn down(v: f64) -> f64 {
+    v - REL_PAD * v.abs() - f64::MIN_POSITIVE
+}
+fn up(v: f64) -> f64 {
+    v + REL_PAD * v.abs() + f64::MIN_POSITIVE
+}
+
+/// The exact feasible set of one branch in `(m, s)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Staircase {
+    /// Lower corner: `m >= lo_m`, `s >= lo_s` (rounded down).
+    pub lo_m: f64,
+    pub lo_s: f64,
+    /// Disjunctions `s <= r_i or m <= m_i` (rounded up).
+    pub steps: Vec<(f64, f64)>,
+    /// Exact projections (rounded outward); `s.hi` may be `+inf`.
+    pub m: Interval,
+    pub s: Interval,
+}
+
+impl Staircase {
+    fn corner(samples: &[Sample]) -> (f64, f64) {
+        let lo_m = samples.iter().map(|p| p.lo / p.a).fold(0.0, f64::max);
+        let lo_s = samples.iter().map(|p| p.lo).fold(0.0, f64::max);
+        (down(lo_m).max(0.0), down(lo_s).max(0.0))
+    }
+
+    /// Build from the branch's samples; `what` names the branch, `slope` its slope parameter.
+    fn new(samples: &[Sample], what: &str, slope: &str) -> Result<Staircase> {
+        // Find the first sample (in record order) that empties the set: the set of a prefix is
+        // empty iff its corner violates one of its disjunctions.
+        let feasible = |k: usize| {
+            let (lm, ls) = Self::corner(&samples[..k]);
+            samples[..k]
+                .iter()
+                .all(|p| ls <= up(p.hi) || lm <= up(p.hi / p.a))
+        };
+        if !feasible(samples.len()) {
+            let first = (1..=samples.len())
+                .find(|&k| !feasible(k))
+                .unwrap_or(samples.len());
+            return Err(SmidError::Inconsistent {
+                stage: Stage::SteadyState,
+                sample: samples[first - 1].index,
+                detail: format!(
+                    "{what}: no slope and limit fit this sample and the ones before it"
+                ),
+            });
+        }
+        let (lo_m, lo_s) = Self::corner(samples);
+        let steps: Vec<(f64, f64)> = samples.iter().map(|p| (up(p.hi), up(p.hi / p.a))).collect();
+        if lo_m <= 0.0 {
+            return Err(SmidError::Unbounded {
+                parameter: slope.into(),
+                message: format!("{what}: no steady-state output is clear of the noise bound, so the slope is not bounded away from 0"),
+            });
+        }
+        // m_max: the smallest M_i among samples that must be linear (R_i < lo_s).
+        let m_hi = steps
+            .iter()
+            .filter(|(r, _)| *r < lo_s)
+            .map(|(_, m)| *m)
+            .fold(f64::INFINITY, f64::min);
+        if !m_hi.is_finite() {
+            return Err(SmidError::Unbounded {
+                parameter: slope.into(),
+                message: format!("{what}: no steady-state sample is surely in the linear range; add smaller amplitudes"),
+            });
+        }
+        // s_max: the smallest R_i among samples that must be clipped (M_i < lo_m).
+        let s_hi = steps
+            .iter()
+            .filter(|(_, m)| *m < lo_m)
+            .map(|(r, _)| *r)
+            .fold(f64::INFINITY, f64::min);
+        Ok(Staircase {
+            lo_m,
+            lo_s,
+            m: Interval::new(lo_m, m_hi),
+            s: Interval::new(lo_s, s_hi),
+            steps,
+        })
+    }
+
+    /// Whether `(m, s)` lies in the set (up to the rounding pads).
+    pub fn contains(&self, m: f64, s: f64) -> bool {
+        m >= self.lo_m && s >= self.lo_s && self.steps.iter().all(|&(r, mm)| s <= r || m <= mm)
+    }
+}
+
+/// The feasible sets of both branches.
+#[derive(Debug, Clone)]
+pub struct SaturationSet {
+    pub left: Staircase,
+    pub right: Staircase,
+}
+
+/// Stage 1: the exact staircase sets from steady-state data.
+pub fn staircases(data: &SteadyStateData) -> Result<SaturationSet> {
+    let mut left = Vec::new();
+    let mut right = Vec::new();
+    for p in &data.points {
+        if !(p.u.is_finite() && p.y.is_finite()) {
+            return Err(SmidError::invalid(
+                format!("steady-state sample {}", p.index),
+                "non-finite value",
+            ));
+        }
+        if !(p.dy > 0.0 && p.dy.is_finite()) {
+            return Err(SmidError::invalid(
+                format!("steady-state sample {}", p.index),
+                "noise bound must be > 0",
+            ));
+        }
+        if p.u > 0.0 {
+            right.push(Sample {
+                a: p.u,
+                lo: p.y - p.dy,
+                hi: p.y + p.dy,
+                index: p.index,
+            });
+        } else if p.u < 0.0 {
+            // -w = min(s_l, m_l |ū|).
+            left.push(Sample {
+                a: -p.u,
+                lo: -(p.y + p.dy),
+                hi: -(p.y - p.dy),
+                index: p.index,
+            });
+        }
+    }
+    Ok(SaturationSet {
+        left: Staircase::new(&left, "left branch (m_l, s_l)", "m_l")?,
+        right: Staircase::new(&right, "right branch (m_r, s_r)", "m_r")?,
+    })
+}
+
+#[typetag::serde(name = "saturation")]
+impl NonlinearityModel for SaturationModel {
+    fn bound_steady_state(&self, data: &SteadyStateData) -> Result<Box<dyn NonlinearitySet>> {
+        Ok(Box::new(staircases(data)?))
+    }
+}
+
+smid_core::register_nonlinearity!(
+    "saturation",
+    Saturation,
+    Saturation {
+        m_l: 1.0,
+        s_l: 1.2,
+        m_r: 1.0,
+        s_r: 1.5
+    }
+);
+smid_core::register_model!("saturation", SaturationModel, SaturationModel {});
+
+/// Bound on `|x|` on one branch from `|w| ∈ [a, b]` (`0 <= a <= b`).
+fn side(st: &Staircase, a: f64, b: f64) -> Interval {
+    let lo = a / st.m.hi;
+    let hi = if b < st.s.lo {
+        b / st.m.lo
+    } else {
+        f64::INFINITY
+    };
+    Interval::new(lo, hi)
+}
+
+impl SaturationSet {
+    /// Bound on `x_t` from one output sample.
+    pub fn invert_sample(&self, y: f64, d: f64) -> InnerBound {
+        let mut parts = Vec::new();
+        if y + d >= 0.0 {
+            parts.push(side(&self.right, (y - d).max(0.0), y + d));
+        }
+        if y - d <= 0.0 {
+            let i = side(&self.left, (-(y + d)).max(0.0), -(y - d));
+            parts.push(Interval::new(-i.hi, -i.lo));
+        }
+        let lo = parts.iter().map(|i| i.lo).fold(f64::INFINITY, f64::min);
+        let hi = parts.iter().map(|i| i.hi).fold(f64::NEG_INFINITY, f64::max);
+        let interval = Interval::new(lo, hi).outward();
+        let kind = if parts.len() == 1 && interval.is_finite() {
+            InnerKind::Inverted
+        } else {
+            InnerKind::Band
+        };
+        InnerBound { interval, kind }
+    }
+}
+
+impl NonlinearitySet for SaturationSet {
+    fn parameters(&self) -> Vec<ParameterBound> {
+        let b = |name: &str, i: Interval| ParameterBound {
+            name: name.into(),
+            interval: i,
+        };
+        vec![
+            b("m_l", self.left.m),
+            b("s_l", self.left.s),
+            b("m_r", self.right.m),
+            b("s_r", self.right.s),
+        ]
+    }
+
+    fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
+        if y.len() != dy.len() {
+            return Err(SmidError::invalid(
+                "dynamic data",
+                "y and its noise bounds differ in length",
+            ));
+        }
+        y.iter()
+            .zip(dy)
+            .enumerate()
+            .map(|(t, (&y, &d))| {
+                if !(y.is_finite() && d.is_finite() && d >= 0.0) {
+                    return Err(SmidError::invalid(
+                        format!("dynamic sample {t}"),
+                        "non-finite output or noise bound",
+                    ));
+                }
+                Ok(self.invert_sample(y, d))
+            })
+            .collect()
+    }
+
+    fn contains(&self, truth: &[f64]) -> bool {
+        truth.len() == 4
+            && self.left.contains(truth[0], truth[1])
+            && self.right.contains(truth[2], truth[3])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn steady(
+        sat: &Saturation,
+        amps: &[f64],
+        d: f64,
+        noise: impl Fn(usize) -> f64,
+    ) -> SteadyStateData {
+        let mut points = Vec::new();
+        for &a in amps {
+            for u in [a, -a] {
+                let i = points.len();
+                points.push(SteadyPoint {
+                    u,
+                    y: sat.map(u) + d * noise(i),
+                    dy: d,
+                    alpha: 0.0,
+                    rising: u > 0.0,
+                    index: i,
+                });
+            }
+        }
+        SteadyStateData { points }
+    }
+
+    const SAT: Saturation = Saturation {
+        m_l: 0.8,
+        s_l: 1.0,
+        m_r: 1.2,
+        s_r: 1.5,
+    };
+
+    #[test]
+    fn map_is_linear_inside_and_clipped_outside() {
+        assert_eq!(SAT.map(0.5), 0.6);
+        assert_eq!(SAT.map(3.0), 1.5);
+        assert_eq!(SAT.map(-0.5), -0.4);
+        assert_eq!(SAT.map(-3.0), -1.0);
+    }
+
+    #[test]
+    fn exact_projections_are_tight_with_tiny_noise() {
+        let amps: Vec<f64> = (0..30).map(|k| 0.1 + 0.1 * k as f64).collect();
+        let set = staircases(&steady(&SAT, &amps, 1e-9, |_| 0.0)).unwrap();
+        for (b, t) in set.parameters().iter().zip([0.8, 1.0, 1.2, 1.5]) {
+            assert!(b.interval.contains(t), "{b:?}");
+            assert!(b.interval.radius() < 0.1, "{b:?}");
+        }
+        assert!(set.contains(&[0.8, 1.0, 1.2, 1.5]));
+        assert!(!set.contains(&[0.8, 1.0, 1.3, 1.5]));
+    }
+
+    #[test]
+    fn no_clipped_sample_leaves_the_limit_unbounded_above() {
+        let amps = [0.2, 0.4, 0.6];
+        let set = staircases(&steady(&SAT, &amps, 1e-6, |_| 0.0)).unwrap();
+        assert_eq!(set.right.s.hi, f64::INFINITY);
+        assert!(set.right.m.radius() < 1e-4);
+        // A sample that is surely linear inverts; a possibly clipped one is one-sided.
+        let b = set.invert_sample(0.3, 1e-6);
+        assert_eq!(b.kind, InnerKind::Inverted);
+        assert!(b.interval.contains(0.25));
+        let c = set.invert_sample(0.9, 1e-6);
+        assert_eq!(c.interval.hi, f64::INFINITY);
+        assert!(c.interval.lo <= 0.75);
+    }
+
+    #[test]
+    fn contradictory_samples_are_inconsistent() {
+        let mut data = steady(&SAT, &[0.5, 1.0, 2.0, 3.0], 1e-3, |_| 0.0);
+        // ū = 3 gives more than ū = 2 would allow if both were clipped, and less than linear.
+        data.points[6].y = 1.3;
+        assert!(matches!(
+            staircases(&data),
+            Err(SmidError::Inconsistent { sample: 6, .. })
+        ));
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(
+            std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(16)))]
+        /// Stage 1 and stage 2 contain the truth for random saturations and noise.
+        #[test]
+        fn truth_inside_stage_1_and_2(
+            m_l in 0.2f64..2.0, s_l in 0.3f64..2.0, m_r in 0.2f64..2.0, s_r in 0.3f64..2.0,
+            d in 1e-5f64..1e-2, seed in 0u64..1000,
+            xs in proptest::collection::vec(-4.0f64..4.0, 20..60),
+        ) {
+            let sat = Saturation { m_l, s_l, m_r, s_r };
+            let amps: Vec<f64> = (0..25).map(|k| 0.05 + 0.2 * k as f64).collect();
+            let noise = |i: usize| (((i as u64 + seed) * 2654435761 % 1000) as f64 / 500.0) - 1.0;
+            let set = staircases(&steady(&sat, &amps, d, noise)).unwrap();
+            prop_assert!(set.contains(&[m_l, s_l, m_r, s_r]));
+            for (b, t) in set.parameters().iter().zip([m_l, s_l, m_r, s_r]) {
+                prop_assert!(b.interval.contains(t), "{:?} misses {}", b, t);
+            }
+            let y: Vec<f64> = xs.iter().enumerate().map(|(i, &x)| sat.map(x) + d * noise(i + 7)).collect();
+            let inner = set.invert(&y, &vec![d; y.len()]).unwrap();
+            for (b, x) in inner.iter().zip(&xs) {
+                prop_assert!(b.interval.contains(*x), "{:?} misses {}", b, x);
+            }
+        }
+    }
+}
