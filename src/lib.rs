@@ -10,6 +10,7 @@ pub use smid_core as core;
 pub use smid_core::{Result, SmidError};
 pub use smid_output_backlash as output_backlash;
 
+pub mod compare;
 pub mod montecarlo;
 pub mod reproduce;
 

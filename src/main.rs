@@ -38,6 +38,10 @@ enum Command {
         /// Also write the medians as JSON.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// Also compare stage-3 methods on the same data (comma-separated: classical, shared,
+        /// sdp, exact-grid): a radius table per method and n_bit, with the ratio to the exact set.
+        #[arg(long, value_delimiter = ',')]
+        methods: Vec<String>,
     },
     /// Monte Carlo containment check: random systems, backlash and noise; every bound must hold.
     Check {
@@ -45,6 +49,9 @@ enum Command {
         trials: usize,
         #[arg(long, default_value_t = 1)]
         first_seed: u64,
+        /// Stage-3 method (classical, shared, sdp, exact-grid; default: the spec default).
+        #[arg(long)]
+        method: Option<String>,
     },
 }
 
@@ -61,6 +68,13 @@ fn progress(n: usize, what: &str) -> ProgressBar {
         pb.set_draw_target(ProgressDrawTarget::hidden());
     }
     pb
+}
+
+/// A stage-3 method by its spec name.
+fn parse_method(m: &str) -> Result<smid::core::spec::EivMethod> {
+    smid::core::spec::EivMethod::from_name(m.trim()).with_context(|| {
+        format!("unknown stage-3 method `{m}`; expected one of: classical, shared, sdp, exact-grid")
+    })
 }
 
 fn main() {
@@ -99,7 +113,12 @@ fn real_main() -> Result<()> {
                     .join(", ")
             );
         }
-        Command::Reproduce { what, seeds, json } => {
+        Command::Reproduce {
+            what,
+            seeds,
+            json,
+            methods,
+        } => {
             anyhow::ensure!(
                 what == "paper",
                 "unknown reproduction `{what}`; expected one of: paper"
@@ -109,14 +128,39 @@ fn real_main() -> Result<()> {
             let r = smid::reproduce::reproduce(seeds, || pb.inc(1))?;
             pb.finish_and_clear();
             print!("{}", smid::reproduce::format_tables(&r));
-            if let Some(path) = json {
-                std::fs::write(&path, serde_json::to_string_pretty(&r)?)
+            if let Some(path) = &json {
+                std::fs::write(path, serde_json::to_string_pretty(&r)?)
                     .with_context(|| format!("writing {}", path.display()))?;
             }
+            if !methods.is_empty() {
+                let ms = methods
+                    .iter()
+                    .map(|m| parse_method(m))
+                    .collect::<Result<Vec<_>>>()?;
+                let bits = smid::compare::COMPARE_BITS;
+                let pb = progress(seeds * bits.len(), "stage-3 methods");
+                let c = smid::compare::compare(seeds, &bits, &ms, || pb.inc(1))?;
+                pb.finish_and_clear();
+                print!("{}", smid::compare::format_comparison(&c));
+                if let Some(path) = json {
+                    let path = path.with_extension("methods.json");
+                    std::fs::write(&path, serde_json::to_string_pretty(&c)?)
+                        .with_context(|| format!("writing {}", path.display()))?;
+                }
+            }
         }
-        Command::Check { trials, first_seed } => {
+        Command::Check {
+            trials,
+            first_seed,
+            method,
+        } => {
+            let method = match method {
+                Some(m) => parse_method(&m)?,
+                None => Default::default(),
+            };
             let pb = progress(trials, "containment trials");
-            let s = smid::montecarlo::run(first_seed, trials, || pb.inc(1));
+            let s = smid::montecarlo::run_method(first_seed, trials, method, || pb.inc(1));
+            println!("stage-3 method: {}", method.name());
             pb.finish_and_clear();
             println!(
                 "{} trials: truth inside every bound in {}, missed in {}, no bound (error) in {}",

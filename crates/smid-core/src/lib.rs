@@ -12,6 +12,9 @@
 
 pub mod data;
 pub mod eiv;
+pub mod eiv_exact;
+pub mod eiv_sdp;
+pub mod eiv_shared;
 pub mod error;
 pub mod experiment;
 pub mod interval;
@@ -27,6 +30,7 @@ pub mod polygon;
 pub mod registry;
 pub mod report;
 pub mod signals;
+pub mod sparse_lp;
 pub mod spec;
 
 pub use error::{Result, SmidError, Stage};

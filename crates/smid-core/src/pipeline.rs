@@ -274,16 +274,16 @@ pub fn identify(
 
     // Stage 3.
     let fixed = spec.fixed_theta()?;
-    let eiv = EivProblem {
+    let problem = EivProblem {
         na: spec.model.na,
         nb: spec.model.nb,
         fixed,
         unit_gain: spec.model.unit_gain,
         output: &output,
         input: &input,
-        use_band_samples: spec.method.band_samples,
-    }
-    .solve()?;
+        use_band_samples: spec.method.use_band_samples(),
+    };
+    let eiv = crate::eiv_shared::solve_method(spec.method.eiv, &problem)?;
 
     let mut parameters: Vec<ParamResult> = gamma
         .iter()

@@ -316,9 +316,43 @@ pub enum AlphaSpec {
 )]
 #[serde(rename_all = "snake_case")]
 pub enum EivMethod {
-    /// Orthant-wise LP outer set of Section 5 (Cerone 1993).
-    #[default]
+    /// Orthant-wise LP outer set of Section 5 (Cerone 1993): each equation's error bounded on
+    /// its own.
     Classical,
+    /// Shared-error relaxation: the inner-signal errors are variables shared by consecutive
+    /// equations, products relaxed by McCormick envelopes, box shrunk until the radii settle
+    /// ([`crate::eiv_shared`]). Never wider than `classical`; close to the exact set.
+    #[default]
+    Shared,
+    /// Moment (SDP) relaxation on cliques of consecutive samples; needs the cargo feature `sdp`.
+    Sdp,
+    /// Exact set measured on a grid of the a-plane (na <= 2, Wiener): outer hull of feasible
+    /// cells reported, inner hull of feasible grid points measured ([`crate::eiv_exact`]).
+    #[serde(rename = "exact-grid", alias = "exact_grid")]
+    ExactGrid,
+}
+
+impl EivMethod {
+    /// The name used in specs and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            EivMethod::Classical => "classical",
+            EivMethod::Shared => "shared",
+            EivMethod::Sdp => "sdp",
+            EivMethod::ExactGrid => "exact-grid",
+        }
+    }
+    /// Parse a name as used in specs (`classical`, `shared`, `sdp`, `exact-grid`).
+    pub fn from_name(s: &str) -> Option<Self> {
+        [
+            EivMethod::Classical,
+            EivMethod::Shared,
+            EivMethod::Sdp,
+            EivMethod::ExactGrid,
+        ]
+        .into_iter()
+        .find(|m| m.name() == s || m.name().replace('-', "_") == s)
+    }
 }
 
 /// Method options.
@@ -329,9 +363,18 @@ pub struct MethodSpec {
     pub alpha: AlphaSpec,
     #[serde(default)]
     pub eiv: EivMethod,
-    /// Also use equations whose inner samples are only known to lie in the dead band.
-    #[serde(default)]
-    pub band_samples: bool,
+    /// Also use equations whose inner samples are only known to lie in the dead band
+    /// (default: yes for every method but `classical`, which keeps the paper's choice).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub band_samples: Option<bool>,
+}
+
+impl MethodSpec {
+    /// Whether band-bounded samples are used (the explicit choice, else the method's default).
+    pub fn use_band_samples(&self) -> bool {
+        self.band_samples
+            .unwrap_or(self.eiv != EivMethod::Classical)
+    }
 }
 
 /// 1-based line of the first `key:` in `text` (a best effort when the parser gave none).

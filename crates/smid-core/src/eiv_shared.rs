@@ -1,0 +1,405 @@
+//! Stage 3 (paper Section 5) by the shared-error relaxation: guaranteed bounds on
+//! `θ = [a_1..a_na, b_0..b_nb]` that keep the inner-signal errors `δx_t` (eqs 28-30) as variables
+//! shared by the equations they enter, instead of bounding each equation's error on its own as
+//! the classical orthant method ([`crate::eiv`]) does.
+//!
+//! Variables: the free θ, one `δ_s` per uncertain signal sample (`|δ_s| <= Δ_s`; output side
+//! `x_s = x^c_s + δx_s`, and for Hammerstein the input side `v_s = v^c_s + δv_s`), and one
+//! `w = θ_k δ_s` per product. Each equation `x_t + Σ a_i x_{t-i} - Σ b_j v_{t-j} = 0` (eq 1 with
+//! eq 29 substituted) is linear in `(θ, δ, w)`; the bilinear `w` are relaxed by McCormick
+//! envelopes over the current box of `θ_k` and of `δ_s`, so the LP's feasible set contains every
+//! `(θ, δ)` consistent with the data: its coordinate bounds are guaranteed. Starting from the
+//! classical box (so the result is never wider than the classical one), each round bounds every
+//! free parameter by LP, shrinks the θ box, tightens the `δ` boxes by interval propagation through
+//! the equations, and repeats until the radii stop improving. As the θ box shrinks the envelopes
+//! become exact, so the result approaches the exact feasible set (see [`crate::eiv_exact`]).
+use crate::eiv::{EivProblem, EivResult};
+use crate::error::{Result, SmidError, Stage};
+use crate::interval::Interval;
+use crate::sparse_lp::{LpSolver, Optimum, SparseLp};
+use std::collections::HashMap;
+
+/// Options of the shared-error relaxation.
+#[derive(Debug, Clone, Copy)]
+pub struct SharedOptions {
+    /// Maximum number of LP rounds.
+    pub max_rounds: usize,
+    /// Stop when no radius shrinks by more than this fraction in a round.
+    pub min_improvement: f64,
+}
+
+impl Default for SharedOptions {
+    fn default() -> Self {
+        SharedOptions {
+            max_rounds: 12,
+            min_improvement: 0.01,
+        }
+    }
+}
+
+/// Which signal a sample belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub(crate) enum Side {
+    /// The inner signal entering `A` (`x_t`).
+    Out,
+    /// The signal entering `B` (`v_t`; `u_t` itself for Wiener).
+    In,
+}
+
+/// One uncertain signal sample.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Sig {
+    pub center: f64,
+    pub radius: f64,
+}
+
+/// The shared-error LP model of an [`EivProblem`]: variable layout and row builder.
+pub(crate) struct SharedModel<'p, 'a> {
+    pub prob: &'p EivProblem<'a>,
+    pub times: Vec<usize>,
+    /// Free θ indices, in column order.
+    pub free: Vec<usize>,
+    /// Column of each θ index (None when fixed).
+    pub col_theta: Vec<Option<usize>>,
+    pub deltas: Vec<Sig>,
+    delta_of: HashMap<(Side, usize), usize>,
+    /// Products `(θ index, δ index)`.
+    pub products: Vec<(usize, usize)>,
+    product_of: HashMap<(usize, usize), usize>,
+}
+
+/// One term `sign · coef · signal` of an equation; `coef` is `None` for the leading `x_t`.
+type Term = (Option<usize>, f64, Side, usize);
+
+impl<'p, 'a> SharedModel<'p, 'a> {
+    pub fn p(&self) -> usize {
+        self.prob.na + self.prob.nb + 1
+    }
+
+    fn signal(&self, side: Side, s: usize) -> Interval {
+        match side {
+            Side::Out => self.prob.output[s].interval,
+            Side::In => self.prob.input[s],
+        }
+    }
+
+    pub fn terms(&self, t: usize) -> Vec<Term> {
+        let mut v: Vec<Term> = vec![(None, 1.0, Side::Out, t)];
+        for i in 1..=self.prob.na {
+            v.push((Some(i - 1), 1.0, Side::Out, t - i));
+        }
+        for j in 0..=self.prob.nb {
+            v.push((Some(self.prob.na + j), -1.0, Side::In, t - j));
+        }
+        v
+    }
+
+    pub fn new(prob: &'p EivProblem<'a>, times: Vec<usize>) -> Self {
+        let p = prob.na + prob.nb + 1;
+        let free: Vec<usize> = (0..p).filter(|&k| prob.fixed[k].is_none()).collect();
+        let mut col_theta = vec![None; p];
+        for (c, &k) in free.iter().enumerate() {
+            col_theta[k] = Some(c);
+        }
+        let mut m = SharedModel {
+            prob,
+            times,
+            free,
+            col_theta,
+            deltas: Vec::new(),
+            delta_of: HashMap::new(),
+            products: Vec::new(),
+            product_of: HashMap::new(),
+        };
+        let times = m.times.clone();
+        for &t in &times {
+            for (k, _, side, s) in m.terms(t) {
+                let iv = m.signal(side, s);
+                if iv.radius() <= 0.0 {
+                    continue;
+                }
+                let d = match m.delta_of.get(&(side, s)) {
+                    Some(&d) => d,
+                    None => {
+                        m.deltas.push(Sig {
+                            center: iv.center(),
+                            radius: iv.radius(),
+                        });
+                        m.delta_of.insert((side, s), m.deltas.len() - 1);
+                        m.deltas.len() - 1
+                    }
+                };
+                if let Some(k) = k {
+                    if prob.fixed[k].is_none() && !m.product_of.contains_key(&(k, d)) {
+                        m.products.push((k, d));
+                        m.product_of.insert((k, d), m.products.len() - 1);
+                    }
+                }
+            }
+        }
+        m
+    }
+
+    pub fn n_cols(&self) -> usize {
+        self.free.len() + self.deltas.len() + self.products.len()
+    }
+    fn col_delta(&self, d: usize) -> usize {
+        self.free.len() + d
+    }
+    fn col_product(&self, w: usize) -> usize {
+        self.free.len() + self.deltas.len() + w
+    }
+
+    /// The initial `δ` boxes `[-Δ_s, Δ_s]`.
+    pub fn initial_deltas(&self) -> Vec<Interval> {
+        self.deltas
+            .iter()
+            .map(|d| Interval::new(-d.radius, d.radius))
+            .collect()
+    }
+
+    /// The LP over the θ box `tb` (indexed by θ; only free entries are read) and `δ` boxes `db`,
+    /// with the equations of `times`.
+    pub fn build(&self, tb: &[Interval], db: &[Interval], times: &[usize]) -> Result<SparseLp> {
+        let mut lp = SparseLp::new(self.n_cols());
+        for &k in &self.free {
+            let b = tb[k];
+            if b.lo.is_finite() {
+                lp.le(vec![(self.col_theta[k].unwrap_or(0), -1.0)], -b.lo);
+            }
+            if b.hi.is_finite() {
+                lp.le(vec![(self.col_theta[k].unwrap_or(0), 1.0)], b.hi);
+            }
+        }
+        for (d, b) in db.iter().enumerate() {
+            lp.bound(self.col_delta(d), b.lo, b.hi);
+        }
+        for (w, &(k, d)) in self.products.iter().enumerate() {
+            let (l, u) = (tb[k].lo, tb[k].hi);
+            let (dl, du) = (db[d].lo, db[d].hi);
+            if !(l.is_finite() && u.is_finite()) {
+                return Err(SmidError::Unbounded {
+                    parameter: crate::eiv::theta_names(self.prob.na, self.prob.nb)[k].clone(),
+                    message: "the shared-error relaxation needs a bounded start box".into(),
+                });
+            }
+            let (ct, cd, cw) = (
+                self.col_theta[k].unwrap_or(0),
+                self.col_delta(d),
+                self.col_product(w),
+            );
+            // McCormick envelopes of w = θ δ over [l, u] x [dl, du].
+            lp.le(vec![(cd, l), (ct, dl), (cw, -1.0)], l * dl);
+            lp.le(vec![(cd, u), (ct, du), (cw, -1.0)], u * du);
+            lp.le(vec![(cw, 1.0), (cd, -u), (ct, -dl)], -u * dl);
+            lp.le(vec![(cw, 1.0), (cd, -l), (ct, -du)], -l * du);
+        }
+        for &t in times {
+            let mut row: Vec<(usize, f64)> = Vec::new();
+            let mut c0 = 0.0;
+            for (k, sign, side, s) in self.terms(t) {
+                let iv = self.signal(side, s);
+                let d = self.delta_of.get(&(side, s)).copied();
+                match k.map(|k| (k, self.prob.fixed[k])) {
+                    None => {
+                        c0 += iv.center();
+                        if let Some(d) = d {
+                            row.push((self.col_delta(d), 1.0));
+                        }
+                    }
+                    Some((_, Some(v))) => {
+                        c0 += sign * v * iv.center();
+                        if let Some(d) = d {
+                            row.push((self.col_delta(d), sign * v));
+                        }
+                    }
+                    Some((k, None)) => {
+                        row.push((self.col_theta[k].unwrap_or(0), sign * iv.center()));
+                        if let Some(d) = d {
+                            let w = self.product_of[&(k, d)];
+                            row.push((self.col_product(w), sign));
+                        }
+                    }
+                }
+            }
+            // c0 + row·z = 0, as two padded inequalities.
+            let neg: Vec<(usize, f64)> = row.iter().map(|&(c, v)| (c, -v)).collect();
+            lp.le(row, -c0);
+            lp.le(neg, c0);
+        }
+        if self.prob.unit_gain {
+            // Σ b_j - Σ a_i = 1 (eq 8).
+            let mut row = Vec::new();
+            let mut rhs = 1.0;
+            for k in 0..self.p() {
+                let s = if k < self.prob.na { -1.0 } else { 1.0 };
+                match self.prob.fixed[k] {
+                    Some(v) => rhs -= s * v,
+                    None => row.push((self.col_theta[k].unwrap_or(0), s)),
+                }
+            }
+            lp.eq(row, rhs);
+        }
+        Ok(lp)
+    }
+
+    /// Tighten the `δ` boxes by interval propagation: each equation gives
+    /// `x_t = -Σ a_i x_{t-i} + Σ b_j v_{t-j}` over the current boxes. Returns the first sample
+    /// whose box became empty.
+    pub fn propagate(&self, tb: &[Interval], db: &mut [Interval]) -> Option<usize> {
+        for &t in &self.times {
+            let Some(&dt) = self.delta_of.get(&(Side::Out, t)) else {
+                continue;
+            };
+            let (mut lo, mut hi) = (0.0, 0.0);
+            for (k, sign, side, s) in self.terms(t).into_iter().skip(1) {
+                let iv = self.signal(side, s);
+                let sig = match self.delta_of.get(&(side, s)) {
+                    Some(&d) => Interval::new(iv.center() + db[d].lo, iv.center() + db[d].hi),
+                    None => Interval::new(iv.center(), iv.center()),
+                };
+                let c = match k.and_then(|k| self.prob.fixed[k]) {
+                    Some(v) => Interval::new(v, v),
+                    None => tb[k.unwrap_or(0)],
+                };
+                let prods = [c.lo * sig.lo, c.lo * sig.hi, c.hi * sig.lo, c.hi * sig.hi];
+                let pl = prods.iter().cloned().fold(f64::INFINITY, f64::min);
+                let ph = prods.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+                // x_t = -(sign · c · sig) summed.
+                if sign > 0.0 {
+                    lo -= ph;
+                    hi -= pl;
+                } else {
+                    lo += pl;
+                    hi += ph;
+                }
+            }
+            if !(lo.is_finite() && hi.is_finite()) {
+                continue;
+            }
+            let c = self.deltas[dt].center;
+            let bound = Interval::new(lo - c, hi - c).widen(1e-12, 1e-13);
+            match db[dt].intersect(&bound) {
+                Some(b) => db[dt] = b,
+                None => return Some(t),
+            }
+        }
+        None
+    }
+}
+
+/// Bound every free θ over one LP; `None` entries where the solver gave no conclusion.
+pub(crate) fn bound_all(
+    model: &SharedModel,
+    solver: &mut LpSolver,
+) -> Result<Option<Vec<(Option<f64>, Option<f64>)>>> {
+    let mut out = Vec::with_capacity(model.free.len());
+    for c in 0..model.free.len() {
+        let lo = match solver.minimise(c)? {
+            Optimum::Value(v) => Some(v),
+            Optimum::Infeasible => return Ok(None),
+            Optimum::Unknown => None,
+        };
+        let hi = match solver.maximise(c)? {
+            Optimum::Value(v) => Some(v),
+            Optimum::Infeasible => return Ok(None),
+            Optimum::Unknown => None,
+        };
+        out.push((lo, hi));
+    }
+    Ok(Some(out))
+}
+
+/// The shared-error relaxation, starting from the classical result `start` (a guaranteed box).
+pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> Result<EivResult> {
+    let model = SharedModel::new(prob, start.equations.clone());
+    let mut tb = start.bounds.clone();
+    let mut db = model.initial_deltas();
+    for _round in 0..opts.max_rounds.max(1) {
+        for _ in 0..2 {
+            if let Some(t) = model.propagate(&tb, &mut db) {
+                return Err(inconsistent(t));
+            }
+        }
+        let lp = model.build(&tb, &db, &model.times)?;
+        let mut solver = lp.solver()?;
+        let Some(found) = bound_all(&model, &mut solver)? else {
+            return Err(inconsistent(locate(&model, &tb, &db)?));
+        };
+        let mut gain: f64 = 0.0;
+        for (c, &k) in model.free.iter().enumerate() {
+            let old = tb[k];
+            let (lo, hi) = found[c];
+            let new = Interval::new(
+                lo.map_or(old.lo, |v| v.max(old.lo)),
+                hi.map_or(old.hi, |v| v.min(old.hi)),
+            );
+            if new.lo > new.hi {
+                // Two guaranteed bounds that do not meet: no θ is consistent.
+                return Err(inconsistent(locate(&model, &tb, &db)?));
+            }
+            if old.radius() > 0.0 {
+                gain = gain.max(1.0 - new.radius() / old.radius());
+            }
+            tb[k] = new;
+        }
+        if gain < opts.min_improvement {
+            break;
+        }
+    }
+    Ok(EivResult {
+        bounds: tb,
+        equations: start.equations,
+        feasible_orthants: start.feasible_orthants,
+    })
+}
+
+/// The shared-error relaxation of `prob` (classical start, then LP rounds).
+pub fn solve(prob: &EivProblem, opts: &SharedOptions) -> Result<EivResult> {
+    let start = prob.solve()?;
+    solve_from(prob, start, opts)
+}
+
+fn inconsistent(t: usize) -> SmidError {
+    SmidError::Inconsistent {
+        stage: Stage::Linear,
+        sample: t,
+        detail: format!(
+            "no θ and inner-signal errors satisfy the equations up to t = {t} within their bounds"
+        ),
+    }
+}
+
+/// The first equation whose addition empties the relaxation (bisection on prefixes).
+fn locate(model: &SharedModel, tb: &[Interval], db: &[Interval]) -> Result<usize> {
+    let times = &model.times;
+    let (mut good, mut bad) = (0usize, times.len());
+    while bad - good > 1 {
+        let mid = (good + bad) / 2;
+        let feasible = model
+            .build(tb, db, &times[..mid])?
+            .solver()?
+            .feasible()?
+            .unwrap_or(true);
+        if feasible {
+            good = mid;
+        } else {
+            bad = mid;
+        }
+    }
+    Ok(times.get(bad.saturating_sub(1)).copied().unwrap_or(0))
+}
+
+/// Stage 3 by the chosen method (the pipeline's dispatch).
+pub fn solve_method(method: crate::spec::EivMethod, prob: &EivProblem) -> Result<EivResult> {
+    use crate::spec::EivMethod;
+    match method {
+        EivMethod::Classical => prob.solve(),
+        EivMethod::Shared => solve(prob, &SharedOptions::default()),
+        EivMethod::Sdp => crate::eiv_sdp::solve(prob),
+        EivMethod::ExactGrid => {
+            let shared = solve(prob, &SharedOptions::default())?;
+            Ok(crate::eiv_exact::solve_from(prob, &shared, &Default::default(), || {})?.to_eiv())
+        }
+    }
+}

@@ -1,0 +1,247 @@
+//! A small sparse linear-programming front end on Clarabel (CSC matrices, no modelling layer):
+//! `min q·z` subject to rows `g·z <= h` and `e·z = f`. One factorisation is reused for many
+//! objectives (`update_q`), which is what the shared-error EIV relaxation ([`crate::eiv_shared`])
+//! and the exact-grid reference ([`crate::eiv_exact`]) need: the same polytope bounded along many
+//! coordinates.
+//!
+//! Guarantee (as in [`crate::lp`]): every inequality right-hand side is relaxed outward by
+//! [`ROW_PAD`] before solving, and a reported optimum is the smaller of the primal and dual
+//! objectives (the dual one is a lower bound of a minimum) widened outward by [`RESULT_PAD`].
+//! Solver outcomes other than "solved" and "primal infeasible" are reported as
+//! [`Optimum::Unknown`], which callers treat conservatively (no tightening, cell kept).
+use crate::error::{Result, SmidError};
+use crate::lp::{RESULT_PAD, ROW_PAD};
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{
+    DefaultSettings, DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+};
+
+/// A sparse LP under construction.
+#[derive(Debug, Clone, Default)]
+pub struct SparseLp {
+    /// Number of variables.
+    pub n: usize,
+    le: Vec<(Vec<(usize, f64)>, f64)>,
+    eq: Vec<(Vec<(usize, f64)>, f64)>,
+}
+
+/// Outcome of one optimisation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Optimum {
+    /// A guaranteed bound on the optimum (lower bound for `min`, upper bound for `max`), and the
+    /// solver's optimal point is available through [`LpSolver::point`].
+    Value(f64),
+    /// The polytope is empty.
+    Infeasible,
+    /// The solver stopped without a conclusion (iteration limit, numerical trouble).
+    Unknown,
+}
+
+fn merge(mut row: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
+    row.sort_by_key(|e| e.0);
+    let mut out: Vec<(usize, f64)> = Vec::with_capacity(row.len());
+    for (c, v) in row {
+        match out.last_mut() {
+            Some(l) if l.0 == c => l.1 += v,
+            _ => out.push((c, v)),
+        }
+    }
+    out.retain(|e| e.1 != 0.0);
+    out
+}
+
+impl SparseLp {
+    /// An LP in `n` variables without rows.
+    pub fn new(n: usize) -> Self {
+        SparseLp {
+            n,
+            ..Default::default()
+        }
+    }
+    /// Add `g·z <= h` (relaxed outward by [`ROW_PAD`] when solved).
+    pub fn le(&mut self, row: Vec<(usize, f64)>, h: f64) {
+        self.le.push((merge(row), h));
+    }
+    /// Add `lo <= z_c <= hi` (each side relaxed outward).
+    pub fn bound(&mut self, c: usize, lo: f64, hi: f64) {
+        self.le.push((vec![(c, 1.0)], hi));
+        self.le.push((vec![(c, -1.0)], -lo));
+    }
+    /// Add `e·z = f`.
+    pub fn eq(&mut self, row: Vec<(usize, f64)>, f: f64) {
+        self.eq.push((merge(row), f));
+    }
+    /// Number of inequality rows.
+    pub fn rows(&self) -> usize {
+        self.le.len() + self.eq.len()
+    }
+
+    /// Set up the solver (one symbolic factorisation for all objectives).
+    pub fn solver(&self) -> Result<LpSolver> {
+        let m = self.le.len() + self.eq.len();
+        let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); self.n];
+        let mut b = Vec::with_capacity(m);
+        for (r, (g, h)) in self.le.iter().enumerate() {
+            for &(c, v) in g {
+                cols[c].push((r, v));
+            }
+            b.push(h + ROW_PAD * (1.0 + h.abs()));
+        }
+        for (r, (e, f)) in self.eq.iter().enumerate() {
+            for &(c, v) in e {
+                cols[c].push((self.le.len() + r, v));
+            }
+            b.push(*f);
+        }
+        let mut colptr = Vec::with_capacity(self.n + 1);
+        let mut rowval = Vec::new();
+        let mut nzval = Vec::new();
+        colptr.push(0);
+        for col in cols {
+            for (r, v) in col {
+                rowval.push(r);
+                nzval.push(v);
+            }
+            colptr.push(rowval.len());
+        }
+        if b.iter().any(|v| !v.is_finite()) || nzval.iter().any(|v: &f64| !v.is_finite()) {
+            return Err(SmidError::Solver(
+                "non-finite coefficient in the linear program".into(),
+            ));
+        }
+        let a = CscMatrix::new(m, self.n, colptr, rowval, nzval);
+        let p = CscMatrix::zeros((self.n, self.n));
+        let mut cones = Vec::new();
+        if !self.le.is_empty() {
+            cones.push(SupportedConeT::NonnegativeConeT(self.le.len()));
+        }
+        if !self.eq.is_empty() {
+            cones.push(SupportedConeT::ZeroConeT(self.eq.len()));
+        }
+        let settings: DefaultSettings<f64> = DefaultSettingsBuilder::default()
+            .verbose(false)
+            .presolve_enable(false)
+            .tol_gap_abs(1e-10)
+            .tol_gap_rel(1e-10)
+            .tol_feas(1e-10)
+            .max_iter(400)
+            .build()
+            .map_err(|e| SmidError::Solver(e.to_string()))?;
+        let q = vec![0.0; self.n];
+        let solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings)
+            .map_err(|e| SmidError::Solver(e.to_string()))?;
+        Ok(LpSolver {
+            n: self.n,
+            solver,
+            infeasible: false,
+        })
+    }
+}
+
+/// A set-up LP, optimised along many objectives.
+pub struct LpSolver {
+    n: usize,
+    solver: DefaultSolver<f64>,
+    infeasible: bool,
+}
+
+impl LpSolver {
+    fn run(&mut self, q: &[f64]) -> Result<Optimum> {
+        if self.infeasible {
+            return Ok(Optimum::Infeasible);
+        }
+        self.solver
+            .update_q(&q.to_vec())
+            .map_err(|e| SmidError::Solver(format!("{e:?}")))?;
+        self.solver.solve();
+        let s = &self.solver.solution;
+        Ok(match s.status {
+            SolverStatus::Solved | SolverStatus::AlmostSolved => {
+                let v = s.obj_val.min(s.obj_val_dual);
+                if v.is_finite() {
+                    Optimum::Value(v)
+                } else {
+                    Optimum::Unknown
+                }
+            }
+            SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+                self.infeasible = true;
+                Optimum::Infeasible
+            }
+            SolverStatus::DualInfeasible | SolverStatus::AlmostDualInfeasible => {
+                return Err(SmidError::Unbounded {
+                    parameter: "θ".into(),
+                    message:
+                        "the linear program is unbounded: the data do not constrain a parameter"
+                            .into(),
+                })
+            }
+            _ => Optimum::Unknown,
+        })
+    }
+
+    fn pad(v: f64) -> f64 {
+        RESULT_PAD * (1.0 + v.abs())
+    }
+
+    /// A guaranteed lower bound of `min z_c` (or infeasibility).
+    pub fn minimise(&mut self, c: usize) -> Result<Optimum> {
+        let mut q = vec![0.0; self.n];
+        q[c] = 1.0;
+        Ok(match self.run(&q)? {
+            Optimum::Value(v) => Optimum::Value(v - Self::pad(v)),
+            o => o,
+        })
+    }
+
+    /// A guaranteed upper bound of `max z_c` (or infeasibility).
+    pub fn maximise(&mut self, c: usize) -> Result<Optimum> {
+        let mut q = vec![0.0; self.n];
+        q[c] = -1.0;
+        Ok(match self.run(&q)? {
+            Optimum::Value(v) => Optimum::Value(-v + Self::pad(v)),
+            o => o,
+        })
+    }
+
+    /// Whether the polytope is non-empty; `None` when the solver could not tell.
+    pub fn feasible(&mut self) -> Result<Option<bool>> {
+        Ok(match self.run(&vec![0.0; self.n])? {
+            Optimum::Value(_) => Some(true),
+            Optimum::Infeasible => Some(false),
+            Optimum::Unknown => None,
+        })
+    }
+
+    /// The solver's last optimal point (meaningful after a [`Optimum::Value`]).
+    pub fn point(&self) -> &[f64] {
+        &self.solver.solution.x
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    #[test]
+    fn bounds_a_triangle_and_detects_emptiness() {
+        // x, y >= 0, x + y <= 1, x - y = 0.2
+        let mut lp = SparseLp::new(2);
+        lp.le(vec![(0, -1.0)], 0.0);
+        lp.le(vec![(1, -1.0)], 0.0);
+        lp.le(vec![(0, 1.0), (1, 1.0)], 1.0);
+        lp.eq(vec![(0, 1.0), (1, -1.0)], 0.2);
+        let mut s = lp.solver().unwrap();
+        let Optimum::Value(hi) = s.maximise(0).unwrap() else {
+            panic!("feasible")
+        };
+        let Optimum::Value(lo) = s.minimise(0).unwrap() else {
+            panic!("feasible")
+        };
+        assert!(hi >= 0.6 && hi < 0.6 + 1e-6, "{hi}");
+        assert!(lo <= 0.2 && lo > 0.2 - 1e-6, "{lo}");
+        lp.le(vec![(0, 1.0)], 0.1);
+        let mut s = lp.solver().unwrap();
+        assert_eq!(s.feasible().unwrap(), Some(false));
+        assert_eq!(s.maximise(1).unwrap(), Optimum::Infeasible);
+    }
+}
