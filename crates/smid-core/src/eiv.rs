@@ -212,7 +212,21 @@ impl EivProblem<'_> {
         let mut hi = vec![f64::NEG_INFINITY; p];
         let mut feasible = 0;
         for signs in Self::orthants(&unc) {
-            match self.polytope(&times, &signs).bound(&free)? {
+            let names = theta_names(self.na, self.nb);
+            let bounded = self.polytope(&times, &signs).bound(&free).map_err(|e| match e {
+                SmidError::Unbounded { parameter, message } => SmidError::Unbounded {
+                    parameter: parameter
+                        .trim_start_matches("θ[")
+                        .trim_end_matches(']')
+                        .parse::<usize>()
+                        .ok()
+                        .and_then(|k| names.get(k).cloned())
+                        .unwrap_or(parameter),
+                    message: format!("{message} ({} usable equations; a longer or richer dynamic experiment helps)", times.len()),
+                },
+                other => other,
+            })?;
+            match bounded {
                 LpOutcome::Infeasible => {}
                 LpOutcome::Bounds(b) => {
                     feasible += 1;

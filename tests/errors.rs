@@ -1,0 +1,261 @@
+//! Bad input gets a clear error naming the file, line, field or sample; an empty feasible set is
+//! reported as "the data are inconsistent with the model and noise bound" with the stage and the
+//! first offending sample, never as a panic; `smid run` exits 2 on such a finding.
+use smid_core::spec::Spec;
+use smid_core::{SmidError, Stage};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const PAPER: &str = include_str!("../examples/paper.yaml");
+
+fn parse(text: &str) -> Result<Spec, SmidError> {
+    Spec::parse(text, Path::new("bad.yaml"))
+}
+
+fn err(text: &str) -> String {
+    parse(text)
+        .expect_err("spec should be rejected")
+        .to_string()
+}
+
+#[test]
+fn the_bundled_example_parses() {
+    parse(PAPER).unwrap();
+}
+
+#[test]
+fn unknown_field_names_file_line_and_field() {
+    let e = err(&PAPER.replace("  seed: 1\n", "  seed: 1\n  sead: 2\n"));
+    assert!(e.starts_with("bad.yaml:"), "{e}");
+    assert!(e.contains("sead") && e.contains("experiment"), "{e}");
+    assert!(e.contains("expected one of"), "{e}");
+}
+
+#[test]
+fn misspelled_plugin_type_lists_the_valid_names() {
+    let e = err(&PAPER.replace("{ type: output_backlash }", "{ type: output_backlsh }"));
+    assert!(
+        e.contains("output_backlsh") && e.contains("output_backlash"),
+        "{e}"
+    );
+}
+
+#[test]
+fn misspelled_plugin_parameter_lists_the_valid_names() {
+    let e = err(&PAPER.replace("m_l: 0.248,", "m_x: 0.248,"));
+    assert!(e.contains("m_x") && e.contains("m_l"), "{e}");
+}
+
+#[test]
+fn wrong_type_names_the_field() {
+    let e = err(&PAPER.replace("na: 2", "na: two"));
+    assert!(e.contains("model.na"), "{e}");
+}
+
+#[test]
+fn non_positive_noise_bound_is_rejected() {
+    for bad in ["delta: 0.0", "delta: -1.0e-3", "delta: .nan"] {
+        let e = err(&PAPER.replace("encoder_bits: 15", bad));
+        assert!(e.contains("noise.delta") && e.contains("> 0"), "{bad}: {e}");
+    }
+    let e = err(&PAPER.replace("encoder_bits: 15", "encoder_bits: 15\n  delta: 1.0e-3"));
+    assert!(e.contains("not both"), "{e}");
+}
+
+#[test]
+fn unstable_plant_and_bad_fixed_coefficient_are_rejected() {
+    let e = err(&PAPER.replace("a: [0.5, 0.7]", "a: [0.5, 1.7]"));
+    assert!(
+        e.contains("plant.simulator.a") && e.contains("stable"),
+        "{e}"
+    );
+    let e = err(&PAPER.replace("fixed: { b0: 0.0 }", "fixed: { b7: 0.0 }"));
+    assert!(e.contains("model.fixed.b7") && e.contains("b0"), "{e}");
+    let e = err(&PAPER.replace("m_l: 0.248", "m_l: -0.248"));
+    assert!(e.contains("m_l") && e.contains("> 0"), "{e}");
+}
+
+/// A measured-data spec over `steady` and `dynamic` CSV text, in a fresh directory.
+fn data_spec(steady: &str, dynamic: &str, delta: f64) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("steady.csv"), steady).unwrap();
+    std::fs::write(dir.path().join("dynamic.csv"), dynamic).unwrap();
+    let spec = format!(
+        "plant:\n  data:\n    steady_state: {{ file: steady.csv, u: u, y: y }}\n    dynamic: {{ file: dynamic.csv, u: u, y: y }}\n\
+         noise: {{ delta: {delta} }}\nmodel:\n  nonlinearity: {{ type: output_backlash }}\n  na: 2\n  nb: 2\n  fixed: {{ b0: 0.0 }}\n\
+         method: {{ alpha: zero, eiv: classical }}\n"
+    );
+    let path = dir.path().join("spec.yaml");
+    std::fs::write(&path, spec).unwrap();
+    (dir, path)
+}
+
+/// Clean steady-state and dynamic data of the paper's system, as CSV.
+fn paper_csv() -> (String, String) {
+    use smid_core::linear::LinearModel;
+    use smid_core::nonlinearity::Nonlinearity;
+    let b = smid_output_backlash::Backlash {
+        m_l: 0.248,
+        c_l: 0.0698,
+        m_r: 0.252,
+        c_r: 0.0349,
+    };
+    let mut steady = String::from("u,y\n");
+    for k in 0..20 {
+        let a = 0.6 + 2.4 * k as f64 / 19.0;
+        steady += &format!(
+            "{a},{}\n{},{}\n",
+            b.m_r * (a - b.c_r),
+            -a,
+            b.m_l * (-a + b.c_l)
+        );
+    }
+    let lin = LinearModel {
+        a: vec![0.5, 0.7],
+        b: vec![0.0, 1.4, 0.8],
+    };
+    let u: Vec<f64> = (0..120)
+        .map(|t| if (t * 37 + 11) % 7 < 3 { 1.0 } else { -1.0 })
+        .collect();
+    let w = b.simulate(&lin.simulate(&u));
+    let mut dynamic = String::from("u,y\n");
+    for (a, c) in u.iter().zip(&w) {
+        dynamic += &format!("{a},{c}\n");
+    }
+    (steady, dynamic)
+}
+
+#[test]
+fn measured_data_identify_and_bad_cells_are_named() {
+    let (steady, dynamic) = paper_csv();
+    let (_d, path) = data_spec(&steady, &dynamic, 1e-4);
+    let id = smid::run_spec_file(&path).unwrap();
+    assert!(id.parameter("a1").unwrap().radius < 0.01);
+
+    let (_d, path) = data_spec(&steady, &dynamic.replacen("\n1,", "\nNaN,", 1), 1e-4);
+    let e = smid::run_spec_file(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("dynamic.csv") && e.contains("row") && e.contains("`u`") && e.contains("finite"),
+        "{e}"
+    );
+
+    let (_d, path) = data_spec(&steady.replacen("\n0.6,", "\nabc,", 1), &dynamic, 1e-4);
+    let e = smid::run_spec_file(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("steady.csv") && e.contains("row 2") && e.contains("abc"),
+        "{e}"
+    );
+
+    let short: String = dynamic.lines().take(6).map(|l| format!("{l}\n")).collect();
+    let (_d, path) = data_spec(&steady, &short, 1e-4);
+    let e = smid::run_spec_file(&path).unwrap_err().to_string();
+    assert!(e.contains("too short"), "{e}");
+
+    let (_d, path) = data_spec(&steady.replace("u,y", "input,y"), &dynamic, 1e-4);
+    let e = smid::run_spec_file(&path).unwrap_err().to_string();
+    assert!(e.contains("no column `u`") && e.contains("input"), "{e}");
+}
+
+#[test]
+fn an_outlier_is_reported_as_inconsistent_with_its_sample() {
+    let (steady, dynamic) = paper_csv();
+    // steady-state sample 6 (0-based, the 4th right-branch point) moved far beyond the bound
+    let lines: Vec<String> = steady.lines().map(String::from).collect();
+    let mut bad = lines.clone();
+    let fields: Vec<f64> = bad[7].split(',').map(|v| v.parse().unwrap()).collect();
+    bad[7] = format!("{},{}", fields[0], fields[1] + 0.05);
+    let (_d, path) = data_spec(&(bad.join("\n") + "\n"), &dynamic, 1e-4);
+    match smid::run_spec_file(&path) {
+        Err(SmidError::Inconsistent { stage, sample, .. }) => {
+            assert_eq!(stage, Stage::SteadyState);
+            assert_eq!(sample, 6);
+        }
+        other => panic!("expected an inconsistency, got {other:?}"),
+    }
+    // the CLI reports it plainly and exits 2
+    let out = Command::new(env!("CARGO_BIN_EXE_smid"))
+        .arg("run")
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let msg = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        msg.contains("the data are inconsistent with the model and noise bound")
+            && msg.contains("sample 6"),
+        "{msg}"
+    );
+
+    // A dynamic-record outlier empties stage 3 and names its time.
+    let mut dl: Vec<String> = dynamic.lines().map(String::from).collect();
+    let f: Vec<f64> = dl[61].split(',').map(|v| v.parse().unwrap()).collect();
+    dl[61] = format!("{},{}", f[0], f[1] + 0.03);
+    let (_d, path) = data_spec(&steady, &(dl.join("\n") + "\n"), 1e-4);
+    match smid::run_spec_file(&path) {
+        Err(SmidError::Inconsistent {
+            stage: Stage::Linear,
+            sample,
+            ..
+        }) => assert!((60..=64).contains(&sample), "{sample}"),
+        other => panic!("expected a stage-3 inconsistency, got {other:?}"),
+    }
+}
+
+#[test]
+fn cli_run_writes_results_and_rerun_on_its_data_gives_the_same_bounds() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_smid"))
+        .args(["run", "examples/paper.yaml", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("result.json")).unwrap())
+            .unwrap();
+    let params = result["parameters"].as_array().unwrap();
+    let names: Vec<&str> = params.iter().map(|p| p["name"].as_str().unwrap()).collect();
+    for n in ["m_l", "c_l", "m_r", "c_r", "a1", "a2", "b0", "b1", "b2"] {
+        assert!(names.contains(&n), "{n} missing from {names:?}");
+    }
+    for p in params {
+        for k in ["lower", "upper", "center", "radius"] {
+            assert!(p[k].is_number(), "{k} in {p}");
+        }
+        assert!(p["lower"].as_f64() <= p["upper"].as_f64());
+    }
+    for f in [
+        "data.csv",
+        "region_left_branch.svg",
+        "region_right_branch.svg",
+        "inner_signal.svg",
+    ] {
+        let text = std::fs::read_to_string(dir.path().join(f)).unwrap();
+        assert!(text.len() > 200, "{f} is empty");
+    }
+    // Rerun on the written data as measured data: same stage-1 and stage-3 bounds.
+    let spec = std::fs::read_to_string("examples/paper.yaml").unwrap();
+    let method = spec.split("method:").nth(1).unwrap_or("");
+    let rerun = format!(
+        "plant:\n  data:\n    steady_state: {{ file: data.csv, u: u, y: y, part: steady }}\n    dynamic: {{ file: data.csv, u: u, y: y, part: dynamic }}\n\
+         noise: {{ encoder_bits: 15 }}\nmodel:\n  nonlinearity: {{ type: output_backlash }}\n  na: 2\n  nb: 2\n  fixed: {{ b0: 0.0 }}\n\
+         method:{}",
+        method.replace("alpha: design", "alpha: zero")
+    );
+    std::fs::write(dir.path().join("rerun.yaml"), rerun).unwrap();
+    let again = smid::run_spec_file(&dir.path().join("rerun.yaml")).unwrap();
+    let mut orig = smid_core::spec::Spec::from_file(Path::new("examples/paper.yaml")).unwrap();
+    orig.method.alpha = smid_core::spec::AlphaSpec::Zero;
+    let first = smid_core::pipeline::run(&orig, Path::new(".")).unwrap();
+    for (a, b) in first.parameters.iter().zip(&again.parameters) {
+        assert_eq!(a.name, b.name);
+        assert!(
+            (a.lower - b.lower).abs() < 1e-12 && (a.upper - b.upper).abs() < 1e-12,
+            "{a:?} vs {b:?}"
+        );
+    }
+}
