@@ -372,3 +372,56 @@ pub fn solve_from(
         equations: start.equations.clone(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eiv_shared::tests::{problem, random_case};
+    use crate::eiv_shared::{self, SharedOptions};
+    use proptest::prelude::*;
+
+    fn quick() -> ExactOptions {
+        ExactOptions {
+            depth: 4,
+            inner_tries: 2,
+            dive: 6,
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 4, .. ProptestConfig::default() })]
+        #[test]
+        fn exact_grid_outer_contains_truth_and_inner_hull(seed in any::<u64>()) {
+            let (m, out, input) = random_case(seed, 40);
+            let prob = problem(&out, &input, true);
+            let shared = eiv_shared::solve(&prob, &SharedOptions::default()).unwrap();
+            let ex = solve_from(&prob, &shared, &quick(), || {}).unwrap();
+            let truth: Vec<f64> = m.a.iter().chain(&m.b).copied().collect();
+            for (k, t) in truth.into_iter().enumerate() {
+                let o = ex.outer[k];
+                prop_assert!(o.contains(t), "outer {:?} misses {}", o, t);
+                prop_assert!(shared.bounds[k].lo <= o.lo && o.hi <= shared.bounds[k].hi);
+                if let Some(i) = ex.inner[k] {
+                    prop_assert!(o.lo <= i.lo && i.hi <= o.hi, "inner {:?} outside outer {:?}", i, o);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn three_free_a_coefficients_are_refused() {
+        let (_, out, input) = random_case(1, 40);
+        let mut prob = problem(&out, &input, true);
+        prob.na = 3;
+        prob.fixed = vec![None, None, None, Some(0.0), None, None];
+        let start = EivResult {
+            bounds: vec![Interval::new(-1.0, 1.0); 6],
+            equations: prob.equation_times(),
+            feasible_orthants: 1,
+        };
+        assert!(matches!(
+            solve_from(&prob, &start, &quick(), || {}),
+            Err(SmidError::Unsupported { .. })
+        ));
+    }
+}

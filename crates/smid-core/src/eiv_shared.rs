@@ -403,3 +403,135 @@ pub fn solve_method(method: crate::spec::EivMethod, prob: &EivProblem) -> Result
         }
     }
 }
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::inversion::{InnerBound, InnerKind};
+    use crate::linear::LinearModel;
+    use proptest::prelude::*;
+    use rand::{Rng, SeedableRng};
+
+    /// A random stable 2nd-order block with `b0 = 0` and unit gain, its PRBS-driven inner
+    /// signal, and bounds `x_t ± Δ_t` around the true value moved by a uniform error in the bound
+    /// (some samples band-wide, as the output-backlash plugin gives them).
+    pub(crate) fn random_case(
+        seed: u64,
+        n: usize,
+    ) -> (LinearModel, Vec<InnerBound>, Vec<Interval>) {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let r: f64 = rng.gen_range(0.2..0.85);
+        let phi: f64 = rng.gen_range(0.0..std::f64::consts::PI);
+        let (a1, a2) = (-2.0 * r * phi.cos(), r * r);
+        let g = 1.0 + a1 + a2;
+        let b1 = rng.gen_range(0.2..1.5) * g;
+        let m = LinearModel {
+            a: vec![a1, a2],
+            b: vec![0.0, b1, g - b1],
+        };
+        let u: Vec<f64> = (0..n)
+            .map(|_| if rng.gen_bool(0.5) { 1.0 } else { -1.0 })
+            .collect();
+        let x = m.simulate(&u);
+        let dx = 10f64.powf(rng.gen_range(-4.0..-1.5));
+        let out = x
+            .iter()
+            .map(|&v| {
+                let band = rng.gen_bool(0.1);
+                let d = if band {
+                    20.0 * dx
+                } else {
+                    dx * rng.gen_range(0.5..1.5)
+                };
+                let c = v + rng.gen_range(-d..=d);
+                InnerBound {
+                    interval: Interval::new(c - d, c + d),
+                    kind: if band {
+                        InnerKind::Band
+                    } else {
+                        InnerKind::Inverted
+                    },
+                }
+            })
+            .collect();
+        let input = u.iter().map(|&v| Interval::new(v, v)).collect();
+        (m, out, input)
+    }
+
+    pub(crate) fn problem<'a>(
+        out: &'a [InnerBound],
+        input: &'a [Interval],
+        band: bool,
+    ) -> EivProblem<'a> {
+        EivProblem {
+            na: 2,
+            nb: 2,
+            fixed: vec![None, None, Some(0.0), None, None],
+            unit_gain: true,
+            output: out,
+            input,
+            use_band_samples: band,
+        }
+    }
+
+    fn truth(m: &LinearModel) -> Vec<f64> {
+        m.a.iter().chain(&m.b).copied().collect()
+    }
+
+    #[test]
+    fn shared_is_never_wider_than_classical_and_contains_the_truth() {
+        for seed in 0..6 {
+            let (m, out, input) = random_case(seed, 60);
+            for band in [false, true] {
+                let prob = problem(&out, &input, band);
+                let classical = prob.solve().unwrap();
+                let shared = solve(&prob, &SharedOptions::default()).unwrap();
+                for (k, t) in truth(&m).into_iter().enumerate() {
+                    let (c, s) = (classical.bounds[k], shared.bounds[k]);
+                    assert!(s.contains(t), "seed {seed}: shared {s:?} misses {t}");
+                    assert!(
+                        c.lo <= s.lo && s.hi <= c.hi,
+                        "seed {seed}: {s:?} not inside {c:?}"
+                    );
+                }
+                // The sharing pays: the a's shrink markedly.
+                assert!(shared.bounds[0].radius() < 0.7 * classical.bounds[0].radius());
+            }
+        }
+    }
+
+    #[test]
+    fn an_outlier_is_reported_as_inconsistent_not_a_panic() {
+        let (_, mut out, input) = random_case(3, 60);
+        let c = out[30].interval;
+        out[30].interval = Interval::new(c.lo + 0.5, c.hi + 0.5);
+        match solve(&problem(&out, &input, true), &SharedOptions::default()) {
+            Err(SmidError::Inconsistent {
+                stage: Stage::Linear,
+                ..
+            }) => {}
+            other => panic!("expected inconsistency, got {other:?}"),
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 8, .. ProptestConfig::default() })]
+        #[test]
+        fn shared_bounds_contain_the_truth(seed in any::<u64>(), band in any::<bool>()) {
+            let (m, out, input) = random_case(seed, 50);
+            let r = solve(&problem(&out, &input, band), &SharedOptions::default()).unwrap();
+            for (k, t) in truth(&m).into_iter().enumerate() {
+                prop_assert!(r.bounds[k].contains(t), "{:?} misses {}", r.bounds[k], t);
+            }
+        }
+
+        #[test]
+        fn classical_bounds_contain_the_truth(seed in any::<u64>(), band in any::<bool>()) {
+            let (m, out, input) = random_case(seed, 50);
+            let r = problem(&out, &input, band).solve().unwrap();
+            for (k, t) in truth(&m).into_iter().enumerate() {
+                prop_assert!(r.bounds[k].contains(t), "{:?} misses {}", r.bounds[k], t);
+            }
+        }
+    }
+}
