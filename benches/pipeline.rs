@@ -1,1 +1,27 @@
-fn main() {}
+//! Criterion benchmark of the whole pipeline on `examples/paper.yaml` (Appendix filter search,
+//! steady-state and PRBS experiments, stages 1-3), with the spec's own stage-3 method and with
+//! the classical one. `cargo bench --bench pipeline`.
+use criterion::{criterion_group, criterion_main, Criterion};
+use smid_core::pipeline;
+use smid_core::spec::EivMethod;
+use std::path::Path;
+
+fn bench(c: &mut Criterion) {
+    let spec =
+        smid::load_spec(Path::new("examples/paper.yaml")).expect("examples/paper.yaml parses");
+    c.bench_function("paper.yaml whole pipeline (spec method)", |b| {
+        b.iter(|| pipeline::run(&spec, Path::new(".")).expect("pipeline runs"))
+    });
+    let mut classical = smid::load_spec(Path::new("examples/paper.yaml")).expect("parses");
+    classical.method.eiv = EivMethod::Classical;
+    c.bench_function("paper.yaml whole pipeline (classical)", |b| {
+        b.iter(|| pipeline::run(&classical, Path::new(".")).expect("pipeline runs"))
+    });
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(20);
+    targets = bench
+}
+criterion_main!(benches);
