@@ -30,6 +30,15 @@ fn plot_err(path: &Path, e: impl std::fmt::Display) -> SmidError {
     }
 }
 
+/// Decimals needed to tell ticks apart over a range of `span`.
+fn digits(span: f64) -> usize {
+    if span > 0.0 && span.is_finite() {
+        ((-span.log10()).ceil() as i64 + 2).clamp(1, 12) as usize
+    } else {
+        3
+    }
+}
+
 fn padded(lo: f64, hi: f64) -> (f64, f64) {
     let w = (hi - lo).abs().max(1e-12 * (1.0 + lo.abs()));
     (lo - 0.1 * w, hi + 0.1 * w)
@@ -64,12 +73,15 @@ pub fn region_svg(region: &Region, path: &Path) -> Result<()> {
         .y_label_area_size(80)
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(|e| plot_err(path, e))?;
+    let (dx, dy) = (digits(x1 - x0), digits(y1 - y0));
     chart
         .configure_mesh()
         .x_desc(region.axes[0].as_str())
         .y_desc(region.axes[1].as_str())
         .x_labels(6)
         .y_labels(6)
+        .x_label_formatter(&|v| format!("{v:.dx$}"))
+        .y_label_formatter(&|v| format!("{v:.dy$}"))
         .draw()
         .map_err(|e| plot_err(path, e))?;
     let poly: Vec<(f64, f64)> = region.vertices.iter().map(|v| (v[0], v[1])).collect();
@@ -138,9 +150,47 @@ pub fn inner_svg(inner: &[InnerBound], truth: Option<&[f64]>, path: &Path) -> Re
     }
     let (y0, y1) = padded(lo, hi);
     let n = inner.len().max(2);
-    let root = SVGBackend::new(path, (960, 480)).into_drawing_area();
+    let root = SVGBackend::new(path, (960, 720)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
-    let mut chart = ChartBuilder::on(&root)
+    let (top, bottom) = root.split_vertically(430);
+    // Bottom panel: the radius Δx_t of each bound (eq 28) on a log scale, so thin bounds show.
+    let radii: Vec<(usize, f64, InnerKind)> = finite
+        .iter()
+        .map(|(t, b)| (*t, b.interval.radius().max(1e-300), b.kind))
+        .collect();
+    let rmin = radii.iter().map(|r| r.1).fold(f64::INFINITY, f64::min);
+    let rmax = radii.iter().map(|r| r.1).fold(f64::NEG_INFINITY, f64::max);
+    let (rmin, rmax) = if rmin.is_finite() && rmax.is_finite() {
+        (rmin / 2.0, rmax * 2.0)
+    } else {
+        (1e-6, 1.0)
+    };
+    let mut rc = ChartBuilder::on(&bottom)
+        .caption("bound radius Δx_t", ("sans-serif", 16))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(-0.5..(n as f64 - 0.5), (rmin..rmax).log_scale())
+        .map_err(|e| plot_err(path, e))?;
+    rc.configure_mesh()
+        .x_desc("t")
+        .y_desc("Δx_t")
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .draw()
+        .map_err(|e| plot_err(path, e))?;
+    for (kind, color) in [
+        (InnerKind::Band, RGBColor(150, 190, 230)),
+        (InnerKind::Inverted, BLUE),
+    ] {
+        rc.draw_series(
+            radii
+                .iter()
+                .filter(|r| r.2 == kind)
+                .map(|r| Circle::new((r.0 as f64, r.1), 3, color.filled())),
+        )
+        .map_err(|e| plot_err(path, e))?;
+    }
+    let mut chart = ChartBuilder::on(&top)
         .caption("inner-signal bounds x_t (stage 2)", ("sans-serif", 20))
         .margin(12)
         .x_label_area_size(40)
