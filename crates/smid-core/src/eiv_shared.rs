@@ -32,7 +32,7 @@ impl Default for SharedOptions {
     fn default() -> Self {
         SharedOptions {
             max_rounds: 12,
-            min_improvement: 0.01,
+            min_improvement: 0.03,
         }
     }
 }
