@@ -52,6 +52,12 @@ pub fn random_backlash(rng: &mut impl Rng) -> Backlash {
     }
 }
 
+/// PRBS amplitude that makes the inner signal cross the dead band often: a designer scales the
+/// excitation to the play, or most outputs stay constant and the inner signal is not invertible.
+pub fn prbs_amplitude(b: &Backlash) -> f64 {
+    1.0 + 4.0 * (b.c_l + b.c_r)
+}
+
 /// Whether eq (2) describes a backlash for inner signals up to `x_max` in magnitude: the dead
 /// band `[w/m_l - c_l, w/m_r + c_r]` must be non-empty for every output reached.
 pub fn backlash_is_physical(b: &Backlash, x_max: f64) -> bool {
@@ -68,9 +74,19 @@ impl Trial {
         loop {
             let linear = random_linear(&mut rng);
             let backlash = random_backlash(&mut rng);
-            let l1: f64 = linear.simulate(&[1.0; 400]).windows(2).map(|w| (w[1] - w[0]).abs()).sum::<f64>() + 1.0;
-            if backlash_is_physical(&backlash, 3.0f64.max(l1)) {
-                return Trial { linear, backlash, bits: rng.gen_range(8..=16), seed };
+            let l1: f64 = linear
+                .simulate(&[1.0; 400])
+                .windows(2)
+                .map(|w| (w[1] - w[0]).abs())
+                .sum::<f64>()
+                + 1.0;
+            if backlash_is_physical(&backlash, 3.0f64.max(l1 * prbs_amplitude(&backlash))) {
+                return Trial {
+                    linear,
+                    backlash,
+                    bits: rng.gen_range(8..=16),
+                    seed,
+                };
             }
         }
     }
@@ -83,6 +99,7 @@ impl Trial {
         };
         experiment.filter.tol = 0.05;
         experiment.dynamic.length = 200;
+        experiment.dynamic.amplitude = prbs_amplitude(&self.backlash);
         Spec {
             name: Some(format!("trial-{}", self.seed)),
             plant: PlantSpec::default(),
