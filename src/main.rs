@@ -43,12 +43,19 @@ enum Command {
         #[arg(long, value_delimiter = ',')]
         methods: Vec<String>,
     },
+    /// Print the JSON Schema of the spec (every registered plugin `type`); the committed copy is
+    /// `schemas/smid-spec.schema.json`.
+    Schema,
     /// Monte Carlo containment check: random systems, backlash and noise; every bound must hold.
     Check {
         #[arg(long, default_value_t = 1000)]
         trials: usize,
         #[arg(long, default_value_t = 1)]
         first_seed: u64,
+        /// Nonlinearity plugin to check: output_backlash, input_backlash, dead_zone_input,
+        /// dead_zone_output or saturation.
+        #[arg(long, default_value = "output_backlash")]
+        plugin: String,
         /// Stage-3 method (classical, shared, sdp, exact-grid; default: the spec default).
         #[arg(long)]
         method: Option<String>,
@@ -87,6 +94,23 @@ fn main() {
 fn real_main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
+        Command::Schema => print!("{}", smid::core::registry::spec_schema()),
+        Command::Check {
+            trials,
+            first_seed,
+            ref plugin,
+            ..
+        } if plugin != "output_backlash" => {
+            let pb = progress(trials, plugin);
+            let s = smid::plugin_check::run(plugin, first_seed, trials, || pb.inc(1))?;
+            pb.finish_and_clear();
+            print!("{}", smid::plugin_check::report(plugin, &s));
+            anyhow::ensure!(
+                s.missed.is_empty(),
+                "{} trials missed the truth",
+                s.missed.len()
+            );
+        }
         Command::Run { spec, out } => {
             let id = match smid::run_spec_file(&spec) {
                 Ok(id) => id,
@@ -153,6 +177,7 @@ fn real_main() -> Result<()> {
             trials,
             first_seed,
             method,
+            ..
         } => {
             let method = match method {
                 Some(m) => parse_method(&m)?,

@@ -1,0 +1,231 @@
+//! Monte Carlo containment check per nonlinearity plugin (`smid check --plugin NAME`): random
+//! stable linear blocks with unit steady-state gain (eq 8), random parameters of the chosen
+//! nonlinearity, a random noise bound (8 to 16 encoder bits, Section 6) and noise uniform in
+//! its bound; the whole three-stage pipeline runs and every bound (stage-1 set, inner-signal
+//! samples, parameter intervals) must contain the truth. Each trial runs the Appendix filter
+//! search, `M = 20` steady-state amplitudes and a PRBS of `N = 100` samples (the paper's `N`),
+//! with orders `na = nb = 2` and `b0 = 0` fixed. `output_backlash` is the original check
+//! of [`crate::montecarlo`]; the others are defined here.
+use crate::montecarlo::{self, backlash_is_physical, random_backlash, random_linear, Summary};
+use rand::{Rng, SeedableRng};
+use smid_core::linear::LinearModel;
+use smid_core::noise::NoiseSpec;
+use smid_core::nonlinearity::{Nonlinearity, NonlinearityModel, Structure};
+use smid_core::pipeline::{self, Identification};
+use smid_core::plant::SimulatedPlant;
+use smid_core::spec::{ExperimentSpec, MethodSpec, ModelSpec, PlantSpec, Spec};
+use smid_core::{Result, SmidError};
+use smid_dead_zone::{DeadZone, DeadZoneModel};
+use smid_input_backlash::{InputBacklash, InputBacklashModel};
+use smid_saturation::{Saturation, SaturationModel};
+
+/// The plugins `smid check --plugin` knows, with the structure each is checked in.
+pub const PLUGINS: [&str; 5] = [
+    "output_backlash",
+    "input_backlash",
+    "dead_zone_input",
+    "dead_zone_output",
+    "saturation",
+];
+
+/// One random problem for a plugin.
+#[derive(Debug)]
+pub struct PluginTrial {
+    pub plugin: &'static str,
+    pub structure: Structure,
+    pub linear: LinearModel,
+    pub nonlinearity: Box<dyn Nonlinearity>,
+    pub model: Box<dyn NonlinearityModel>,
+    pub bits: u32,
+    pub seed: u64,
+    /// Steady-state amplitudes `[min, max]` and PRBS amplitude.
+    pub steady: (f64, f64),
+    pub amplitude: f64,
+}
+
+fn plugin_name(name: &str) -> Result<&'static str> {
+    PLUGINS.iter().copied().find(|p| *p == name).ok_or_else(|| {
+        SmidError::invalid(
+            "--plugin",
+            format!(
+                "unknown plugin `{name}`; expected one of: {}",
+                PLUGINS.join(", ")
+            ),
+        )
+    })
+}
+
+impl PluginTrial {
+    /// Draw a trial of `plugin` from a seed.
+    pub fn random(plugin: &str, seed: u64) -> Result<PluginTrial> {
+        let plugin = plugin_name(plugin)?;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let linear = random_linear(&mut rng);
+        let bits = rng.gen_range(8..=16);
+        let (structure, nonlinearity, model, steady, amplitude): (
+            Structure,
+            Box<dyn Nonlinearity>,
+            Box<dyn NonlinearityModel>,
+            (f64, f64),
+            f64,
+        ) = match plugin {
+            "input_backlash" => {
+                // A physical backlash over the inputs it sees (|u| <= 3).
+                let b = loop {
+                    let b = random_backlash(&mut rng);
+                    if backlash_is_physical(&b, 3.0) {
+                        break b;
+                    }
+                };
+                (
+                    Structure::Hammerstein,
+                    Box::new(InputBacklash {
+                        m_l: b.m_l,
+                        c_l: b.c_l,
+                        m_r: b.m_r,
+                        c_r: b.c_r,
+                    }),
+                    Box::new(InputBacklashModel {
+                        at_rest: rng.gen_bool(0.5),
+                    }),
+                    (0.6, 3.0),
+                    1.0,
+                )
+            }
+            "dead_zone_input" | "dead_zone_output" => {
+                let dz = DeadZone {
+                    m_l: rng.gen_range(0.2..2.0),
+                    c_l: rng.gen_range(0.0..0.5),
+                    m_r: rng.gen_range(0.2..2.0),
+                    c_r: rng.gen_range(0.0..0.5),
+                };
+                let s = if plugin == "dead_zone_input" {
+                    Structure::Hammerstein
+                } else {
+                    Structure::Wiener
+                };
+                // Small amplitudes land in the zone: their half-planes are exercised too.
+                (s, Box::new(dz), Box::new(DeadZoneModel {}), (0.1, 3.0), 2.0)
+            }
+            "saturation" => {
+                let m_l: f64 = rng.gen_range(0.2..2.0);
+                let m_r: f64 = rng.gen_range(0.2..2.0);
+                let sat = Saturation {
+                    m_l,
+                    s_l: m_l * rng.gen_range(1.0..2.5),
+                    m_r,
+                    s_r: m_r * rng.gen_range(1.0..2.5),
+                };
+                (
+                    Structure::Wiener,
+                    Box::new(sat),
+                    Box::new(SaturationModel {}),
+                    (0.1, 4.0),
+                    0.5,
+                )
+            }
+            _ => {
+                return Err(SmidError::invalid(
+                    "--plugin",
+                    "output_backlash is checked by the original Monte Carlo trial",
+                ))
+            }
+        };
+        Ok(PluginTrial {
+            plugin,
+            structure,
+            linear,
+            nonlinearity,
+            model,
+            bits,
+            seed,
+            steady,
+            amplitude,
+        })
+    }
+
+    /// The spec identifying this trial (orders 2/2, `b0 = 0`, unit gain).
+    pub fn spec(self) -> (Spec, Box<dyn Nonlinearity>, LinearModel) {
+        let mut experiment = ExperimentSpec {
+            seed: self.seed,
+            ..Default::default()
+        };
+        experiment.filter.tol = 0.05;
+        experiment.steady_state.min = self.steady.0;
+        experiment.steady_state.max = self.steady.1;
+        // 20 amplitudes (not the paper's 50) keep 1000 trials per plugin affordable.
+        experiment.steady_state.amplitudes = 20;
+        experiment.dynamic.length = 100;
+        experiment.dynamic.amplitude = self.amplitude;
+        let spec = Spec {
+            name: Some(format!("{}-trial-{}", self.plugin, self.seed)),
+            plant: PlantSpec::default(),
+            noise: NoiseSpec {
+                delta: None,
+                encoder_bits: Some(self.bits),
+            },
+            experiment,
+            model: ModelSpec {
+                structure: self.structure,
+                nonlinearity: self.model,
+                na: 2,
+                nb: 2,
+                fixed: [("b0".to_string(), 0.0)].into_iter().collect(),
+                unit_gain: true,
+            },
+            method: MethodSpec::default(),
+        };
+        (spec, self.nonlinearity, self.linear)
+    }
+
+    /// Run the whole pipeline on this trial.
+    pub fn run(self) -> Result<Identification> {
+        let structure = self.structure;
+        let (spec, nl, linear) = self.spec();
+        let mut plant = SimulatedPlant {
+            linear,
+            nonlinearity: nl.as_ref(),
+            structure,
+        };
+        pipeline::run_with_plant(&spec, &mut plant)
+    }
+}
+
+/// Run `n` trials of `plugin` with seeds `first..first+n`, calling `tick` after each.
+pub fn run(plugin: &str, first: u64, n: usize, mut tick: impl FnMut()) -> Result<Summary> {
+    let plugin = plugin_name(plugin)?;
+    if plugin == "output_backlash" {
+        return Ok(montecarlo::run(first, n, tick));
+    }
+    let mut s = Summary {
+        trials: n,
+        ..Default::default()
+    };
+    for seed in first..first + n as u64 {
+        match PluginTrial::random(plugin, seed)?.run() {
+            Ok(id) if id.all_contain_truth() == Some(true) => s.contained += 1,
+            Ok(_) => s.missed.push(seed),
+            Err(e) => s.errors.push((seed, e.to_string())),
+        }
+        tick();
+    }
+    Ok(s)
+}
+
+/// The summary lines `smid check` prints.
+pub fn report(plugin: &str, s: &Summary) -> String {
+    let mut out = format!(
+        "{plugin}: {} trials: truth inside every bound in {}, missed in {}, no bound (error) in {}\n",
+        s.trials,
+        s.contained,
+        s.missed.len(),
+        s.errors.len()
+    );
+    for seed in &s.missed {
+        out.push_str(&format!("  MISSED: seed {seed}\n"));
+    }
+    for (seed, e) in s.errors.iter().take(20) {
+        out.push_str(&format!("  error: seed {seed}: {e}\n"));
+    }
+    out
+}

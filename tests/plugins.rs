@@ -1,0 +1,159 @@
+//! End-to-end tests of the nonlinearity plugins beyond the output backlash (input backlash,
+//! dead zone on either side, saturation, the example gain): insta snapshots of the bounds each
+//! example spec gives, proptest containment of the truth over random systems, parameters and
+//! noise (the full three-stage pipeline), and the errors a misspelled `type` or parameter gets.
+use proptest::prelude::*;
+use smid::core::spec::Spec;
+use smid::plugin_check::PluginTrial;
+use smid::SmidError;
+use std::path::Path;
+
+/// The plugin examples and what they identify.
+const EXAMPLES: [&str; 5] = [
+    "input-backlash",
+    "dead-zone-input",
+    "dead-zone-output",
+    "saturation",
+    "example-gain",
+];
+
+/// A machine-independent view of the bounds: six significant digits.
+fn bounds_view(name: &str) -> Vec<String> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(format!("{name}.yaml"));
+    let id = smid::run_spec_file(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert_eq!(
+        id.all_contain_truth(),
+        Some(true),
+        "{name}: truth outside a bound"
+    );
+    id.parameters
+        .iter()
+        .map(|p| {
+            format!(
+                "{:<4} truth {:>13} in [{:.5e}, {:.5e}]",
+                p.name,
+                p.truth.map(|t| format!("{t:.5e}")).unwrap_or_default(),
+                p.lower,
+                p.upper
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn example_bounds_snapshots() {
+    for name in EXAMPLES {
+        insta::assert_yaml_snapshot!(format!("bounds-{name}"), bounds_view(name));
+    }
+}
+
+fn cases() -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(4)
+}
+
+/// One random end-to-end trial: the truth must be inside every bound; an empty feasible set
+/// would mean a bound excluded the truth, so `Inconsistent` fails too. Other errors (too few
+/// informative samples) give no bound and are allowed.
+fn check(plugin: &str, seed: u64) -> std::result::Result<(), TestCaseError> {
+    match PluginTrial::random(plugin, seed).unwrap().run() {
+        Ok(id) => {
+            prop_assert_eq!(
+                id.all_contain_truth(),
+                Some(true),
+                "{} seed {}: {:?}",
+                plugin,
+                seed,
+                id.parameters
+            );
+        }
+        Err(e @ SmidError::Inconsistent { .. }) => {
+            return Err(TestCaseError::fail(format!("{plugin} seed {seed}: {e}")))
+        }
+        Err(_) => {}
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(cases()))]
+    #[test]
+    fn input_backlash_contains_truth(seed in 1u64..1_000_000) { check("input_backlash", seed)?; }
+    #[test]
+    fn dead_zone_input_contains_truth(seed in 1u64..1_000_000) { check("dead_zone_input", seed)?; }
+    #[test]
+    fn dead_zone_output_contains_truth(seed in 1u64..1_000_000) { check("dead_zone_output", seed)?; }
+    #[test]
+    fn saturation_contains_truth(seed in 1u64..1_000_000) { check("saturation", seed)?; }
+}
+
+fn example_text(name: &str) -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(format!("{name}.yaml"));
+    std::fs::read_to_string(path).unwrap()
+}
+
+#[test]
+fn misspelled_type_lists_the_valid_types() {
+    let text = example_text("dead-zone-output").replace("type: dead_zone }", "type: dead_zon }");
+    let err = Spec::parse(&text, Path::new("bad.yaml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("dead_zon"), "{err}");
+    assert!(err.contains("model.nonlinearity"), "{err}");
+    for t in smid::core::registry::model_types() {
+        assert!(err.contains(t), "`{t}` not listed in: {err}");
+    }
+    let text = example_text("saturation").replace("type: saturation, m_l", "type: saturaton, m_l");
+    let err = Spec::parse(&text, Path::new("bad.yaml"))
+        .unwrap_err()
+        .to_string();
+    for t in smid::core::registry::nonlinearity_types() {
+        assert!(err.contains(t), "`{t}` not listed in: {err}");
+    }
+}
+
+#[test]
+fn misspelled_parameter_lists_the_valid_parameters() {
+    let text = example_text("dead-zone-input").replace("c_l: 0.3", "cl: 0.3");
+    let err = Spec::parse(&text, Path::new("bad.yaml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("unknown field `cl`"), "{err}");
+    assert!(err.contains("plant.simulator.nonlinearity"), "{err}");
+    for p in ["m_l", "c_l", "m_r", "c_r"] {
+        assert!(err.contains(p), "`{p}` not listed in: {err}");
+    }
+    let text = example_text("input-backlash").replace("at_rest: false", "at_rst: false");
+    let err = Spec::parse(&text, Path::new("bad.yaml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("at_rst") && err.contains("at_rest"), "{err}");
+}
+
+#[test]
+fn invalid_plugin_parameter_names_the_field() {
+    let text = example_text("saturation").replace("s_r: 1.5", "s_r: -1.5");
+    let err = Spec::parse(&text, Path::new("bad.yaml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("plant.simulator.nonlinearity.s_r"), "{err}");
+}
+
+#[test]
+fn input_backlash_is_refused_in_a_wiener_structure() {
+    let text = example_text("input-backlash").replace(
+        "model:\n  structure: hammerstein",
+        "model:\n  structure: wiener",
+    );
+    assert!(text.contains("model:\n  structure: wiener"));
+    let err = Spec::parse(&text, Path::new("bad.yaml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("model.structure"), "{err}");
+}

@@ -1,0 +1,178 @@
+//! The plugin registry and the spec's JSON Schema: every registered `type` round-trips through
+//! YAML, the committed schema (`schemas/smid-spec.schema.json`) is the one the Rust types
+//! generate, every example names it and validates its `type`s, and the core names no plugin
+//! (a plugin, such as `plugins/example-gain`, is added without editing `smid-core`).
+use smid::core::nonlinearity::{Nonlinearity, NonlinearityModel};
+use smid::core::registry;
+use smid::core::spec::Spec;
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Every plugin crate the `smid` facade links (a dropped registration fails here).
+const PLUGINS: [&str; 5] = [
+    "dead_zone",
+    "example_gain",
+    "input_backlash",
+    "output_backlash",
+    "saturation",
+];
+
+#[test]
+fn every_bundled_plugin_is_registered() {
+    for p in PLUGINS {
+        assert!(
+            registry::nonlinearity_types().contains(&p),
+            "{p} (simulation) not registered"
+        );
+        assert!(
+            registry::model_types().contains(&p),
+            "{p} (model) not registered"
+        );
+    }
+}
+
+#[test]
+fn every_registered_type_round_trips_through_yaml() {
+    for e in registry::nonlinearities() {
+        let v = (e.example)();
+        v.validate()
+            .unwrap_or_else(|err| panic!("{}: example invalid: {err}", e.tag));
+        let yaml = serde_norway::to_string(&v).unwrap();
+        assert!(
+            yaml.contains(&format!("type: {}", e.tag)),
+            "{}: tag mismatch in {yaml}",
+            e.tag
+        );
+        let back: Box<dyn Nonlinearity> = serde_norway::from_str(&yaml).unwrap();
+        assert_eq!(serde_norway::to_string(&back).unwrap(), yaml, "{}", e.tag);
+        assert_eq!(back.parameters(), v.parameters(), "{}", e.tag);
+    }
+    for e in registry::models() {
+        let v = (e.example)();
+        let yaml = serde_norway::to_string(&v).unwrap();
+        assert!(
+            yaml.contains(&format!("type: {}", e.tag)),
+            "{}: tag mismatch in {yaml}",
+            e.tag
+        );
+        let back: Box<dyn NonlinearityModel> = serde_norway::from_str(&yaml).unwrap();
+        assert_eq!(serde_norway::to_string(&back).unwrap(), yaml, "{}", e.tag);
+    }
+}
+
+fn examples() -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(root().join("examples"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "yaml"))
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn every_example_spec_round_trips_through_yaml() {
+    for path in examples() {
+        let spec = Spec::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
+        let yaml = serde_norway::to_string(&spec).unwrap();
+        let back = Spec::parse(&yaml, Path::new("round-trip.yaml"))
+            .unwrap_or_else(|e| panic!("{}: {e}\n{yaml}", path.display()));
+        assert_eq!(
+            serde_norway::to_string(&back).unwrap(),
+            yaml,
+            "{}",
+            path.display()
+        );
+    }
+}
+
+#[test]
+fn committed_schema_is_up_to_date() {
+    let path = root().join("schemas/smid-spec.schema.json");
+    let committed = std::fs::read_to_string(&path).unwrap_or_default();
+    let generated = registry::spec_schema();
+    assert!(
+        committed == generated,
+        "{} is stale: regenerate it with `cargo run -- schema > schemas/smid-spec.schema.json`",
+        path.display()
+    );
+}
+
+#[test]
+fn schema_offers_every_registered_type() {
+    let schema: serde_json::Value = serde_json::from_str(&registry::spec_schema()).unwrap();
+    let defs = &schema["$defs"];
+    for (def, tags) in [
+        ("Nonlinearity", registry::nonlinearity_types()),
+        ("NonlinearityModel", registry::model_types()),
+    ] {
+        let consts: Vec<&str> = defs[def]["oneOf"]
+            .as_array()
+            .unwrap_or_else(|| panic!("{def} has no oneOf"))
+            .iter()
+            .map(|b| b["properties"]["type"]["const"].as_str().unwrap())
+            .collect();
+        assert_eq!(consts, tags, "{def}");
+    }
+}
+
+#[test]
+fn every_example_names_the_schema() {
+    for path in examples() {
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(
+            text.starts_with("# yaml-language-server: $schema=../schemas/smid-spec.schema.json\n"),
+            "{} does not name the schema on its first line",
+            path.display()
+        );
+    }
+}
+
+/// Recursively collect the Rust sources under `dir`.
+fn sources(dir: &Path, out: &mut Vec<PathBuf>) {
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            sources(&p, out);
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+#[test]
+fn the_core_names_no_plugin() {
+    let mut files = Vec::new();
+    sources(&root().join("crates/smid-core/src"), &mut files);
+    assert!(!files.is_empty());
+    let core_toml = std::fs::read_to_string(root().join("crates/smid-core/Cargo.toml")).unwrap();
+    for tag in registry::nonlinearity_types() {
+        let krate = format!("smid-{}", tag.replace('_', "-"));
+        assert!(!core_toml.contains(&krate), "smid-core depends on {krate}");
+        for f in &files {
+            let text = std::fs::read_to_string(f).unwrap();
+            for needle in [
+                format!("\"{tag}\""),
+                format!("type: {tag}"),
+                format!("smid_{tag}"),
+            ] {
+                assert!(
+                    !text.contains(&needle),
+                    "{} names the plugin: {needle}",
+                    f.display()
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn the_example_plugin_runs_end_to_end() {
+    let id = smid::run_spec_file(&root().join("examples/example-gain.yaml")).unwrap();
+    assert_eq!(id.all_contain_truth(), Some(true));
+    let k = id.parameter("k").unwrap();
+    assert!(k.lower <= 2.0 && 2.0 <= k.upper && k.radius < 1e-3, "{k:?}");
+}
