@@ -14,6 +14,8 @@ pub use smid_dead_zone as dead_zone;
 pub use smid_example_gain as example_gain;
 pub use smid_input_backlash as input_backlash;
 pub use smid_saturation as saturation;
+pub use smid_diagnose as diagnose;
+pub use smid_effects as effects;
 
 pub mod compare;
 pub mod montecarlo;
@@ -29,6 +31,7 @@ use std::path::Path;
 /// "unknown variant ... there are no variants"; go through this facade (or call this) instead.
 pub fn link_plugins() {
     std::hint::black_box(smid_output_backlash::branch_polygons as usize);
+    std::hint::black_box(smid_effects::link as *const () as usize);
 }
 
 /// Parse a spec file with every bundled plugin registered.

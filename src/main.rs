@@ -60,6 +60,42 @@ enum Command {
         #[arg(long)]
         method: Option<String>,
     },
+    /// Validate a LIP model set (a diagnosis spec) on fresh data: residual, falsification
+    /// share against the guaranteed band ± Δ, residual correlations, smallest consistent bound.
+    Validate {
+        spec: PathBuf,
+        /// Held-out CSV (default: the spec's held-out records).
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Output directory (default: out/<spec name>/validate).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Trace a failed validation to missing effects: rank every effect plugin by held-out
+    /// error, write the augmented spec and before/after report.
+    Diagnose {
+        spec: PathBuf,
+        /// Training CSV (default: the spec's training records).
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Held-out CSV (default: the spec's held-out records, else the last 30% of each).
+        #[arg(long)]
+        holdout: Option<PathBuf>,
+        /// Output directory (default: out/<spec name>/diagnose).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Release-mode check of the diagnosis: per effect, simulated data with the effect present
+    /// but undeclared; the diagnosis must name it (>= 9 of 10).
+    DiagnoseCheck {
+        #[arg(long, default_value_t = 10)]
+        trials: usize,
+        #[arg(long, default_value_t = 1)]
+        first_seed: u64,
+        /// Only these effect tags (comma-separated).
+        #[arg(long, value_delimiter = ',')]
+        only: Vec<String>,
+    },
 }
 
 fn progress(n: usize, what: &str) -> ProgressBar {
@@ -82,6 +118,23 @@ fn parse_method(m: &str) -> Result<smid::core::spec::EivMethod> {
     smid::core::spec::EivMethod::from_name(m.trim()).with_context(|| {
         format!("unknown stage-3 method `{m}`; expected one of: classical, shared, sdp, exact-grid")
     })
+}
+
+/// `out/<spec stem>/<what>`.
+fn out_dir(spec: &std::path::Path, what: &str) -> PathBuf {
+    let stem = spec
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "smid".into());
+    PathBuf::from("out").join(stem).join(what)
+}
+
+fn join(files: &[PathBuf]) -> String {
+    files
+        .iter()
+        .map(|f| f.display().to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 fn main() {
@@ -110,6 +163,62 @@ fn real_main() -> Result<()> {
                 "{} trials missed the truth",
                 s.missed.len()
             );
+        }
+        Command::Validate { spec, data, out } => {
+            smid::link_plugins();
+            let dir = out.unwrap_or_else(|| out_dir(&spec, "validate"));
+            let (text, a, files) = smid::diagnose::commands::validate(&spec, data.as_deref(), &dir)
+                .with_context(|| format!("validating {}", spec.display()))?;
+            print!("{text}");
+            println!("wrote {}", join(&files));
+            if !smid::diagnose::validate::passes(&a) {
+                std::process::exit(3);
+            }
+        }
+        Command::Diagnose {
+            spec,
+            data,
+            holdout,
+            out,
+        } => {
+            smid::link_plugins();
+            let dir = out.unwrap_or_else(|| out_dir(&spec, "diagnose"));
+            let pb = progress(1, "candidate effects");
+            let (text, _, files) = smid::diagnose::commands::diagnose(
+                &spec,
+                data.as_deref(),
+                holdout.as_deref(),
+                &dir,
+                |done, total| {
+                    pb.set_length(total as u64);
+                    pb.set_position(done as u64);
+                },
+            )
+            .with_context(|| format!("diagnosing {}", spec.display()))?;
+            pb.finish_and_clear();
+            print!("{text}");
+            println!("wrote {}", join(&files));
+        }
+        Command::DiagnoseCheck {
+            trials,
+            first_seed,
+            only,
+        } => {
+            smid::link_plugins();
+            let n = smid::diagnose::effect::effects()
+                .iter()
+                .filter(|e| only.is_empty() || only.iter().any(|t| t == e.tag))
+                .count();
+            let pb = progress(n * trials, "diagnosis trials");
+            let checks = smid::diagnose::check::run(trials, first_seed, &only, || pb.inc(1))?;
+            pb.finish_and_clear();
+            print!("{}", smid::diagnose::check::format(&checks));
+            let bad: Vec<&str> = checks
+                .iter()
+                .filter(|c| 10 * c.named < 9 * c.trials)
+                .map(|c| c.tag.as_str())
+                .collect();
+            anyhow::ensure!(bad.is_empty(), "named in fewer than 9 of 10 trials: {}", bad.join(", "));
         }
         Command::Run { spec, out } => {
             let id = match smid::run_spec_file(&spec) {
