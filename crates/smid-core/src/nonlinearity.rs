@@ -156,6 +156,31 @@ pub trait NonlinearityModel: Debug + Send + Sync {
 
 /// The uncertain nonlinearity left after stage 1: parameter bounds, and the inner-signal bounds
 /// it implies (inversion of the output for Wiener, propagation of the input for Hammerstein).
+///
+/// ```
+/// use smid_core::prelude::*;
+///
+/// /// `w = k x` with `k` in an interval `[k0, k1]`, `k0 > 0`.
+/// #[derive(Debug)]
+/// struct GainSet(Interval);
+/// impl NonlinearitySet for GainSet {
+///     fn parameters(&self) -> Vec<ParameterBound> {
+///         vec![ParameterBound { name: "k".into(), interval: self.0 }]
+///     }
+///     /// `x = w / k` over `k in [k0, k1]` and `w in [y - Δη, y + Δη]`: extremes at the ends.
+///     fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
+///         Ok(y.iter().zip(dy).map(|(&y, &d)| {
+///             let c = [(y - d) / self.0.lo, (y - d) / self.0.hi, (y + d) / self.0.lo, (y + d) / self.0.hi];
+///             let i = Interval::hull_of(c).unwrap().outward();
+///             InnerBound { interval: i, kind: InnerKind::Inverted }
+///         }).collect())
+///     }
+/// }
+/// let set = GainSet(Interval::new(1.9, 2.1));
+/// let x = set.invert(&[4.0], &[0.1]).unwrap();
+/// assert!(x[0].interval.contains(2.0) && x[0].interval.contains(3.9 / 2.1));
+/// assert!(set.contains(&[2.0]) && !set.contains(&[2.5]));
+/// ```
 pub trait NonlinearitySet: Debug + Send + Sync {
     /// Guaranteed parameter intervals, in report order. Required.
     fn parameters(&self) -> Vec<ParameterBound>;
