@@ -70,6 +70,7 @@ pub fn bundled_names() -> Vec<String> {
 
 /// Build the FMU plant of a spec's `plant` section; relative paths resolve against `base` (the
 /// spec file's directory).
+#[allow(clippy::result_large_err)]
 pub fn from_spec(plant: &PlantSpec, base: &Path) -> smid_core::Result<FmuPlant> {
     let Some(fmu) = plant.fmu.as_ref() else {
         return Err(smid_core::SmidError::invalid(
