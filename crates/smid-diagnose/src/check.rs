@@ -3,7 +3,7 @@
 //! `y_t = -a_1 y_{t-1} + b_0 u_{t-1} + e_t` (random real poles of magnitude 0.3-0.8, random gain, uniform
 //! equation error `|e_t| <= Δ`) augmented by the effect's example instance (an added term's
 //! coefficient random, sized 4-8 Δ against the column's RMS; an input map — play, dead zone,
-//! saturation — replaces the input, with a random gain; an extra pole or zero random); the output is
+//! saturation — maps the input of the linear block; an extra pole or zero random); the output is
 //! measured through the effect's sensor map (quantization). A trial counts as named when the
 //! first effect `diagnose` adds has the truth's tag, and as at the noise level when the
 //! smallest consistent bound on the held-out record, after, is at most 1.2 × the bound Δ (plus
@@ -108,8 +108,7 @@ pub fn trial(example: &dyn Effect, seed: u64) -> Result<(String, f64, f64), Diag
         a = next;
     }
     let mut theta: Vec<f64> = a[1..].to_vec();
-    let replaces = example.replaces_input();
-    for j in 0..if replaces { 0 } else { o.nb } {
+    for j in 0..o.nb {
         let mag = if j == 0 {
             rng.gen_range(0.5..1.5)
         } else {
@@ -129,12 +128,7 @@ pub fn trial(example: &dyn Effect, seed: u64) -> Result<(String, f64, f64), Diag
     let ecols = example.columns(&probe, &o);
     for c in &ecols {
         let r = rms(&c.values).max(1e-9);
-        // An input map replaces the input: a gain like b_0; an added term: 4-8 Δ strong.
-        let mag = if replaces {
-            rng.gen_range(0.5..1.5)
-        } else {
-            rng.gen_range(4.0..8.0) * DELTA / r
-        };
+        let mag = rng.gen_range(4.0..8.0) * DELTA / r;
         theta.push(if rng.gen_bool(0.5) { mag } else { -mag });
     }
     let tr = simulate(&truth, &theta, &u_tr, &mut rng, Some(example));

@@ -67,10 +67,13 @@ pub fn validate(
     out: &Path,
 ) -> Result<(String, Assessment, Vec<PathBuf>), DiagError> {
     let (s, train, hold) = load(spec_path, None, data)?;
-    let st = Structure {
-        base: s.model.orders(),
-        effects: s.model.effects.clone(),
-    };
+    let st = validate::tune_declared(
+        &Structure {
+            base: s.model.orders(),
+            effects: s.model.effects.clone(),
+        },
+        &train,
+    );
     let f = validate::fit(&st, &train)?;
     let (delta, how) = match s.noise.bound {
         Some(d) => (d, "declared".to_string()),

@@ -30,6 +30,9 @@ pub struct Ranked {
     pub evidence: f64,
     /// Smallest consistent bound on the training records.
     pub dstar_train: f64,
+    /// Least-squares RMS on the training records (equal for equal regressor spans).
+    #[serde(skip)]
+    pub ls_train: f64,
     /// Labels of candidates found equivalent (same training fit, same parameter count).
     pub equivalent: Vec<String>,
     /// Position in the registration order (priority).
@@ -139,10 +142,13 @@ pub fn diagnose(
     mut progress: impl FnMut(usize, usize),
 ) -> Result<Diagnosis, DiagError> {
     let pen = 1.0 + spec.diagnose.penalty;
-    let base = Structure {
-        base: spec.model.orders(),
-        effects: spec.model.effects.clone(),
-    };
+    let base = validate::tune_declared(
+        &Structure {
+            base: spec.model.orders(),
+            effects: spec.model.effects.clone(),
+        },
+        train,
+    );
     let mut current = validate::fit(&base, train)?;
     let mut j_cur = score(&current, hold);
     let entries: Vec<_> = effects()
@@ -215,6 +221,7 @@ pub fn diagnose(
                         penalized: rms * pen.powi(added as i32),
                         evidence: corr(&r, &sig),
                         dstar_train: f.dstar_train,
+                        ls_train: ls_rms(&f.structure, train),
                         equivalent: Vec::new(),
                         order,
                     },
@@ -236,6 +243,7 @@ pub fn diagnose(
             let same = |r: &Ranked| {
                 r.added == top.added
                     && (r.dstar_train - top.dstar_train).abs() <= 1e-6 * top.dstar_train.abs()
+                    && (r.ls_train - top.ls_train).abs() <= 1e-6 * top.ls_train.abs()
                     && r.penalized <= top.penalized * 1.05
             };
             let mut group: Vec<usize> = (0..ranking.len())

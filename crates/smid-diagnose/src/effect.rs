@@ -86,10 +86,11 @@ pub trait Effect: Debug + Send + Sync {
     fn label(&self) -> String;
     /// A copy of this effect (trait objects cannot derive `Clone`).
     fn boxed(&self) -> Box<dyn Effect>;
-    /// Whether the columns replace the base input regressors `u_{t-nk-j}` (an input
-    /// nonlinearity such as a play: `y = G(q) N(u)`). Default: false (the columns add to them).
-    fn replaces_input(&self) -> bool {
-        false
+    /// An input nonlinearity (a play, a dead zone, a saturation: `y = G(q) N(u)`) maps the
+    /// input; the base input regressors and every later effect then read `N(u)`.
+    /// Default: `None` (no map).
+    fn map_input(&self, _u: &[f64]) -> Option<Vec<f64>> {
+        None
     }
     /// Change the linear orders (delay, extra pole or zero). Default: none.
     fn augment_orders(&self, _orders: &mut Orders) {}
@@ -103,11 +104,15 @@ pub trait Effect: Debug + Send + Sync {
         0.0
     }
     /// The regressor sequence a residual correlates with when this effect is missing.
-    /// Default: the first column (or, for order changes, the regressor the change adds).
+    /// Default: the first column (for an input map `N(u) - u`; for order changes, the regressor
+    /// the change adds).
     fn signature(&self, rec: &Record, orders: &Orders) -> Vec<f64> {
         let cols = self.columns(rec, orders);
         if let Some(c) = cols.into_iter().next() {
             return c.values;
+        }
+        if let Some(m) = self.map_input(&rec.u) {
+            return m.iter().zip(&rec.u).map(|(a, b)| a - b).collect();
         }
         let mut o = *orders;
         self.augment_orders(&mut o);
@@ -156,17 +161,6 @@ pub fn lag(x: &[f64], t: usize, k: usize) -> f64 {
     } else {
         0.0
     }
-}
-
-/// A static map of the input, delayed like the base input regressors: columns
-/// `f(u)_{t-nk-j}`, `j < nb`, named `name_j`.
-pub fn input_map_columns(rec: &Record, orders: &Orders, name: &str, f: &[f64]) -> Vec<Column> {
-    (0..orders.nb.max(1))
-        .map(|j| Column {
-            name: format!("{name}{j}"),
-            values: (0..rec.u.len()).map(|t| lag(f, t, orders.nk + j)).collect(),
-        })
-        .collect()
 }
 
 /// A registered effect: its `type` tag, the schema of its fields, a fully specified example

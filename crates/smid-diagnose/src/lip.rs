@@ -10,6 +10,9 @@ use good_lp::{solvers::clarabel::clarabel, Expression, ProblemVariables, Solutio
 use smid_core::interval::Interval;
 use smid_core::lp::{LpOutcome, Polytope};
 
+/// Rows before this sample are not fitted (see [`Structure::start`]).
+pub const START_FLOOR: usize = 8;
+
 /// A model structure: base orders plus effects.
 #[derive(Debug, Clone)]
 pub struct Structure {
@@ -41,12 +44,14 @@ impl Structure {
     }
 
     /// First sample with every regressor defined (two more than the largest lag, for
-    /// velocities of lagged signals).
+    /// velocities of lagged signals), and at least [`START_FLOOR`], so that structures of
+    /// small orders are compared on the same rows.
     pub fn start(&self) -> usize {
-        self.orders().max_lag() + 2
+        (self.orders().max_lag() + 2).max(START_FLOOR)
     }
 
-    /// Full-length named columns of one record.
+    /// Full-length named columns of one record. Input maps apply in order: the base input
+    /// regressors and the effects after a map read the mapped input.
     pub fn columns(&self, rec: &Record) -> Vec<(String, Vec<f64>)> {
         let o = self.orders();
         let n = rec.y.len();
@@ -57,15 +62,24 @@ impl Structure {
                 (0..n).map(|t| -lag(&rec.y, t, i)).collect(),
             ));
         }
-        let replaced = self.effects.iter().any(|e| e.replaces_input());
-        for j in 0..if replaced { 0 } else { o.nb } {
+        let mut view = rec.clone();
+        for e in &self.effects {
+            if let Some(m) = e.map_input(&view.u) {
+                view.u = m;
+            }
+        }
+        for j in 0..o.nb {
             cols.push((
                 format!("b{j}"),
-                (0..n).map(|t| lag(&rec.u, t, o.nk + j)).collect(),
+                (0..n).map(|t| lag(&view.u, t, o.nk + j)).collect(),
             ));
         }
+        let mut view = rec.clone();
         for e in &self.effects {
-            for c in e.columns(rec, &o) {
+            if let Some(m) = e.map_input(&view.u) {
+                view.u = m;
+            }
+            for c in e.columns(&view, &o) {
                 cols.push((c.name, c.values));
             }
         }

@@ -35,6 +35,32 @@ pub struct Fit {
     pub extra: f64,
 }
 
+/// Tune the open settings of declared effects (a play width left out of the spec...) on the
+/// training records, in order, each by least squares with the others as tuned so far.
+pub fn tune_declared(s: &Structure, train: &[Record]) -> Structure {
+    let mut out = s.clone();
+    for i in 0..out.effects.len() {
+        let o = out.orders();
+        let cur = out.clone();
+        let score = |e: &dyn crate::effect::Effect| {
+            let mut t = cur.clone();
+            t.effects[i] = e.boxed();
+            match t.regression(train) {
+                Ok(reg) => {
+                    let th = lip::least_squares(&reg.phi, &reg.y);
+                    let r = lip::residuals(&reg.phi, &reg.y, &th);
+                    (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).sqrt()
+                }
+                Err(_) => f64::INFINITY,
+            }
+        };
+        if let Some(e) = cur.effects[i].tune(train, &o, &score) {
+            out.effects[i] = e;
+        }
+    }
+    out
+}
+
 /// Fit a structure on training records.
 pub fn fit(structure: &Structure, train: &[Record]) -> Result<Fit, DiagError> {
     let reg = structure.regression(train)?;

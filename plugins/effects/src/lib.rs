@@ -13,17 +13,18 @@
 //! | `drift` | columns `1`, `t·dt` | time |
 //! | `coulomb_friction` | column `sign(v_t)` | sign of the velocity |
 //! | `viscous_friction` | column `v_t` | velocity |
-//! | `play` | input columns become `bl_w(u)_{t-nk-j}`, width `w` by 1-D search | backlash-filtered input |
-//! | `dead_zone` | input columns become `dz_w(u)_{t-nk-j}`, width by 1-D search | dead-zone output |
-//! | `saturation` | input columns become `sat_L(u)_{t-nk-j}`, level by 1-D search | clipped input |
+//! | `play` | maps the input: `bl_w(u)`, width `w` by 1-D search | `bl_w(u) - u` |
+//! | `dead_zone` | maps the input: `dz_w(u)`, width by 1-D search | `dz_w(u) - u` |
+//! | `saturation` | maps the input: `sat_L(u)`, level by 1-D search | `sat_L(u) - u` |
 //! | `quantization` | bound `+ q/2 (1+Σ|a_i|)`, step `q` from the output grid | none (grid test) |
 //!
-//! The velocity `v_t` is of the input (`u_t - u_{t-1}`, e.g. an imposed displacement) or of the
+//! The velocity `v_t` is of the input (`u_t - u_{t-1}`, e.g. an imposed displacement; of the mapped
+//! input when a play or other input map comes earlier in the list) or of the
 //! output (`y_{t-1} - y_{t-2}`, e.g. a measured position; one sample late, to stay causal).
 #![forbid(unsafe_code)]
 
 use serde::{Deserialize, Serialize};
-use smid_diagnose::effect::{input_map_columns, lag, Column, Effect, Orders, Record};
+use smid_diagnose::effect::{lag, Column, Effect, Orders, Record};
 use smid_diagnose::register_effect;
 
 fn ones(rec: &Record) -> Vec<f64> {
@@ -324,12 +325,8 @@ impl Effect for Play {
     fn boxed(&self) -> Box<dyn Effect> {
         Box::new(self.clone())
     }
-    fn columns(&self, rec: &Record, o: &Orders) -> Vec<Column> {
-        let f = backlash(&rec.u, self.width.unwrap_or(0.0));
-        input_map_columns(rec, o, "play", &f)
-    }
-    fn replaces_input(&self) -> bool {
-        true
+    fn map_input(&self, u: &[f64]) -> Option<Vec<f64>> {
+        Some(backlash(u, self.width.unwrap_or(0.0)))
     }
     fn tune(
         &self,
@@ -380,17 +377,13 @@ impl Effect for DeadZone {
     fn boxed(&self) -> Box<dyn Effect> {
         Box::new(self.clone())
     }
-    fn columns(&self, rec: &Record, o: &Orders) -> Vec<Column> {
+    fn map_input(&self, u: &[f64]) -> Option<Vec<f64>> {
         let w = self.width.unwrap_or(0.0);
-        let f: Vec<f64> = rec
-            .u
-            .iter()
-            .map(|&v| v.signum() * (v.abs() - w).max(0.0))
-            .collect();
-        input_map_columns(rec, o, "dead_zone", &f)
-    }
-    fn replaces_input(&self) -> bool {
-        true
+        Some(
+            u.iter()
+                .map(|&v| v.signum() * (v.abs() - w).max(0.0))
+                .collect(),
+        )
     }
     fn tune(
         &self,
@@ -441,13 +434,9 @@ impl Effect for Saturation {
     fn boxed(&self) -> Box<dyn Effect> {
         Box::new(self.clone())
     }
-    fn columns(&self, rec: &Record, o: &Orders) -> Vec<Column> {
+    fn map_input(&self, u: &[f64]) -> Option<Vec<f64>> {
         let l = self.level.unwrap_or(f64::INFINITY);
-        let f: Vec<f64> = rec.u.iter().map(|&v| v.clamp(-l, l)).collect();
-        input_map_columns(rec, o, "saturation", &f)
-    }
-    fn replaces_input(&self) -> bool {
-        true
+        Some(u.iter().map(|&v| v.clamp(-l, l)).collect())
     }
     fn tune(
         &self,
