@@ -106,6 +106,7 @@ impl Trial {
             noise: NoiseSpec {
                 delta: None,
                 encoder_bits: Some(self.bits),
+                simulate: None,
             },
             experiment,
             model: ModelSpec {

@@ -163,6 +163,7 @@ impl PluginTrial {
             noise: NoiseSpec {
                 delta: None,
                 encoder_bits: Some(self.bits),
+                simulate: None,
             },
             experiment,
             model: ModelSpec {

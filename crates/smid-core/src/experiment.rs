@@ -81,10 +81,20 @@ fn step_run(plant: &mut dyn Plant, pole: f64, step: f64, settle: usize) -> Resul
     let n = filter_settling(a) + settle;
     let w = plant.run(&lowpass(a, &vec![step; n]))?;
     if let Some(i) = w.iter().position(|v| !v.is_finite()) {
-        return Err(SmidError::Plant { plant: plant.name(), message: format!("non-finite output at sample {i} of the filter-design step") });
+        return Err(SmidError::Plant {
+            plant: plant.name(),
+            message: format!("non-finite output at sample {i} of the filter-design step"),
+        });
     }
-    let steady = *w.last().ok_or_else(|| SmidError::Plant { plant: plant.name(), message: "returned no samples".into() })?;
-    let peak = if step > 0.0 { w.iter().copied().fold(f64::NEG_INFINITY, f64::max) } else { w.iter().copied().fold(f64::INFINITY, f64::min) };
+    let steady = *w.last().ok_or_else(|| SmidError::Plant {
+        plant: plant.name(),
+        message: "returned no samples".into(),
+    })?;
+    let peak = if step > 0.0 {
+        w.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+    } else {
+        w.iter().copied().fold(f64::INFINITY, f64::min)
+    };
     Ok(StepRun { steady, peak })
 }
 
@@ -98,16 +108,28 @@ fn step_run(plant: &mut dyn Plant, pole: f64, step: f64, settle: usize) -> Resul
 /// extreme output over `w_s(ā)` are at most `ε`. The paper's system still gives `a = 0.8125`.
 pub fn design_filter_pole(plant: &mut dyn Plant, o: &BisectionOptions) -> Result<FilterDesign> {
     if !(o.a_bar > 0.0 && o.a_bar <= 1.0) {
-        return Err(SmidError::invalid("experiment.filter.a_bar", format!("expected 0 < ā <= 1, got {}", o.a_bar)));
+        return Err(SmidError::invalid(
+            "experiment.filter.a_bar",
+            format!("expected 0 < ā <= 1, got {}", o.a_bar),
+        ));
     }
     if !(o.tol > 0.0 && o.tol < 1.0) {
-        return Err(SmidError::invalid("experiment.filter.tol", format!("expected 0 < tol < 1, got {}", o.tol)));
+        return Err(SmidError::invalid(
+            "experiment.filter.tol",
+            format!("expected 0 < tol < 1, got {}", o.tol),
+        ));
     }
     if !(o.epsilon > 0.0 && o.epsilon.is_finite()) {
-        return Err(SmidError::invalid("experiment.filter.epsilon", format!("expected ε > 0, got {}", o.epsilon)));
+        return Err(SmidError::invalid(
+            "experiment.filter.epsilon",
+            format!("expected ε > 0, got {}", o.epsilon),
+        ));
     }
     if !(o.step.is_finite() && o.step != 0.0) {
-        return Err(SmidError::invalid("experiment.filter.step", "expected a non-zero finite step amplitude"));
+        return Err(SmidError::invalid(
+            "experiment.filter.step",
+            "expected a non-zero finite step amplitude",
+        ));
     }
     let sign = o.step.signum();
     let w_ref = step_run(plant, o.a_bar, o.step, o.settle)?.steady;
@@ -118,7 +140,11 @@ pub fn design_filter_pole(plant: &mut dyn Plant, o: &BisectionOptions) -> Result
         let run = step_run(plant, a_star, o.step, o.settle)?;
         let overshoot = sign * (run.peak - w_ref);
         let passed = (w_ref - run.steady).abs() <= o.epsilon && overshoot <= o.epsilon;
-        trials.push(BisectionTrial { pole: a_star, steady_output: run.steady, passed });
+        trials.push(BisectionTrial {
+            pole: a_star,
+            steady_output: run.steady,
+            passed,
+        });
         if passed {
             a_u = a_star;
             passed_any = true;
@@ -143,7 +169,11 @@ pub fn design_filter_pole(plant: &mut dyn Plant, o: &BisectionOptions) -> Result
     let pos = step_run(plant, a_u, o.step, o.settle)?;
     let neg_ref = step_run(plant, o.a_bar, -o.step, o.settle)?.steady;
     let neg = step_run(plant, a_u, -o.step, o.settle)?;
-    let (up, down) = if sign > 0.0 { ((pos.peak - w_ref), (neg_ref - neg.peak)) } else { ((neg.peak - neg_ref), (w_ref - pos.peak)) };
+    let (up, down) = if sign > 0.0 {
+        ((pos.peak - w_ref), (neg_ref - neg.peak))
+    } else {
+        ((neg.peak - neg_ref), (w_ref - pos.peak))
+    };
     let right = up.max(0.0) + pad(w_ref);
     let left = down.max(0.0) + pad(neg_ref);
     Ok(FilterDesign {
@@ -227,8 +257,14 @@ pub fn steady_state_experiment(
     Ok(SteadyRecord { u, w, samples })
 }
 
-/// Noisy steady-state data from a record: `ȳ = w + η̄`, `|η̄| <= Δη`.
-pub fn noisy_steady_state(rec: &SteadyRecord, delta: f64, rng: &mut impl Rng) -> SteadyStateData {
+/// Noisy steady-state data from a record: `ȳ = w + η̄` with `η̄` uniform in `[-added, added]`,
+/// declared bound `Δη = delta`.
+pub fn noisy_steady_state(
+    rec: &SteadyRecord,
+    delta: f64,
+    added: f64,
+    rng: &mut impl Rng,
+) -> SteadyStateData {
     SteadyStateData {
         points: rec
             .samples
@@ -236,7 +272,7 @@ pub fn noisy_steady_state(rec: &SteadyRecord, delta: f64, rng: &mut impl Rng) ->
             .enumerate()
             .map(|(i, &(t, u, rising))| SteadyPoint {
                 u,
-                y: rec.w[t] + rng.gen_range(-delta..=delta),
+                y: rec.w[t] + rng.gen_range(-added..=added),
                 dy: delta,
                 alpha: 0.0,
                 rising,

@@ -15,9 +15,27 @@ pub struct NoiseSpec {
     /// Encoder resolution: `Δη = 2π / 2^encoder_bits`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub encoder_bits: Option<u32>,
+    /// Amplitude of the uniform noise the experiment adds to a simulated or FMU plant (default:
+    /// the bound). Set it lower when the plant has its own measurement error (e.g. an encoder's
+    /// quantization inside an FMU), so that added noise plus the plant's own stays within the bound.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub simulate: Option<f64>,
 }
 
 impl NoiseSpec {
+    /// Amplitude of the noise added to simulated plants, checked (`0 <= simulate`).
+    pub fn simulated(&self) -> Result<f64> {
+        let d = self.delta()?;
+        match self.simulate {
+            None => Ok(d),
+            Some(s) if s.is_finite() && s >= 0.0 => Ok(s),
+            Some(s) => Err(SmidError::invalid(
+                "noise.simulate",
+                format!("expected a finite number >= 0, got {s}"),
+            )),
+        }
+    }
+
     /// The bound `Δη > 0`, checked.
     pub fn delta(&self) -> Result<f64> {
         match (self.delta, self.encoder_bits) {

@@ -107,6 +107,7 @@ pub fn builtin_plant(spec: &Spec) -> Option<SimulatedPlant<'_>> {
 /// Run the spec's experiments on `plant` (noise-free plant output, bounded noise added here).
 pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<ExperimentData> {
     let delta = spec.noise.delta()?;
+    let added = spec.noise.simulated()?;
     let ex = &spec.experiment;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(ex.seed);
     let filter = match ex.filter.pole {
@@ -114,7 +115,7 @@ pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<Experi
         None => experiment::design_filter_pole(plant, &ex.filter.bisection())?,
     };
     let rec = experiment::steady_state_experiment(plant, filter.pole, &ex.steady_options())?;
-    let steady = experiment::noisy_steady_state(&rec, delta, &mut rng);
+    let steady = experiment::noisy_steady_state(&rec, delta, added, &mut rng);
     let u = experiment::dynamic_input(&ex.dynamic_options(), &mut rng)?;
     let w = plant.run(&u)?;
     if w.len() != u.len() {
@@ -129,7 +130,7 @@ pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<Experi
             message: format!("non-finite output at sample {t}"),
         });
     }
-    let eta = noise::uniform(u.len(), delta, &mut rng);
+    let eta = noise::uniform(u.len(), added, &mut rng);
     let y = w.iter().zip(&eta).map(|(a, b)| a + b).collect();
     let x = plant.inner(&u);
     Ok(ExperimentData {
