@@ -44,8 +44,12 @@ enum Command {
         methods: Vec<String>,
     },
     /// Print the JSON Schema of the spec (every registered plugin `type`); the committed copy is
-    /// `schemas/smid-spec.schema.json`.
-    Schema,
+    /// `schemas/smid-spec.schema.json` (with `--diagnose`: of validate/diagnose specs,
+    /// `schemas/smid-diagnose.schema.json`).
+    Schema {
+        #[arg(long)]
+        diagnose: bool,
+    },
     /// Monte Carlo containment check: random systems, backlash and noise; every bound must hold.
     Check {
         #[arg(long, default_value_t = 1000)]
@@ -147,7 +151,8 @@ fn main() {
 fn real_main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
-        Command::Schema => print!("{}", smid::core::registry::spec_schema()),
+        Command::Schema { diagnose: false } => print!("{}", smid::core::registry::spec_schema()),
+        Command::Schema { diagnose: true } => print!("{}", smid_diagnose::spec::schema()),
         Command::Check {
             trials,
             first_seed,
@@ -218,7 +223,11 @@ fn real_main() -> Result<()> {
                 .filter(|c| 10 * c.named < 9 * c.trials)
                 .map(|c| c.tag.as_str())
                 .collect();
-            anyhow::ensure!(bad.is_empty(), "named in fewer than 9 of 10 trials: {}", bad.join(", "));
+            anyhow::ensure!(
+                bad.is_empty(),
+                "named in fewer than 9 of 10 trials: {}",
+                bad.join(", ")
+            );
         }
         Command::Run { spec, out } => {
             let id = match smid::run_spec_file(&spec) {

@@ -124,3 +124,26 @@ fn measured_data_error_falls_after_diagnosis() {
         assert!(files.iter().all(|f| f.exists()));
     }
 }
+
+/// The committed schema of diagnosis specs is the one the Rust types generate, and the examples
+/// that are diagnosis specs name it.
+#[test]
+fn committed_diagnose_schema_is_up_to_date() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let committed =
+        std::fs::read_to_string(root.join("schemas/smid-diagnose.schema.json")).unwrap_or_default();
+    assert!(
+        committed == smid_diagnose::spec::schema(),
+        "schemas/smid-diagnose.schema.json is stale: regenerate it with `cargo run -- schema --diagnose > schemas/smid-diagnose.schema.json`"
+    );
+    for ex in ["examples/emps.yaml", "examples/damper.yaml"] {
+        let text = std::fs::read_to_string(root.join(ex)).unwrap();
+        assert!(
+            text.starts_with(
+                "# yaml-language-server: $schema=../schemas/smid-diagnose.schema.json\n"
+            ),
+            "{ex}"
+        );
+        smid_diagnose::spec::DiagSpec::from_yaml(&text, &root.join(ex)).unwrap();
+    }
+}

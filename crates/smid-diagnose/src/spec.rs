@@ -76,6 +76,13 @@ fn margin() -> f64 {
     1.1
 }
 
+/// The JSON Schema of diagnosis specs (pretty-printed, newline-terminated); the committed copy
+/// is `schemas/smid-diagnose.schema.json`.
+pub fn schema() -> String {
+    let schema = schemars::schema_for!(DiagSpec);
+    serde_json::to_string_pretty(&schema).unwrap_or_default() + "\n"
+}
+
 /// The LIP model structure: linear orders and declared effects.
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
