@@ -87,7 +87,8 @@ pub struct Reproduction {
     pub errors: Vec<(u32, u64, String)>,
 }
 
-fn median(v: &mut [f64]) -> f64 {
+/// Median (NaN for no values).
+pub fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }

@@ -10,7 +10,8 @@ use std::sync::Once;
 
 static FONT: Once = Once::new();
 
-fn ensure_font() {
+/// Register the embedded DejaVu font once (plotters needs a registered font even for SVG).
+pub fn ensure_font() {
     FONT.call_once(|| {
         for style in [
             FontStyle::Normal,

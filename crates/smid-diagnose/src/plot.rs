@@ -4,23 +4,8 @@
 use crate::validate::{Assessment, Correlations, Series};
 use crate::DiagError;
 use plotters::prelude::*;
+use smid_core::plot::ensure_font;
 use std::path::Path;
-use std::sync::Once;
-
-static FONT: Once = Once::new();
-
-fn ensure_font() {
-    FONT.call_once(|| {
-        for style in [
-            FontStyle::Normal,
-            FontStyle::Bold,
-            FontStyle::Italic,
-            FontStyle::Oblique,
-        ] {
-            let _ = plotters::style::register_font("sans-serif", style, dejavu::sans::regular());
-        }
-    });
-}
 
 fn err(path: &Path, e: impl std::fmt::Display) -> DiagError {
     DiagError::Io {
