@@ -21,6 +21,7 @@ pub mod compare;
 pub mod montecarlo;
 pub mod plugin_check;
 pub mod reproduce;
+pub mod simulate;
 
 use smid_core::pipeline::{self, Identification};
 use smid_core::spec::Spec;

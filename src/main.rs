@@ -1,5 +1,5 @@
-//! The `smid` command line: `run` a YAML spec, `reproduce paper` (Tables I-II), `check`
-//! (Monte Carlo containment). anyhow is used only here, at the edge.
+//! The `smid` command line: `run` a YAML spec, `simulate` its plant to CSV, `reproduce paper`
+//! (Tables I-II), `check` (Monte Carlo containment). anyhow is used only here, at the edge.
 #![forbid(unsafe_code)]
 
 use anyhow::{Context, Result};
@@ -27,6 +27,24 @@ enum Command {
         /// Output directory (default: out/<spec name>).
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// Run the spec's dynamic experiment (PRBS) through its plant (simulator or FMU) without
+    /// identifying; add the spec's bounded noise; write `DIR/NAME.csv` with columns t, u, y, w
+    /// (y = w + noise, w noise-free), readable by a diagnosis spec.
+    Simulate {
+        spec: PathBuf,
+        /// Output directory (default: out/<spec name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// File name without `.csv` (default: `seed-<S>` with --seed, else `dynamic`).
+        #[arg(long)]
+        name: Option<String>,
+        /// Number of samples (default: the spec's experiment.dynamic.length).
+        #[arg(long)]
+        length: Option<usize>,
+        /// Seed of the PRBS and the noise (default: the spec's experiment.seed).
+        #[arg(long)]
+        seed: Option<u64>,
     },
     /// Reproduce a reference result.
     Reproduce {
@@ -227,6 +245,33 @@ fn real_main() -> Result<()> {
                 bad.is_empty(),
                 "named in fewer than 9 of 10 trials: {}",
                 bad.join(", ")
+            );
+        }
+        Command::Simulate {
+            spec,
+            out,
+            name,
+            length,
+            seed,
+        } => {
+            let r = smid::simulate::simulate_spec_file(&spec, length, seed)
+                .with_context(|| format!("simulating {}", spec.display()))?;
+            let dir = out.unwrap_or_else(|| {
+                let stem = spec.file_stem().map(|s| s.to_string_lossy().into_owned());
+                PathBuf::from("out").join(stem.unwrap_or_else(|| "smid".into()))
+            });
+            let name = name.unwrap_or_else(|| match seed {
+                Some(s) => format!("seed-{s}"),
+                None => "dynamic".into(),
+            });
+            let path = dir.join(format!("{name}.csv"));
+            smid::simulate::write_csv(&r, &path)?;
+            println!(
+                "{} samples, noise added |η| <= {:.4e} (Δη = {:.4e}); wrote {}",
+                r.u.len(),
+                r.added,
+                r.delta,
+                path.display()
             );
         }
         Command::Run { spec, out } => {

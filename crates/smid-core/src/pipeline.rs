@@ -104,6 +104,25 @@ pub fn builtin_plant(spec: &Spec) -> Option<SimulatedPlant<'_>> {
     })
 }
 
+/// Run `plant` from rest on `u`; an output of the wrong length or a non-finite sample is an
+/// error naming the plant (and the sample).
+pub fn run_checked(plant: &mut dyn Plant, u: &[f64]) -> Result<Vec<f64>> {
+    let w = plant.run(u)?;
+    if w.len() != u.len() {
+        return Err(SmidError::Plant {
+            plant: plant.name(),
+            message: format!("returned {} samples for {} inputs", w.len(), u.len()),
+        });
+    }
+    if let Some(t) = w.iter().position(|v| !v.is_finite()) {
+        return Err(SmidError::Plant {
+            plant: plant.name(),
+            message: format!("non-finite output at sample {t}"),
+        });
+    }
+    Ok(w)
+}
+
 /// Run the spec's experiments on `plant` (noise-free plant output, bounded noise added here).
 pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<ExperimentData> {
     let delta = spec.noise.delta()?;
@@ -117,19 +136,7 @@ pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<Experi
     let rec = experiment::steady_state_experiment(plant, filter.pole, &ex.steady_options())?;
     let steady = experiment::noisy_steady_state(&rec, delta, added, &mut rng);
     let u = experiment::dynamic_input(&ex.dynamic_options(), &mut rng)?;
-    let w = plant.run(&u)?;
-    if w.len() != u.len() {
-        return Err(SmidError::Plant {
-            plant: plant.name(),
-            message: format!("returned {} samples for {} inputs", w.len(), u.len()),
-        });
-    }
-    if let Some(t) = w.iter().position(|v| !v.is_finite()) {
-        return Err(SmidError::Plant {
-            plant: plant.name(),
-            message: format!("non-finite output at sample {t}"),
-        });
-    }
+    let w = run_checked(plant, &u)?;
     let eta = noise::uniform(u.len(), added, &mut rng);
     let y = w.iter().zip(&eta).map(|(a, b)| a + b).collect();
     let x = plant.inner(&u);
