@@ -8,14 +8,15 @@
 
 pub use smid_core as core;
 pub use smid_core::{Result, SmidError};
-pub use smid_output_backlash as output_backlash;
-pub use smid_fmu as fmu;
 pub use smid_dead_zone as dead_zone;
-pub use smid_example_gain as example_gain;
-pub use smid_input_backlash as input_backlash;
-pub use smid_saturation as saturation;
 pub use smid_diagnose as diagnose;
 pub use smid_effects as effects;
+pub use smid_example_gain as example_gain;
+#[cfg(feature = "fmu")]
+pub use smid_fmu as fmu;
+pub use smid_input_backlash as input_backlash;
+pub use smid_output_backlash as output_backlash;
+pub use smid_saturation as saturation;
 
 pub mod compare;
 pub mod montecarlo;
@@ -31,8 +32,18 @@ use std::path::Path;
 /// registered with typetag. A program that uses only `smid_core` links no plugin and sees
 /// "unknown variant ... there are no variants"; go through this facade (or call this) instead.
 pub fn link_plugins() {
-    std::hint::black_box(smid_output_backlash::branch_polygons as usize);
-    std::hint::black_box(smid_effects::link as *const () as usize);
+    use smid_core::nonlinearity::NonlinearityModel;
+    // A vtable of each plugin's model makes the linker keep that crate's code.
+    let models: [Box<dyn NonlinearityModel>; 5] = [
+        Box::new(smid_output_backlash::OutputBacklashModel::default()),
+        Box::new(smid_input_backlash::InputBacklashModel::default()),
+        Box::new(smid_dead_zone::DeadZoneModel::default()),
+        Box::new(smid_saturation::SaturationModel::default()),
+        Box::new(smid_example_gain::GainModel::default()),
+    ];
+    std::hint::black_box(models);
+    let effects: fn() = smid_effects::link;
+    std::hint::black_box(effects);
 }
 
 /// Parse a spec file with every bundled plugin registered.
@@ -47,8 +58,31 @@ pub fn run_spec_file(path: &Path) -> Result<Identification> {
     let spec = load_spec(path)?;
     let base = path.parent().unwrap_or(Path::new("."));
     if spec.plant.fmu.is_some() {
-        let mut plant = smid_fmu::from_spec(&spec.plant, base)?;
-        return pipeline::run_with_plant(&spec, &mut plant);
+        return with_fmu_plant(&spec, base, |plant| pipeline::run_with_plant(&spec, plant));
     }
     pipeline::run(&spec, base)
+}
+
+/// Build the FMU plant a spec names and hand it to `f`.
+#[cfg(feature = "fmu")]
+pub fn with_fmu_plant<T>(
+    spec: &Spec,
+    base: &Path,
+    f: impl FnOnce(&mut dyn smid_core::plant::Plant) -> Result<T>,
+) -> Result<T> {
+    let mut plant = smid_fmu::from_spec(&spec.plant, base)?;
+    f(&mut plant)
+}
+
+/// Without the `fmu` feature an FMU plant is a clear error saying how to get one.
+#[cfg(not(feature = "fmu"))]
+pub fn with_fmu_plant<T>(
+    _spec: &Spec,
+    _base: &Path,
+    _f: impl FnOnce(&mut dyn smid_core::plant::Plant) -> Result<T>,
+) -> Result<T> {
+    Err(SmidError::Unsupported {
+        plugin: "this smid build".into(),
+        what: "FMU plants: rebuild with `--features fmu` (needs apt libclang-dev for the FMI bindings)".into(),
+    })
 }

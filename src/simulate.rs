@@ -71,9 +71,10 @@ pub fn simulate_spec_file(
     let spec = crate::load_spec(path)?;
     let base = path.parent().unwrap_or(Path::new("."));
     if spec.plant.fmu.is_some() {
-        let mut plant = smid_fmu::from_spec(&spec.plant, base)?;
         let step = spec.plant.step.unwrap_or(1.0);
-        return simulate_with_plant(&spec, &mut plant, length, seed, step);
+        return crate::with_fmu_plant(&spec, base, |plant| {
+            simulate_with_plant(&spec, plant, length, seed, step)
+        });
     }
     match pipeline::builtin_plant(&spec) {
         Some(mut plant) => simulate_with_plant(&spec, &mut plant, length, seed, 1.0),

@@ -1,6 +1,7 @@
 //! FMU plants through the facade: `examples/fmu-paper.yaml` (the paper system as an FMU) gives
 //! the same bounds as `examples/paper.yaml` (the built-in simulator) on the same seed, and a
 //! spec whose FMU cannot be used fails with a typed plant error naming it.
+#![cfg(feature = "fmu")]
 use smid::SmidError;
 use std::path::Path;
 

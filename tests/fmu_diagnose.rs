@@ -7,6 +7,7 @@
 //! smallest bound consistent with the held-out record ≤ 1.2 × (Δ + allowance)), while before it
 //! is not. With no effect (0), nothing is added. Also: `smid simulate` on the built-in simulator
 //! returns the simulator's output with noise within the bound, and refuses a measured-data plant.
+#![cfg(feature = "fmu")]
 use smid::diagnose::{commands, diagnose};
 use smid::simulate::{self, SimulatedRecord};
 use std::path::{Path, PathBuf};

@@ -274,7 +274,7 @@ fn search(
         return None;
     }
     let mut best: Option<(f64, f64)> = None;
-    let mut try_at = |w: f64, best: &mut Option<(f64, f64)>| {
+    let try_at = |w: f64, best: &mut Option<(f64, f64)>| {
         if w > 0.0 {
             let s = score(make(w).as_ref());
             if s.is_finite() && best.map(|b| s < b.1).unwrap_or(true) {
