@@ -17,6 +17,8 @@ use good_lp::{
 pub const ROW_PAD: f64 = 1e-9;
 /// Relative outward widening of each optimum.
 pub const RESULT_PAD: f64 = 1e-8;
+/// Factor on tolerances and pads when a numerical failure forced the sturdier retry.
+const STURDY: f64 = 100.0;
 
 /// A polytope in `R^n` by inequalities and equalities.
 #[derive(Debug, Clone, Default)]
@@ -51,10 +53,27 @@ impl Polytope {
         }
     }
 
-    fn solve(&self, objective: Option<(usize, Sense)>) -> Result<Option<f64>> {
+    /// Solve; when clarabel fails numerically, retry once with sturdier settings (looser
+    /// tolerances, more regularisation), relaxing rows and widening the optimum 100 times more.
+    /// Returns the optimum and whether the retry was needed.
+    fn solve(&self, objective: Option<(usize, Sense)>) -> Result<Option<(f64, bool)>> {
+        match self.solve_once(objective.as_ref(), false) {
+            Err(SmidError::Solver(first)) => match self.solve_once(objective.as_ref(), true) {
+                Ok(v) => Ok(v.map(|x| (x, true))),
+                Err(SmidError::Solver(second)) => Err(SmidError::Solver(format!(
+                    "{first}; retried with sturdier settings: {second}"
+                ))),
+                Err(e) => Err(e),
+            },
+            other => other.map(|v| v.map(|x| (x, false))),
+        }
+    }
+
+    fn solve_once(&self, objective: Option<&(usize, Sense)>, sturdy: bool) -> Result<Option<f64>> {
+        let scale = if sturdy { STURDY } else { 1.0 };
         let mut vars = ProblemVariables::new();
         let th: Vec<Variable> = (0..self.n).map(|_| vars.add(good_lp::variable())).collect();
-        let obj: Expression = match &objective {
+        let obj: Expression = match objective {
             Some((k, Sense::Min)) => th[*k].into(),
             Some((k, Sense::Max)) => -Expression::from(th[*k]),
             None => Expression::from(0.0),
@@ -68,14 +87,21 @@ impl Polytope {
                 .sum()
         };
         let mut problem = clarabel(vars.minimise(obj));
+        let tol = 1e-10 * scale;
         problem
             .settings()
-            .tol_gap_abs(1e-10)
-            .tol_gap_rel(1e-10)
-            .tol_feas(1e-10)
-            .max_iter(400);
+            .tol_gap_abs(tol)
+            .tol_gap_rel(tol)
+            .tol_feas(tol)
+            .max_iter(if sturdy { 2000 } else { 400 });
+        if sturdy {
+            problem
+                .settings()
+                .static_regularization_constant(1e-7)
+                .equilibrate_max_iter(50);
+        }
         for (g, h, _) in &self.le {
-            let h = h + ROW_PAD * (1.0 + h.abs());
+            let h = h + ROW_PAD * scale * (1.0 + h.abs());
             problem = problem.with(lin(g).leq(h));
         }
         for (e, f) in &self.eq {
@@ -95,7 +121,7 @@ impl Polytope {
                     other => return Err(SmidError::Solver(format!("clarabel stopped with status {other:?}"))),
                 }
                 Ok(Some(match objective {
-                    Some((k, _)) => sol.value(th[k]),
+                    Some((k, _)) => sol.value(th[*k]),
                     None => 0.0,
                 }))
             }
@@ -113,15 +139,16 @@ impl Polytope {
     pub fn bound(&self, which: &[usize]) -> Result<LpOutcome> {
         let mut out = vec![Interval::entire(); self.n];
         for &k in which {
-            let lo = match self.solve(Some((k, Sense::Min)))? {
+            let (lo, s1) = match self.solve(Some((k, Sense::Min)))? {
                 Some(v) => v,
                 None => return Ok(LpOutcome::Infeasible),
             };
-            let hi = match self.solve(Some((k, Sense::Max)))? {
+            let (hi, s2) = match self.solve(Some((k, Sense::Max)))? {
                 Some(v) => v,
                 None => return Ok(LpOutcome::Infeasible),
             };
-            out[k] = Interval::new(lo.min(hi), hi.max(lo)).widen(RESULT_PAD, RESULT_PAD);
+            let pad = RESULT_PAD * if s1 || s2 { STURDY } else { 1.0 };
+            out[k] = Interval::new(lo.min(hi), hi.max(lo)).widen(pad, pad);
         }
         Ok(LpOutcome::Bounds(out))
     }

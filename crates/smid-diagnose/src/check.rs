@@ -203,7 +203,11 @@ pub fn run(
         let (mut rb, mut ra) = (Vec::new(), Vec::new());
         for k in 0..trials as u64 {
             let seed = first_seed + k;
-            let (named, b, a) = trial(ex.as_ref(), seed)?;
+            // A trial that fails (e.g. the solver) is a miss with its message, not an abort.
+            let (named, b, a) = match trial(ex.as_ref(), seed) {
+                Ok(r) => r,
+                Err(err) => (format!("error: {err}"), f64::NAN, f64::INFINITY),
+            };
             if named == e.tag {
                 c.named += 1;
             } else {
@@ -212,8 +216,10 @@ pub fn run(
             if a <= 1.2 {
                 c.at_noise_level += 1;
             }
-            rb.push(b);
-            ra.push(a);
+            if b.is_finite() {
+                rb.push(b);
+                ra.push(a);
+            }
             tick();
         }
         c.median_ratio_before = median(rb);

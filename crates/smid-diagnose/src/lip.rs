@@ -225,20 +225,44 @@ pub fn least_squares(phi: &[Vec<f64>], y: &[f64]) -> Vec<f64> {
     (0..p).map(|k| th[k] / cs[k] * ys).collect()
 }
 
-/// The minimax fit: `min_θ max_t |y_t - φ_t θ|` by LP. Returns `(θ, Δ*)`.
+/// The minimax fit: `min_θ max_t |y_t - φ_t θ|` by LP. Returns `(θ, Δ*)`, where `Δ*` is the
+/// maximum residual that the returned `θ` achieves (an upper bound of the minimax value, equal
+/// to it up to the solver's tolerance). When clarabel fails numerically, the LP is retried with
+/// sturdier settings, and then the least-squares `θ` is used: its achieved maximum residual is
+/// still a valid (larger) consistent noise bound.
 pub fn minimax(phi: &[Vec<f64>], y: &[f64]) -> Result<(Vec<f64>, f64), DiagError> {
+    let theta = match minimax_lp(phi, y, false).or_else(|_| minimax_lp(phi, y, true)) {
+        Ok(theta) => theta,
+        Err(_) => least_squares(phi, y),
+    };
+    // Report the achieved maximum residual (exact for the returned θ).
+    let dstar = phi
+        .iter()
+        .zip(y)
+        .map(|(r, yv)| (yv - dot(r, &theta)).abs())
+        .fold(0.0, f64::max);
+    Ok((theta, dstar))
+}
+
+fn minimax_lp(phi: &[Vec<f64>], y: &[f64], sturdy: bool) -> Result<Vec<f64>, DiagError> {
     let p = phi.first().map(|r| r.len()).unwrap_or(0);
     let (cs, ys) = scales(phi, y);
     let mut vars = ProblemVariables::new();
     let th: Vec<_> = (0..p).map(|_| vars.add(good_lp::variable())).collect();
     let d = vars.add(good_lp::variable().min(0.0));
     let mut prob = clarabel(vars.minimise(d));
+    let tol = if sturdy { 1e-8 } else { 1e-10 };
     prob.settings()
-        .tol_gap_abs(1e-10)
-        .tol_gap_rel(1e-9)
-        .tol_feas(1e-10)
-        .max_iter(300)
+        .tol_gap_abs(tol)
+        .tol_gap_rel(tol.max(1e-9))
+        .tol_feas(tol)
+        .max_iter(if sturdy { 2000 } else { 300 })
         .presolve_enable(true);
+    if sturdy {
+        prob.settings()
+            .static_regularization_constant(1e-7)
+            .equilibrate_max_iter(50);
+    }
     for (r, yv) in phi.iter().zip(y) {
         let e: Expression = r
             .iter()
@@ -254,14 +278,7 @@ pub fn minimax(phi: &[Vec<f64>], y: &[f64]) -> Result<(Vec<f64>, f64), DiagError
     let sol = prob
         .solve()
         .map_err(|e| DiagError::Core(smid_core::SmidError::Solver(e.to_string())))?;
-    let theta: Vec<f64> = (0..p).map(|k| sol.value(th[k]) / cs[k] * ys).collect();
-    // Report the achieved maximum residual (exact for the returned θ).
-    let dstar = phi
-        .iter()
-        .zip(y)
-        .map(|(r, yv)| (yv - dot(r, &theta)).abs())
-        .fold(0.0, f64::max);
-    Ok((theta, dstar))
+    Ok((0..p).map(|k| sol.value(th[k]) / cs[k] * ys).collect())
 }
 
 /// Guaranteed bounds of every parameter over `{θ : |y - Φθ| <= Δ}`; `None` when the set is
