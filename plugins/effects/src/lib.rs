@@ -263,6 +263,28 @@ fn umax(train: &[Record]) -> f64 {
 
 /// Pick the setting with the lowest score: the grid `lo + k·step` (`k = 0..n`), then two
 /// refinements of 9 points around the best; `make` builds the variant.
+/// Tune a one-setting input map: keep a given setting, else search it on the grid
+/// `umax · (lo + k·step)`, `k < n`, over the training input's range.
+fn tune_setting(
+    given: Option<f64>,
+    me: &dyn Effect,
+    train: &[Record],
+    (lo, step, n): (f64, f64, usize),
+    make: impl Fn(f64) -> Box<dyn Effect>,
+    score: &dyn Fn(&dyn Effect) -> f64,
+) -> Option<Box<dyn Effect>> {
+    if given.is_some() {
+        return Some(me.boxed());
+    }
+    let m = umax(train);
+    search(m * lo, m * step, n, make, score)
+}
+
+/// The report line of a one-setting effect.
+fn setting(name: &str, value: Option<f64>) -> Vec<(String, f64)> {
+    value.map(|v| vec![(name.into(), v)]).unwrap_or_default()
+}
+
 fn search(
     lo: f64,
     step: f64,
@@ -334,22 +356,11 @@ impl Effect for Play {
         _o: &Orders,
         score: &dyn Fn(&dyn Effect) -> f64,
     ) -> Option<Box<dyn Effect>> {
-        if self.width.is_some() {
-            return Some(self.boxed());
-        }
-        let m = umax(train);
-        search(
-            m * 0.04,
-            m * 0.04,
-            24,
-            |w| Box::new(Play { width: Some(w) }),
-            score,
-        )
+        let make = |w| Box::new(Play { width: Some(w) }) as Box<dyn Effect>;
+        tune_setting(self.width, self, train, (0.04, 0.04, 24), make, score)
     }
     fn settings(&self) -> Vec<(String, f64)> {
-        self.width
-            .map(|w| vec![("width".into(), w)])
-            .unwrap_or_default()
+        setting("width", self.width)
     }
 }
 register_effect!(
@@ -391,22 +402,11 @@ impl Effect for DeadZone {
         _o: &Orders,
         score: &dyn Fn(&dyn Effect) -> f64,
     ) -> Option<Box<dyn Effect>> {
-        if self.width.is_some() {
-            return Some(self.boxed());
-        }
-        let m = umax(train);
-        search(
-            m * 0.04,
-            m * 0.04,
-            18,
-            |w| Box::new(DeadZone { width: Some(w) }),
-            score,
-        )
+        let make = |w| Box::new(DeadZone { width: Some(w) }) as Box<dyn Effect>;
+        tune_setting(self.width, self, train, (0.04, 0.04, 18), make, score)
     }
     fn settings(&self) -> Vec<(String, f64)> {
-        self.width
-            .map(|w| vec![("width".into(), w)])
-            .unwrap_or_default()
+        setting("width", self.width)
     }
 }
 register_effect!(
@@ -444,22 +444,11 @@ impl Effect for Saturation {
         _o: &Orders,
         score: &dyn Fn(&dyn Effect) -> f64,
     ) -> Option<Box<dyn Effect>> {
-        if self.level.is_some() {
-            return Some(self.boxed());
-        }
-        let m = umax(train);
-        search(
-            m * 0.16,
-            m * 0.04,
-            21,
-            |l| Box::new(Saturation { level: Some(l) }),
-            score,
-        )
+        let make = |l| Box::new(Saturation { level: Some(l) }) as Box<dyn Effect>;
+        tune_setting(self.level, self, train, (0.16, 0.04, 21), make, score)
     }
     fn settings(&self) -> Vec<(String, f64)> {
-        self.level
-            .map(|w| vec![("level".into(), w)])
-            .unwrap_or_default()
+        setting("level", self.level)
     }
 }
 register_effect!(
