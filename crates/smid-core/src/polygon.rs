@@ -198,14 +198,28 @@ impl Polygon {
             }
             _ => {
                 // Orientation-agnostic: z is inside when it is on the same side of every edge.
+                // Clipping can leave edges of ~1e-15 between near-duplicate vertices; their
+                // direction is rounding noise, so edges negligible against the polygon's size
+                // are skipped (the neighbouring edges carry the boundary there).
+                let diam = self
+                    .vertices
+                    .iter()
+                    .flat_map(|a| {
+                        self.vertices
+                            .iter()
+                            .map(move |b| (a[0] - b[0]).hypot(a[1] - b[1]))
+                    })
+                    .fold(0.0, f64::max);
                 let sides: Vec<f64> = (0..k)
-                    .map(|i| {
+                    .filter_map(|i| {
                         let p = self.vertices[i];
                         let q = self.vertices[(i + 1) % k];
+                        let len = (q[0] - p[0]).hypot(q[1] - p[1]);
+                        if len <= 1e-9 * diam {
+                            return None;
+                        }
                         let cross = (q[0] - p[0]) * (z[1] - p[1]) - (q[1] - p[1]) * (z[0] - p[0]);
-                        let scale =
-                            (q[0] - p[0]).hypot(q[1] - p[1]) * (1.0 + z[0].abs() + z[1].abs());
-                        cross / scale.max(f64::MIN_POSITIVE)
+                        Some(cross / (len * (1.0 + z[0].abs() + z[1].abs())))
                     })
                     .collect();
                 sides.iter().all(|&c| c >= -1e-10) || sides.iter().all(|&c| c <= 1e-10)
@@ -273,6 +287,27 @@ mod tests {
             }
             other => panic!("expected inconsistency, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn contains_ignores_rounding_edges_between_near_duplicate_vertices() {
+        // The left-branch polygon of a proptest case (input backlash, seed 348): clipping left
+        // near-duplicate vertices whose ~1e-15 edges flipped the side test.
+        let p = Polygon {
+            vertices: vec![
+                [0.665958303166066, 0.18162683494725518],
+                [0.6615393043777904, 0.178224205880283],
+                [0.6615393043777902, 0.17822420588028254],
+                [0.6571203055909394, 0.1658068192892319],
+                [0.6615393043791133, 0.16845821856213633],
+                [0.6615393043791133, 0.16845821856213639],
+                [0.661539304379114, 0.1684582185621381],
+            ],
+        };
+        let (m, c) = (0.6640669716838972, 0.2680489590816805);
+        assert!(p.contains([m, m * c]));
+        assert!(!p.contains([m, m * c + 0.01]));
+        assert!(!p.contains([0.70, 0.17]));
     }
 
     #[test]
