@@ -27,6 +27,28 @@ pub fn invert_branch(
     .outward()
 }
 
+/// Check measured outputs for stage 2: `y` and `dy` of equal length, every `y_t` finite, every
+/// `Δη_t` finite and `>= 0`. Errors name the sample. The pipeline calls this before inverting.
+pub fn check_outputs(y: &[f64], dy: &[f64]) -> crate::Result<()> {
+    if y.len() != dy.len() {
+        return Err(crate::SmidError::invalid(
+            "dynamic data",
+            format!("{} outputs but {} noise bounds", y.len(), dy.len()),
+        ));
+    }
+    match y
+        .iter()
+        .zip(dy)
+        .position(|(y, d)| !(y.is_finite() && d.is_finite() && *d >= 0.0))
+    {
+        Some(t) => Err(crate::SmidError::invalid(
+            format!("dynamic sample {t}"),
+            "non-finite output or noise bound",
+        )),
+        None => Ok(()),
+    }
+}
+
 /// How a sample of the inner signal was bounded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]

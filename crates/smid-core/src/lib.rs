@@ -45,10 +45,10 @@ pub use schemars;
 pub mod prelude {
     pub use crate::error::{Result, SmidError, Stage};
     pub use crate::interval::Interval;
-    pub use crate::inversion::{invert_branch, InnerBound, InnerKind};
+    pub use crate::inversion::{check_outputs, invert_branch, InnerBound, InnerKind};
     pub use crate::nonlinearity::{
-        Nonlinearity, NonlinearityModel, NonlinearitySet, ParameterBound, Region, SteadyPoint,
-        SteadyStateData, Structure,
+        two_branch_regions, two_branches_contain, Nonlinearity, NonlinearityModel, NonlinearitySet,
+        ParameterBound, Region, SteadyPoint, SteadyStateData, Structure,
     };
     pub use crate::polygon::{Polygon, Strip};
 }

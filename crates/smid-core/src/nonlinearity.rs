@@ -8,6 +8,7 @@
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
 use crate::inversion::InnerBound;
+use crate::polygon::Polygon;
 use serde::{Deserialize, Serialize};
 use std::fmt::Debug;
 
@@ -90,6 +91,58 @@ pub struct SteadyPoint {
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct SteadyStateData {
     pub points: Vec<SteadyPoint>,
+}
+
+impl SteadyStateData {
+    /// Check every point: finite `ū` and `ȳ`, a finite noise bound `> 0`, a finite `α >= 0`.
+    /// Errors name the sample. The pipeline calls this before stage 1; plugins may rely on it.
+    pub fn validate(&self) -> Result<()> {
+        for p in &self.points {
+            let at = || format!("steady-state sample {}", p.index);
+            if !(p.u.is_finite() && p.y.is_finite()) {
+                return Err(SmidError::invalid(at(), "non-finite value"));
+            }
+            if !(p.dy > 0.0 && p.dy.is_finite()) {
+                return Err(SmidError::invalid(at(), "noise bound must be > 0"));
+            }
+            if !(p.alpha >= 0.0 && p.alpha.is_finite()) {
+                return Err(SmidError::invalid(at(), "α must be finite and >= 0"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Plot regions of a nonlinearity with two linear branches parameterised as
+/// `(m_l, c_l, m_r, c_r)` and held as polygons in `(m, m·c)` coordinates (output backlash, dead
+/// zone); `truth` in report order.
+pub fn two_branch_regions(left: &Polygon, right: &Polygon, truth: Option<&[f64]>) -> Vec<Region> {
+    let t = |i: usize| {
+        truth
+            .filter(|t| t.len() >= 4)
+            .map(|t| [t[i], t[i] * t[i + 1]])
+    };
+    vec![
+        Region {
+            name: "left_branch".into(),
+            axes: ["m_l".into(), "m_l·c_l".into()],
+            vertices: left.vertices.clone(),
+            truth: t(0),
+        },
+        Region {
+            name: "right_branch".into(),
+            axes: ["m_r".into(), "m_r·c_r".into()],
+            vertices: right.vertices.clone(),
+            truth: t(2),
+        },
+    ]
+}
+
+/// Whether `(m_l, c_l, m_r, c_r)` lies in the two branch polygons (exact set membership).
+pub fn two_branches_contain(left: &Polygon, right: &Polygon, truth: &[f64]) -> bool {
+    truth.len() == 4
+        && left.contains([truth[0], truth[0] * truth[1]])
+        && right.contains([truth[2], truth[2] * truth[3]])
 }
 
 /// A named guaranteed parameter interval.

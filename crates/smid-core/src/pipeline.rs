@@ -246,6 +246,9 @@ pub fn identify(
     }
     let truth_of = |n: &str| truth.iter().find(|(k, _)| k == n).map(|(_, v)| *v);
 
+    data.steady.validate()?;
+    crate::inversion::check_outputs(&data.y, &data.dy)?;
+
     // Stage 1.
     let set = spec.model.nonlinearity.bound_steady_state(&data.steady)?;
     let gamma = set.parameters();

@@ -175,20 +175,7 @@ fn branch_polygon(data: &SteadyStateData, sign: f64, what: &str, slope: &str) ->
 
 /// Stage 1: the exact branch polygons from steady-state data.
 pub fn branch_polygons(data: &SteadyStateData) -> Result<DeadZoneSet> {
-    for p in &data.points {
-        if !(p.u.is_finite() && p.y.is_finite()) {
-            return Err(SmidError::invalid(
-                format!("steady-state sample {}", p.index),
-                "non-finite value",
-            ));
-        }
-        if !(p.dy > 0.0 && p.dy.is_finite()) {
-            return Err(SmidError::invalid(
-                format!("steady-state sample {}", p.index),
-                "noise bound must be > 0",
-            ));
-        }
-    }
+    data.validate()?;
     Ok(DeadZoneSet {
         left: branch_polygon(data, -1.0, "left branch (m_l, m_l·c_l)", "m_l")?,
         right: branch_polygon(data, 1.0, "right branch (m_r, m_r·c_r)", "m_r")?,
@@ -276,25 +263,11 @@ impl NonlinearitySet for DeadZoneSet {
     }
 
     fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
-        if y.len() != dy.len() {
-            return Err(SmidError::invalid(
-                "dynamic data",
-                "y and its noise bounds differ in length",
-            ));
-        }
-        y.iter()
+        check_outputs(y, dy)?;
+        Ok(y.iter()
             .zip(dy)
-            .enumerate()
-            .map(|(t, (&y, &d))| {
-                if !(y.is_finite() && d.is_finite() && d >= 0.0) {
-                    return Err(SmidError::invalid(
-                        format!("dynamic sample {t}"),
-                        "non-finite output or noise bound",
-                    ));
-                }
-                Ok(self.invert_sample(y, d))
-            })
-            .collect()
+            .map(|(&y, &d)| self.invert_sample(y, d))
+            .collect())
     }
 
     fn propagate(&self, u: &[f64]) -> Result<Vec<InnerBound>> {
@@ -316,27 +289,11 @@ impl NonlinearitySet for DeadZoneSet {
     }
 
     fn regions(&self, truth: Option<&[f64]>) -> Vec<Region> {
-        let t = |i: usize| truth.map(|t| [t[i], t[i] * t[i + 1]]);
-        vec![
-            Region {
-                name: "left_branch".into(),
-                axes: ["m_l".into(), "m_l·c_l".into()],
-                vertices: self.left.vertices.clone(),
-                truth: t(0),
-            },
-            Region {
-                name: "right_branch".into(),
-                axes: ["m_r".into(), "m_r·c_r".into()],
-                vertices: self.right.vertices.clone(),
-                truth: t(2),
-            },
-        ]
+        two_branch_regions(&self.left, &self.right, truth)
     }
 
     fn contains(&self, truth: &[f64]) -> bool {
-        truth.len() == 4
-            && self.left.contains([truth[0], truth[0] * truth[1]])
-            && self.right.contains([truth[2], truth[2] * truth[3]])
+        two_branches_contain(&self.left, &self.right, truth)
     }
 }
 

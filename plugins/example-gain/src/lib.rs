@@ -99,12 +99,7 @@ impl NonlinearitySet for GainSet {
         }]
     }
     fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
-        if y.len() != dy.len() {
-            return Err(SmidError::invalid(
-                "dynamic data",
-                "y and its noise bounds differ in length",
-            ));
-        }
+        check_outputs(y, dy)?;
         let k = self.k;
         Ok(y.iter()
             .zip(dy)

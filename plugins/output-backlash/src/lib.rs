@@ -111,19 +111,8 @@ pub struct BacklashSet {
 pub fn branch_polygons(data: &SteadyStateData) -> Result<BacklashSet> {
     let mut left = Vec::new();
     let mut right = Vec::new();
+    data.validate()?;
     for p in &data.points {
-        if !(p.u.is_finite() && p.y.is_finite()) {
-            return Err(SmidError::invalid(
-                format!("steady-state sample {}", p.index),
-                "non-finite value",
-            ));
-        }
-        if !(p.dy > 0.0 && p.dy.is_finite()) {
-            return Err(SmidError::invalid(
-                format!("steady-state sample {}", p.index),
-                "noise bound must be > 0",
-            ));
-        }
         if p.rising {
             // ȳ = m_r ū - m_r c_r + η̄, η̄ in [-Δη, Δη + α] (overshoot can only raise ȳ).
             right.push(Strip {
@@ -200,20 +189,9 @@ impl NonlinearitySet for BacklashSet {
     }
 
     fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
-        if y.len() != dy.len() {
-            return Err(SmidError::invalid(
-                "dynamic data",
-                "y and its noise bounds differ in length",
-            ));
-        }
+        check_outputs(y, dy)?;
         let mut out = Vec::with_capacity(y.len());
         for t in 0..y.len() {
-            if !y[t].is_finite() {
-                return Err(SmidError::invalid(
-                    format!("dynamic sample {t}"),
-                    "non-finite output",
-                ));
-            }
             let band = self.band(y[t], dy[t]);
             let moved = if t == 0 { 0.0 } else { y[t] - y[t - 1] };
             let thr = if t == 0 {
@@ -237,27 +215,11 @@ impl NonlinearitySet for BacklashSet {
     }
 
     fn regions(&self, truth: Option<&[f64]>) -> Vec<Region> {
-        let t = |i: usize| truth.map(|t| [t[i], t[i] * t[i + 1]]);
-        vec![
-            Region {
-                name: "left_branch".into(),
-                axes: ["m_l".into(), "m_l·c_l".into()],
-                vertices: self.left.vertices.clone(),
-                truth: t(0),
-            },
-            Region {
-                name: "right_branch".into(),
-                axes: ["m_r".into(), "m_r·c_r".into()],
-                vertices: self.right.vertices.clone(),
-                truth: t(2),
-            },
-        ]
+        two_branch_regions(&self.left, &self.right, truth)
     }
 
     fn contains(&self, truth: &[f64]) -> bool {
-        truth.len() == 4
-            && self.left.contains([truth[0], truth[0] * truth[1]])
-            && self.right.contains([truth[2], truth[2] * truth[3]])
+        two_branches_contain(&self.left, &self.right, truth)
     }
 }
 

@@ -213,19 +213,8 @@ pub struct SaturationSet {
 pub fn staircases(data: &SteadyStateData) -> Result<SaturationSet> {
     let mut left = Vec::new();
     let mut right = Vec::new();
+    data.validate()?;
     for p in &data.points {
-        if !(p.u.is_finite() && p.y.is_finite()) {
-            return Err(SmidError::invalid(
-                format!("steady-state sample {}", p.index),
-                "non-finite value",
-            ));
-        }
-        if !(p.dy > 0.0 && p.dy.is_finite()) {
-            return Err(SmidError::invalid(
-                format!("steady-state sample {}", p.index),
-                "noise bound must be > 0",
-            ));
-        }
         if p.u > 0.0 {
             right.push(Sample {
                 a: p.u,
@@ -317,25 +306,11 @@ impl NonlinearitySet for SaturationSet {
     }
 
     fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
-        if y.len() != dy.len() {
-            return Err(SmidError::invalid(
-                "dynamic data",
-                "y and its noise bounds differ in length",
-            ));
-        }
-        y.iter()
+        check_outputs(y, dy)?;
+        Ok(y.iter()
             .zip(dy)
-            .enumerate()
-            .map(|(t, (&y, &d))| {
-                if !(y.is_finite() && d.is_finite() && d >= 0.0) {
-                    return Err(SmidError::invalid(
-                        format!("dynamic sample {t}"),
-                        "non-finite output or noise bound",
-                    ));
-                }
-                Ok(self.invert_sample(y, d))
-            })
-            .collect()
+            .map(|(&y, &d)| self.invert_sample(y, d))
+            .collect())
     }
 
     fn contains(&self, truth: &[f64]) -> bool {
