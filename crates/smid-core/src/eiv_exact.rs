@@ -18,7 +18,7 @@ use crate::eiv::{EivProblem, EivResult};
 use crate::eiv_shared::SharedModel;
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
-use crate::sparse_lp::Optimum;
+use crate::sparse_lp::{Optimum, SparseLp};
 use std::collections::{BinaryHeap, HashMap};
 
 /// Options of the exact-grid reference.
@@ -26,18 +26,18 @@ use std::collections::{BinaryHeap, HashMap};
 pub struct ExactOptions {
     /// The grid has `2^depth` cells per free `a`.
     pub depth: u32,
-    /// Leaves tried for a feasible grid point per bound (inner hull).
-    pub inner_tries: usize,
-    /// Extra levels below the grid searched for a feasible point in a leaf (inner hull).
-    pub dive: u32,
+    /// Bisection steps of the inner-hull line search (from the anchor to a cell optimiser).
+    pub line_steps: u32,
+    /// Evaluations of the anchor search (Nelder-Mead on the consistency measure).
+    pub anchor_evals: usize,
 }
 
 impl Default for ExactOptions {
     fn default() -> Self {
         ExactOptions {
             depth: 7,
-            inner_tries: 4,
-            dive: 10,
+            line_steps: 30,
+            anchor_evals: 120,
         }
     }
 }
@@ -50,8 +50,13 @@ pub struct ExactResult {
     /// Hull of the feasible grid points found (inside the exact set); `None` where no feasible
     /// grid point was found for a side.
     pub inner: Vec<Option<Interval>>,
-    /// Cell LPs solved.
+    /// LPs solved (cells and exact points).
     pub cell_lps: usize,
+    /// The anchor of the inner hull: gridded `a` values where the data are consistent, and the
+    /// consistency measure there (the smallest scaling minus one of the inner-signal error
+    /// boxes that admits them; negative: strictly inside). `None` when no consistent `a` was
+    /// found, and then no inner hull either.
+    pub anchor: Option<(Vec<f64>, f64)>,
     pub equations: Vec<usize>,
 }
 
@@ -174,6 +179,274 @@ impl Grid<'_, '_, '_> {
     }
 }
 
+/// Margin of the consistency measure below which a point counts as inside the exact set for
+/// the inner hull (relative to the inner-signal error bounds; far above the LPs' pads).
+const INSIDE: f64 = -1e-6;
+
+/// Exact LPs at fixed values of the gridded `a`'s. With `a` known and the input exact
+/// (Wiener), the equations determine every inner-signal sample from the `b`'s and the samples
+/// that start a chain of equations: `x_t = -Σ a_i x_{t-i} + Σ b_j u_{t-j}`. So `x_t` is an affine
+/// function of a few variables (free `b`'s, chain starts), and consistency is a small LP whose
+/// rows are the sample bounds `x_t ∈ [lo_t, hi_t]`: the equations hold exactly, by construction.
+struct AtA<'p, 'a> {
+    prob: &'p EivProblem<'a>,
+    dims: Vec<usize>,
+    times: Vec<usize>,
+    /// A guaranteed box (bounds the free `b`'s; a superset of the exact set).
+    tb: Vec<Interval>,
+    lps: usize,
+}
+
+/// Sum the coefficients of equal columns.
+fn merge(mut row: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
+    row.sort_by_key(|e| e.0);
+    let mut out: Vec<(usize, f64)> = Vec::with_capacity(row.len());
+    for (c, v) in row {
+        match out.last_mut() {
+            Some(l) if l.0 == c => l.1 += v,
+            _ => out.push((c, v)),
+        }
+    }
+    out
+}
+
+/// The LP at one `a`: columns `[free θ (b's), chain starts, s]`.
+struct AtALp {
+    lp: SparseLp,
+    /// Column of each θ index (free `b`'s only).
+    col_theta: Vec<Option<usize>>,
+    /// The slack column.
+    s: usize,
+}
+
+impl AtA<'_, '_> {
+    /// The LP at `a`; with `slack`, every sample box is scaled by `1 + s` (`s >= -1`), else
+    /// `s` is fixed to 0.
+    fn lp(&self, a: &[f64], slack: bool) -> AtALp {
+        let prob = self.prob;
+        let p = prob.na + prob.nb + 1;
+        let mut theta: Vec<Option<f64>> = prob.fixed.clone();
+        for (d, &k) in self.dims.iter().enumerate() {
+            theta[k] = Some(a[d]);
+        }
+        let mut col_theta = vec![None; p];
+        let mut n = 0;
+        for k in 0..p {
+            if theta[k].is_none() {
+                col_theta[k] = Some(n);
+                n += 1;
+            }
+        }
+        // x_s = c + Σ coef·z over the columns; None: not reached by any equation.
+        let len = prob.output.len();
+        let mut x: Vec<Option<(f64, Vec<(usize, f64)>)>> = vec![None; len];
+        for &t in &self.times {
+            // Samples before `t` not set by an earlier equation start a chain: free variables.
+            for s in t - prob.na..t {
+                if x[s].is_none() {
+                    x[s] = Some((0.0, vec![(n, 1.0)]));
+                    n += 1;
+                }
+            }
+            let mut c = 0.0;
+            let mut row: Vec<(usize, f64)> = Vec::new();
+            for i in 1..=prob.na {
+                let ai = theta[i - 1].unwrap_or(0.0);
+                if let Some((ci, ri)) = &x[t - i] {
+                    c -= ai * ci;
+                    row.extend(ri.iter().map(|&(k, v)| (k, -ai * v)));
+                }
+            }
+            for j in 0..=prob.nb {
+                let u = prob.input[t - j].center();
+                match (theta[prob.na + j], col_theta[prob.na + j]) {
+                    (Some(v), _) => c += v * u,
+                    (None, Some(col)) => row.push((col, u)),
+                    (None, None) => {}
+                }
+            }
+            x[t] = Some((c, merge(row)));
+        }
+        let s_col = n;
+        let mut lp = SparseLp::new(n + 1);
+        for (s, xs) in x.iter().enumerate() {
+            let Some((c, row)) = xs else { continue };
+            let iv = prob.output[s].interval;
+            if !(iv.lo.is_finite() && iv.hi.is_finite()) {
+                continue;
+            }
+            let r = iv.radius();
+            // lo - r s <= c + row·z <= hi + r s
+            let mut up = row.clone();
+            up.push((s_col, -r));
+            lp.le(up, iv.hi - c);
+            let mut down: Vec<(usize, f64)> = row.iter().map(|&(k, v)| (k, -v)).collect();
+            down.push((s_col, -r));
+            lp.le(down, c - iv.lo);
+        }
+        if slack {
+            lp.le(vec![(s_col, -1.0)], 1.0);
+        } else {
+            lp.eq(vec![(s_col, 1.0)], 0.0);
+        }
+        for k in 0..p {
+            if let Some(col) = col_theta[k] {
+                let b = self.tb[k];
+                if b.lo.is_finite() {
+                    lp.le(vec![(col, -1.0)], -b.lo);
+                }
+                if b.hi.is_finite() {
+                    lp.le(vec![(col, 1.0)], b.hi);
+                }
+            }
+        }
+        if prob.unit_gain {
+            // Σ b_j - Σ a_i = 1 (eq 8).
+            let mut row = Vec::new();
+            let mut rhs = 1.0;
+            for k in 0..p {
+                let sg = if k < prob.na { -1.0 } else { 1.0 };
+                match (theta[k], col_theta[k]) {
+                    (Some(v), _) => rhs -= sg * v,
+                    (None, Some(col)) => row.push((col, sg)),
+                    (None, None) => {}
+                }
+            }
+            lp.eq(row, rhs);
+        }
+        AtALp {
+            lp,
+            col_theta,
+            s: s_col,
+        }
+    }
+
+    /// The consistency measure at `a`: the smallest `s` for which the equations hold with the
+    /// inner-signal samples inside their boxes scaled by `1 + s` (`+inf` when the solver gave
+    /// no conclusion).
+    fn slack(&mut self, a: &[f64]) -> Result<f64> {
+        self.lps += 1;
+        let m = self.lp(a, true);
+        Ok(match m.lp.solver()?.minimise(m.s)? {
+            Optimum::Value(v) => v,
+            _ => f64::INFINITY,
+        })
+    }
+
+    /// The optimum of `θ_k` at a consistent `a` (a point of the exact set's projection, so an
+    /// inner value; the LP's outward pad is taken back).
+    fn value(&mut self, a: &[f64], k: usize, max: bool) -> Result<Option<f64>> {
+        if let Some(d) = self.dims.iter().position(|&kk| kk == k) {
+            return Ok(Some(a[d]));
+        }
+        let m = self.lp(a, false);
+        let Some(col) = m.col_theta[k] else {
+            return Ok(self.prob.fixed[k]);
+        };
+        self.lps += 1;
+        let mut s = m.lp.solver()?;
+        let o = if max {
+            s.maximise(col)?
+        } else {
+            s.minimise(col)?
+        };
+        Ok(match o {
+            Optimum::Value(v) => {
+                let pad = crate::lp::RESULT_PAD * (1.0 + v.abs());
+                Some(if max { v - pad } else { v + pad })
+            }
+            _ => None,
+        })
+    }
+
+    /// A consistent point to grow the inner hull from: Nelder-Mead on the consistency measure,
+    /// from the centre of the guaranteed box. `None` when no point is found inside.
+    fn anchor(&mut self, start: &[Interval], evals: usize) -> Result<Option<(Vec<f64>, f64)>> {
+        let n = self.dims.len();
+        let c: Vec<f64> = self.dims.iter().map(|&k| start[k].center()).collect();
+        let mut simplex: Vec<(Vec<f64>, f64)> = Vec::with_capacity(n + 1);
+        let f0 = self.slack(&c)?;
+        simplex.push((c.clone(), f0));
+        for d in 0..n {
+            let mut v = c.clone();
+            v[d] += 0.25 * start[self.dims[d]].radius();
+            let f = self.slack(&v)?;
+            simplex.push((v, f));
+        }
+        let mut used = n + 1;
+        let lerp = |a: &[f64], b: &[f64], t: f64| -> Vec<f64> {
+            a.iter().zip(b).map(|(x, y)| x + t * (y - x)).collect()
+        };
+        while n > 0 && used < evals {
+            simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+            let size = simplex[1..]
+                .iter()
+                .flat_map(|(v, _)| {
+                    v.iter()
+                        .zip(&simplex[0].0)
+                        .enumerate()
+                        .map(|(d, (x, y))| (x - y).abs() / start[self.dims[d]].radius().max(1e-300))
+                })
+                .fold(0.0, f64::max);
+            if size < 1e-9 {
+                break;
+            }
+            let worst = simplex[n].clone();
+            let centroid: Vec<f64> = (0..n)
+                .map(|d| simplex[..n].iter().map(|(v, _)| v[d]).sum::<f64>() / n as f64)
+                .collect();
+            let r = lerp(&centroid, &worst.0, -1.0);
+            let fr = self.slack(&r)?;
+            used += 1;
+            if fr < simplex[0].1 {
+                let e = lerp(&centroid, &worst.0, -2.0);
+                let fe = self.slack(&e)?;
+                used += 1;
+                simplex[n] = if fe < fr { (e, fe) } else { (r, fr) };
+            } else if fr < simplex[n - 1].1 {
+                simplex[n] = (r, fr);
+            } else {
+                let k = lerp(&centroid, &worst.0, 0.5);
+                let fk = self.slack(&k)?;
+                used += 1;
+                if fk < worst.1 {
+                    simplex[n] = (k, fk);
+                } else {
+                    let best = simplex[0].0.clone();
+                    for v in simplex.iter_mut().skip(1) {
+                        let p = lerp(&best, &v.0, 0.5);
+                        let fp = self.slack(&p)?;
+                        *v = (p, fp);
+                        used += 1;
+                    }
+                }
+            }
+        }
+        simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let (a, f) = simplex.swap_remove(0);
+        Ok((f <= INSIDE).then_some((a, f)))
+    }
+
+    /// The consistent point nearest `to` on the segment from the consistent `from` (bisection).
+    fn toward(&mut self, from: &[f64], to: &[f64], steps: u32) -> Result<Vec<f64>> {
+        let at =
+            |t: f64| -> Vec<f64> { from.iter().zip(to).map(|(x, y)| x + t * (y - x)).collect() };
+        if self.slack(to)? <= INSIDE {
+            return Ok(to.to_vec());
+        }
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..steps {
+            let mid = 0.5 * (lo + hi);
+            if self.slack(&at(mid))? <= INSIDE {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        Ok(at(lo))
+    }
+}
+
 enum Optimum2 {
     Value(f64, [f64; 2]),
     Infeasible,
@@ -222,6 +495,23 @@ pub fn solve_from(
         lps: 0,
     };
     let depth = if g.dims.is_empty() { 0 } else { opts.depth };
+    let mut at_a = AtA {
+        prob,
+        dims: g.dims.clone(),
+        times: model.times.clone(),
+        tb: start.bounds.clone(),
+        lps: 0,
+    };
+    // The exact LPs at fixed `a` need an exact input (they substitute it in the equations).
+    let exact_input = model
+        .times
+        .iter()
+        .all(|&t| (0..=prob.nb).all(|j| prob.input[t - j].radius() == 0.0));
+    let anchor = if exact_input {
+        at_a.anchor(&start.bounds, opts.anchor_evals)?
+    } else {
+        None
+    };
     let p = prob.na + prob.nb + 1;
     let mut outer: Vec<Interval> = start.bounds.clone();
     let mut inner: Vec<Option<Interval>> = (0..p)
@@ -271,31 +561,16 @@ pub fn solve_from(
             }
             let mut bound: Option<f64> = None;
             let mut best_inner: Option<f64> = None;
-            let mut tries = 0;
             while let Some(node) = heap.pop() {
                 if node.cell.depth >= depth {
-                    if bound.is_none() {
-                        bound = Some(if max { node.key } else { -node.key });
-                    }
-                    // Inner hull: exact LPs (a fixed) at points of this leaf: the relaxation's
-                    // optimiser and the cell centre; if neither is feasible (a thin set), dive
-                    // into the best sub-cell, where the envelopes are tighter, and retry.
-                    let (mut cell, mut at) = (node.cell, node.at);
-                    for _level in 0..=opts.dive {
-                        let cb = g.cell_box(cell);
-                        let centre: Vec<f64> = g.dims.iter().map(|&k| cb[k].center()).collect();
-                        let mut cands = vec![at.to_vec(), centre];
-                        cands.truncate(if g.dims.is_empty() { 1 } else { 2 });
-                        for a in cands {
-                            let mut tb = start.bounds.clone();
-                            for (d, &kk) in g.dims.iter().enumerate() {
-                                tb[kk] = Interval::new(a[d], a[d]);
-                            }
-                            if let Optimum2::Value(v, _) = g.solve(&tb, col, max)? {
-                                // Undo the outward pad: an inner value is a point estimate.
-                                let v = v + if max { -1.0 } else { 1.0 }
-                                    * crate::lp::RESULT_PAD
-                                    * (1.0 + v.abs());
+                    bound = Some(if max { node.key } else { -node.key });
+                    // Inner hull: the consistent point nearest the relaxation's optimiser on the
+                    // segment from the anchor, and the anchor itself.
+                    if let Some((anchor, _)) = &anchor {
+                        let target = &node.at[..g.dims.len()];
+                        let near = at_a.toward(anchor, target, opts.line_steps)?;
+                        for a in [near, anchor.clone()] {
+                            if let Some(v) = at_a.value(&a, k, max)? {
                                 best_inner = Some(match best_inner {
                                     None => v,
                                     Some(b) if max => b.max(v),
@@ -303,31 +578,8 @@ pub fn solve_from(
                                 });
                             }
                         }
-                        if best_inner.is_some() || g.dims.is_empty() {
-                            break;
-                        }
-                        let parent = Some((if max { node.key } else { -node.key }, at));
-                        let mut best: Option<(f64, Cell, [f64; 2])> = None;
-                        for c in g.children(cell) {
-                            if let Some((v, a)) = eval(&mut g, c, parent)? {
-                                if best.map_or(true, |b| key(v) > b.0) {
-                                    best = Some((key(v), c, a));
-                                }
-                            }
-                        }
-                        match best {
-                            Some((_, c, a)) => {
-                                cell = c;
-                                at = a;
-                            }
-                            None => break,
-                        }
                     }
-                    tries += 1;
-                    if best_inner.is_some() || tries >= opts.inner_tries.max(1) {
-                        break;
-                    }
-                    continue;
+                    break;
                 }
                 let parent = Some((if max { node.key } else { -node.key }, node.at));
                 for c in g.children(node.cell) {
@@ -368,7 +620,8 @@ pub fn solve_from(
     Ok(ExactResult {
         outer,
         inner,
-        cell_lps: g.lps,
+        cell_lps: g.lps + at_a.lps,
+        anchor,
         equations: start.equations.clone(),
     })
 }
@@ -383,8 +636,7 @@ mod tests {
     fn quick() -> ExactOptions {
         ExactOptions {
             depth: 4,
-            inner_tries: 2,
-            dive: 6,
+            ..ExactOptions::default()
         }
     }
 
@@ -407,6 +659,45 @@ mod tests {
                     let tol = 10.0 * crate::lp::RESULT_PAD * (1.0 + o.lo.abs().max(o.hi.abs()));
                     prop_assert!(o.lo - tol <= i.lo && i.hi <= o.hi + tol, "inner {:?} outside outer {:?}", i, o);
                 }
+            }
+        }
+    }
+
+    /// The fixed-`a` LP (equations substituted) and the shared-error LP over a degenerate `a`
+    /// box (equations as rows, products exact) describe the same set: they must agree on
+    /// consistency, at the truth (consistent: the noise is inside its bound) and far from it.
+    #[test]
+    fn fixed_a_lp_agrees_with_the_shared_model() {
+        for seed in 0..8 {
+            let (m, out, input) = random_case(seed, 40);
+            let prob = problem(&out, &input, true);
+            let shared = eiv_shared::solve(&prob, &SharedOptions::default()).unwrap();
+            let model = SharedModel::new(&prob, shared.equations.clone());
+            let mut at = AtA {
+                prob: &prob,
+                dims: vec![0, 1],
+                times: model.times.clone(),
+                tb: shared.bounds.clone(),
+                lps: 0,
+            };
+            let r = [shared.bounds[0].radius(), shared.bounds[1].radius()];
+            for (shift, consistent) in [(0.0, Some(true)), (3.0, Some(false)), (-3.0, Some(false))]
+            {
+                let a = [m.a[0] + shift * r[0], m.a[1] - shift * r[1]];
+                let phi = at.slack(&a).unwrap();
+                let mut tb = shared.bounds.clone();
+                tb[0] = Interval::new(a[0], a[0]);
+                tb[1] = Interval::new(a[1], a[1]);
+                let lp = model
+                    .build(&tb, &model.initial_deltas(), &model.times)
+                    .unwrap();
+                let feasible = lp.solver().unwrap().feasible().unwrap();
+                assert_eq!(feasible, consistent, "seed {seed} shift {shift}: shared LP");
+                assert_eq!(
+                    phi <= 0.0,
+                    consistent == Some(true),
+                    "seed {seed} shift {shift}: φ = {phi}"
+                );
             }
         }
     }

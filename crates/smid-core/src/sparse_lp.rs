@@ -124,7 +124,7 @@ impl SparseLp {
             .tol_gap_abs(1e-10)
             .tol_gap_rel(1e-10)
             .tol_feas(1e-10)
-            .max_iter(400)
+            .max_iter(100)
             .build()
             .map_err(|e| SmidError::Solver(e.to_string()))?;
         let q = vec![0.0; self.n];
