@@ -81,6 +81,9 @@ enum Command {
         /// Stage-3 method (classical, shared, sdp, exact-grid; default: the spec default).
         #[arg(long)]
         method: Option<String>,
+        /// Trials run in parallel (default: the number of cores).
+        #[arg(long)]
+        jobs: Option<usize>,
     },
     /// Validate a LIP model set (a diagnosis spec) on fresh data: residual, falsification
     /// share against the guaranteed band ± Δ, residual correlations, smallest consistent bound.
@@ -136,6 +139,12 @@ fn progress(n: usize, what: &str) -> ProgressBar {
 }
 
 /// A stage-3 method by its spec name.
+/// `--jobs`, else the number of cores.
+fn jobs_or_cores(jobs: Option<usize>) -> usize {
+    jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .max(1)
+}
+
 fn parse_method(m: &str) -> Result<smid::core::spec::EivMethod> {
     smid::core::spec::EivMethod::from_name(m.trim()).with_context(|| {
         format!("unknown stage-3 method `{m}`; expected one of: classical, shared, sdp, exact-grid")
@@ -175,10 +184,20 @@ fn real_main() -> Result<()> {
             trials,
             first_seed,
             ref plugin,
-            ..
+            ref method,
+            jobs,
         } if plugin != "output_backlash" => {
+            let method = method.as_deref().map(parse_method).transpose()?;
             let pb = progress(trials, plugin);
-            let s = smid::plugin_check::run(plugin, first_seed, trials, || pb.inc(1))?;
+            let s = smid::plugin_check::run(
+                plugin,
+                first_seed,
+                trials,
+                method,
+                jobs_or_cores(jobs),
+                || pb.inc(1),
+            )?;
+            println!("stage-3 method: {}", method.unwrap_or_default().name());
             pb.finish_and_clear();
             print!("{}", smid::plugin_check::report(plugin, &s));
             anyhow::ensure!(
@@ -340,6 +359,7 @@ fn real_main() -> Result<()> {
             trials,
             first_seed,
             method,
+            jobs,
             ..
         } => {
             let method = match method {
@@ -347,7 +367,13 @@ fn real_main() -> Result<()> {
                 None => Default::default(),
             };
             let pb = progress(trials, "containment trials");
-            let s = smid::montecarlo::run_method(first_seed, trials, method, || pb.inc(1));
+            let s = smid::montecarlo::run_method(
+                first_seed,
+                trials,
+                method,
+                jobs_or_cores(jobs),
+                || pb.inc(1),
+            );
             println!("stage-3 method: {}", method.name());
             pb.finish_and_clear();
             println!(

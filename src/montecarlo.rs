@@ -145,18 +145,59 @@ pub struct Summary {
 }
 
 /// Run `n` trials with seeds `first..first+n`, calling `tick` after each.
-pub fn run(first: u64, n: usize, mut tick: impl FnMut()) -> Summary {
+pub fn run(first: u64, n: usize, tick: impl Fn() + Sync) -> Summary {
+    run_seeds(first, n, 1, tick, |seed| Trial::random(seed).run())
+}
+
+/// Run `trial` for seeds `first..first+n` on `jobs` threads (seeds dealt round-robin), calling
+/// `tick` after each; the summary lists seeds in order whatever the thread timing.
+pub fn run_seeds(
+    first: u64,
+    n: usize,
+    jobs: usize,
+    tick: impl Fn() + Sync,
+    trial: impl Fn(u64) -> Result<Identification> + Sync,
+) -> Summary {
+    let jobs = jobs.clamp(1, n.max(1));
+    let mut outcomes: Vec<(u64, std::result::Result<bool, String>)> = std::thread::scope(|sc| {
+        let handles: Vec<_> = (0..jobs)
+            .map(|j| {
+                let (tick, trial) = (&tick, &trial);
+                sc.spawn(move || {
+                    let mut v = Vec::new();
+                    let mut seed = first + j as u64;
+                    while seed < first + n as u64 {
+                        let o = match trial(seed) {
+                            Ok(id) => Ok(id.all_contain_truth() == Some(true)),
+                            Err(e) => Err(e.to_string()),
+                        };
+                        v.push((seed, o));
+                        tick();
+                        seed += jobs as u64;
+                    }
+                    v
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| match h.join() {
+                Ok(v) => v,
+                Err(p) => std::panic::resume_unwind(p),
+            })
+            .collect()
+    });
+    outcomes.sort_by_key(|o| o.0);
     let mut s = Summary {
         trials: n,
         ..Default::default()
     };
-    for seed in first..first + n as u64 {
-        match Trial::random(seed).run() {
-            Ok(id) if id.all_contain_truth() == Some(true) => s.contained += 1,
-            Ok(_) => s.missed.push(seed),
-            Err(e) => s.errors.push((seed, e.to_string())),
+    for (seed, o) in outcomes {
+        match o {
+            Ok(true) => s.contained += 1,
+            Ok(false) => s.missed.push(seed),
+            Err(e) => s.errors.push((seed, e)),
         }
-        tick();
     }
     s
 }
@@ -175,24 +216,15 @@ impl Trial {
     }
 }
 
-/// Like [`run`], with stage 3 by `method`.
+/// Like [`run`], with stage 3 by `method`, on `jobs` threads.
 pub fn run_method(
     first: u64,
     n: usize,
     method: smid_core::spec::EivMethod,
-    mut tick: impl FnMut(),
+    jobs: usize,
+    tick: impl Fn() + Sync,
 ) -> Summary {
-    let mut s = Summary {
-        trials: n,
-        ..Default::default()
-    };
-    for seed in first..first + n as u64 {
-        match Trial::random(seed).run_method(method) {
-            Ok(id) if id.all_contain_truth() == Some(true) => s.contained += 1,
-            Ok(_) => s.missed.push(seed),
-            Err(e) => s.errors.push((seed, e.to_string())),
-        }
-        tick();
-    }
-    s
+    run_seeds(first, n, jobs, tick, |seed| {
+        Trial::random(seed).run_method(method)
+    })
 }

@@ -13,7 +13,7 @@ use smid_core::noise::NoiseSpec;
 use smid_core::nonlinearity::{Nonlinearity, NonlinearityModel, Structure};
 use smid_core::pipeline::{self, Identification};
 use smid_core::plant::SimulatedPlant;
-use smid_core::spec::{ExperimentSpec, MethodSpec, ModelSpec, PlantSpec, Spec};
+use smid_core::spec::{EivMethod, ExperimentSpec, MethodSpec, ModelSpec, PlantSpec, Spec};
 use smid_core::{Result, SmidError};
 use smid_dead_zone::{DeadZone, DeadZoneModel};
 use smid_input_backlash::{InputBacklash, InputBacklashModel};
@@ -179,10 +179,13 @@ impl PluginTrial {
         (spec, self.nonlinearity, self.linear)
     }
 
-    /// Run the whole pipeline on this trial.
-    pub fn run(self) -> Result<Identification> {
+    /// Run the whole pipeline on this trial, stage 3 by `method` (`None`: the spec default).
+    pub fn run(self, method: Option<EivMethod>) -> Result<Identification> {
         let structure = self.structure;
-        let (spec, nl, linear) = self.spec();
+        let (mut spec, nl, linear) = self.spec();
+        if let Some(m) = method {
+            spec.method.eiv = m;
+        }
         let mut plant = SimulatedPlant {
             linear,
             nonlinearity: nl.as_ref(),
@@ -193,24 +196,28 @@ impl PluginTrial {
 }
 
 /// Run `n` trials of `plugin` with seeds `first..first+n`, calling `tick` after each.
-pub fn run(plugin: &str, first: u64, n: usize, mut tick: impl FnMut()) -> Result<Summary> {
+/// Stage 3 by `method` (`None`: the spec default), on `jobs` threads.
+pub fn run(
+    plugin: &str,
+    first: u64,
+    n: usize,
+    method: Option<EivMethod>,
+    jobs: usize,
+    tick: impl Fn() + Sync,
+) -> Result<Summary> {
     let plugin = plugin_name(plugin)?;
     if plugin == "output_backlash" {
-        return Ok(montecarlo::run(first, n, tick));
+        return Ok(montecarlo::run_method(
+            first,
+            n,
+            method.unwrap_or_default(),
+            jobs,
+            tick,
+        ));
     }
-    let mut s = Summary {
-        trials: n,
-        ..Default::default()
-    };
-    for seed in first..first + n as u64 {
-        match PluginTrial::random(plugin, seed)?.run() {
-            Ok(id) if id.all_contain_truth() == Some(true) => s.contained += 1,
-            Ok(_) => s.missed.push(seed),
-            Err(e) => s.errors.push((seed, e.to_string())),
-        }
-        tick();
-    }
-    Ok(s)
+    Ok(montecarlo::run_seeds(first, n, jobs, tick, |seed| {
+        PluginTrial::random(plugin, seed)?.run(method)
+    }))
 }
 
 /// The summary lines `smid check` prints.

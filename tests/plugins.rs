@@ -60,7 +60,7 @@ fn cases() -> u32 {
 /// would mean a bound excluded the truth, so `Inconsistent` fails too. Other errors (too few
 /// informative samples) give no bound and are allowed.
 fn check(plugin: &str, seed: u64) -> std::result::Result<(), TestCaseError> {
-    match PluginTrial::random(plugin, seed).unwrap().run() {
+    match PluginTrial::random(plugin, seed).unwrap().run(None) {
         Ok(id) => {
             prop_assert_eq!(
                 id.all_contain_truth(),
