@@ -126,3 +126,41 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(cases(2))]
+
+    /// Every stage-3 method of this build (the moment relaxation only with the feature `sdp`)
+    /// on the same random trial: each contains the truth, and the tighter methods are never
+    /// wider than the ones they start from (classical ⊇ shared ⊇ sdp, exact-grid).
+    #[test]
+    fn every_stage3_method_contains_the_truth(seed in any::<u64>()) {
+        use smid_core::spec::EivMethod;
+        let trial = Trial::random(seed);
+        let mut methods = vec![EivMethod::Classical, EivMethod::Shared, EivMethod::ExactGrid];
+        if smid_core::eiv_sdp::AVAILABLE {
+            methods.push(EivMethod::Sdp);
+        }
+        let mut shared = None;
+        for m in methods {
+            match trial.run_method(m) {
+                Ok(id) => {
+                    prop_assert_eq!(id.all_contain_truth(), Some(true), "{}: {}", m.name(), smid_core::report::table(&id));
+                    let theta: Vec<Interval> = ["a1", "a2", "b1", "b2"]
+                        .iter()
+                        .filter_map(|n| id.parameter(n).map(|p| Interval::new(p.lower, p.upper)))
+                        .collect();
+                    if m == EivMethod::Shared {
+                        shared = Some(theta);
+                    } else if let (Some(s), true) = (&shared, m != EivMethod::Classical) {
+                        for (k, (t, s)) in theta.iter().zip(s).enumerate() {
+                            prop_assert!(s.lo <= t.lo && t.hi <= s.hi, "{}: θ{k} {t:?} wider than shared {s:?}", m.name());
+                        }
+                    }
+                }
+                Err(SmidError::Unbounded { .. }) => prop_assume!(false),
+                Err(e) => prop_assert!(false, "seed {seed}, {}: {e}", m.name()),
+            }
+        }
+    }
+}

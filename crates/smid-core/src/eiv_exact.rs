@@ -18,7 +18,7 @@ use crate::eiv::{EivProblem, EivResult};
 use crate::eiv_shared::SharedModel;
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
-use crate::sparse_lp::{Optimum, SparseLp};
+use crate::sparse_lp::{merge, Optimum, SparseLp};
 use std::collections::{BinaryHeap, HashMap};
 
 /// Options of the exact-grid reference.
@@ -197,18 +197,8 @@ struct AtA<'p, 'a> {
     lps: usize,
 }
 
-/// Sum the coefficients of equal columns.
-fn merge(mut row: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
-    row.sort_by_key(|e| e.0);
-    let mut out: Vec<(usize, f64)> = Vec::with_capacity(row.len());
-    for (c, v) in row {
-        match out.last_mut() {
-            Some(l) if l.0 == c => l.1 += v,
-            _ => out.push((c, v)),
-        }
-    }
-    out
-}
+/// An affine function `c + Σ coef·z_col`.
+type Affine = (f64, Vec<(usize, f64)>);
 
 /// The LP at one `a`: columns `[free θ (b's), chain starts, s]`.
 struct AtALp {
@@ -239,12 +229,12 @@ impl AtA<'_, '_> {
         }
         // x_s = c + Σ coef·z over the columns; None: not reached by any equation.
         let len = prob.output.len();
-        let mut x: Vec<Option<(f64, Vec<(usize, f64)>)>> = vec![None; len];
+        let mut x: Vec<Option<Affine>> = vec![None; len];
         for &t in &self.times {
             // Samples before `t` not set by an earlier equation start a chain: free variables.
-            for s in t - prob.na..t {
-                if x[s].is_none() {
-                    x[s] = Some((0.0, vec![(n, 1.0)]));
+            for xs in &mut x[t - prob.na..t] {
+                if xs.is_none() {
+                    *xs = Some((0.0, vec![(n, 1.0)]));
                     n += 1;
                 }
             }
@@ -289,8 +279,8 @@ impl AtA<'_, '_> {
         } else {
             lp.eq(vec![(s_col, 1.0)], 0.0);
         }
-        for k in 0..p {
-            if let Some(col) = col_theta[k] {
+        for (k, col) in col_theta.iter().enumerate() {
+            if let Some(col) = *col {
                 let b = self.tb[k];
                 if b.lo.is_finite() {
                     lp.le(vec![(col, -1.0)], -b.lo);

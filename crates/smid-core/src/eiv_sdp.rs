@@ -1,35 +1,610 @@
 //! Stage 3 (paper Section 5) by a moment (SDP) relaxation of the shared-error EIV problem
-//! (eqs 1, 28-30) on cliques of consecutive samples, planned behind a cargo feature `sdp`
-//! (Clarabel's PSD cone over OpenBLAS). It is not built yet: selecting `method.eiv: sdp` is a
-//! clear error that names the feature and the alternative (`shared`, which is already within a
-//! few percent of the exact set on the paper's example; see [`crate::eiv_exact`]).
+//! (eqs 1, 28-30), behind the cargo feature `sdp` (Clarabel's PSD cone over the system
+//! OpenBLAS).
+//!
+//! The variables of the shared-error relaxation ([`crate::eiv_shared`]: the free θ, the
+//! inner-signal errors `δ_s`, the products `w = θ_k δ_s`) get the second moments they lack
+//! (`θ_k θ_l`, `δ_s δ_r`, missing `θ_k δ_s`), and for every equation `t` the moment matrix of
+//! `(1, θ_k, δ_s)` over the coefficients and samples of that equation (a sparse clique of
+//! consecutive samples) is constrained positive semidefinite (order-1 moment relaxation), on top
+//! of the McCormick envelopes of every moment and the equations themselves. Every `(θ, δ)`
+//! consistent with the data, with its rank-one moments, satisfies all of this, so the relaxation
+//! contains the exact set.
+//!
+//! **Guarantee independent of the solver's accuracy.** A bound is not read from the solver's
+//! objective. From the solver's dual vector, projected onto the dual cone (non-negative part for
+//! inequalities, eigenvalues clipped at zero for each PSD block), weak duality gives a bound
+//! valid for *any* such dual point: `c·x >= -b·z + Σ_j min(r_j l_j, r_j u_j)` with
+//! `r = c + Aᵀz` and `[l_j, u_j]` a guaranteed box of every variable (θ and `δ` boxes, moment
+//! boxes by interval arithmetic). An inaccurate solve gives a looser bound, never a wrong one.
+//! The result is intersected with the shared-error result it starts from, so it is never wider.
+//! Without the feature, selecting `method.eiv: sdp` is an error naming it.
 use crate::eiv::{EivProblem, EivResult};
 use crate::error::{Result, SmidError};
 
-/// The SDP relaxation: not available in this build (an error naming the feature).
-pub fn solve(_prob: &EivProblem) -> Result<EivResult> {
+/// Options of the moment relaxation.
+#[derive(Debug, Clone, Copy)]
+pub struct SdpOptions {
+    /// Maximum number of SDP rounds (each bounds every free parameter, then the boxes shrink).
+    pub max_rounds: usize,
+    /// Stop when no radius shrinks by more than this fraction in a round.
+    pub min_improvement: f64,
+}
+
+impl Default for SdpOptions {
+    fn default() -> Self {
+        SdpOptions {
+            max_rounds: 3,
+            min_improvement: 0.01,
+        }
+    }
+}
+
+/// Whether this build has the moment relaxation (the cargo feature `sdp`).
+pub const AVAILABLE: bool = cfg!(feature = "sdp");
+
+/// The moment relaxation of `prob`, starting from the shared-error result.
+pub fn solve(prob: &EivProblem) -> Result<EivResult> {
+    solve_with(prob, &SdpOptions::default())
+}
+
+/// As [`solve`], with options.
+#[cfg(feature = "sdp")]
+pub fn solve_with(prob: &EivProblem, opts: &SdpOptions) -> Result<EivResult> {
+    let shared = crate::eiv_shared::solve(prob, &crate::eiv_shared::SharedOptions::default())?;
+    imp::solve_from(prob, shared, opts)
+}
+
+/// As [`solve`], with options (this build has no `sdp` feature: an error naming it).
+#[cfg(not(feature = "sdp"))]
+pub fn solve_with(_prob: &EivProblem, _opts: &SdpOptions) -> Result<EivResult> {
     Err(SmidError::Unsupported {
         plugin: "smid-core".into(),
-        what: "`method.eiv: sdp` in this build: the moment relaxation needs the cargo feature `sdp` (clarabel `sdp-openblas`), which this version does not provide yet; choose `shared` (within a few percent of the exact set) or `exact-grid`".into(),
+        what: "`method.eiv: sdp` in this build: the moment relaxation needs the cargo feature `sdp` (build with `--features sdp`; it needs apt libopenblas-dev libgfortran-12-dev); or choose `shared` (within a few percent of the exact set on the paper's example) or `exact-grid`".into(),
     })
+}
+
+#[cfg(feature = "sdp")]
+pub use imp::solve_from;
+
+#[cfg(feature = "sdp")]
+mod imp {
+    use super::*;
+    use crate::eiv_shared::SharedModel;
+    use crate::error::Stage;
+    use crate::interval::Interval;
+    use crate::lp::{RESULT_PAD, ROW_PAD};
+    use crate::sparse_lp::merge;
+    use clarabel::algebra::CscMatrix;
+    use clarabel::solver::{
+        DefaultSettings, DefaultSettingsBuilder, DefaultSolver, IPSolver, SupportedConeT,
+    };
+    use std::collections::HashMap;
+
+    /// `a·b` over boxes, widened outward by a rounding pad.
+    fn mul(a: Interval, b: Interval) -> Interval {
+        let p = [a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi];
+        let lo = p.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = p.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        Interval::new(lo, hi).widen(1e-15, 1e-300)
+    }
+
+    /// One entry of a moment matrix.
+    #[derive(Clone, Copy)]
+    enum Entry {
+        One,
+        Var(usize),
+    }
+
+    /// A conic program `min q·x`, rows `A x + s = b`, `s` in (non-negative, zero, PSD blocks),
+    /// with a guaranteed box for every variable.
+    pub(super) struct Conic {
+        n: usize,
+        le: Vec<(Vec<(usize, f64)>, f64)>,
+        eq: Vec<(Vec<(usize, f64)>, f64)>,
+        psd: Vec<Vec<Vec<Entry>>>,
+        boxes: Vec<Interval>,
+    }
+
+    /// A key of a second-moment variable.
+    #[derive(Clone, Copy, PartialEq, Eq, Hash)]
+    enum Moment {
+        ThetaDelta(usize, usize),
+        ThetaTheta(usize, usize),
+        DeltaDelta(usize, usize),
+    }
+
+    impl Conic {
+        /// The moment relaxation over the θ box `tb` and `δ` boxes `db`.
+        fn build(model: &SharedModel, tb: &[Interval], db: &[Interval]) -> Result<Conic> {
+            let lp = model.build(tb, db, &model.times)?;
+            let mut boxes = vec![Interval::new(0.0, 0.0); model.n_cols()];
+            for &k in &model.free {
+                boxes[model.col_theta[k].unwrap_or(0)] = tb[k];
+            }
+            for (d, b) in db.iter().enumerate() {
+                boxes[model.col_delta(d)] = *b;
+            }
+            for (w, &(k, d)) in model.products.iter().enumerate() {
+                boxes[model.col_product(w)] = mul(tb[k], db[d]);
+            }
+            let mut c = Conic {
+                n: model.n_cols(),
+                le: lp.le,
+                eq: lp.eq,
+                psd: Vec::new(),
+                boxes,
+            };
+            let mut extra: HashMap<Moment, usize> = HashMap::new();
+            let col_t = |k: usize| model.col_theta[k].unwrap_or(0);
+            for &t in &model.times {
+                let mut ks: Vec<usize> = Vec::new();
+                let mut ds: Vec<usize> = Vec::new();
+                for (k, _, side, s) in model.terms(t) {
+                    let Some(&d) = model.delta_of.get(&(side, s)) else {
+                        continue;
+                    };
+                    if !ds.contains(&d) {
+                        ds.push(d);
+                    }
+                    if let Some(k) = k.filter(|&k| model.prob.fixed[k].is_none()) {
+                        if !ks.contains(&k) {
+                            ks.push(k);
+                        }
+                    }
+                }
+                if ks.is_empty() && ds.len() < 2 {
+                    continue; // no product in this equation: nothing to tighten
+                }
+                // Vector (1, θ_ks, δ_ds).
+                enum V {
+                    One,
+                    T(usize),
+                    D(usize),
+                }
+                let mut v = vec![V::One];
+                v.extend(ks.iter().map(|&k| V::T(k)));
+                v.extend(ds.iter().map(|&d| V::D(d)));
+                let dim = v.len();
+                let mut m = vec![vec![Entry::One; dim]; dim];
+                for i in 0..dim {
+                    for j in i..dim {
+                        let e = match (&v[i], &v[j]) {
+                            (V::One, V::One) => Entry::One,
+                            (V::One, V::T(k)) | (V::T(k), V::One) => Entry::Var(col_t(*k)),
+                            (V::One, V::D(d)) | (V::D(d), V::One) => {
+                                Entry::Var(model.col_delta(*d))
+                            }
+                            (V::T(k), V::D(d)) | (V::D(d), V::T(k)) => {
+                                match model.product_of.get(&(*k, *d)) {
+                                    Some(&w) => Entry::Var(model.col_product(w)),
+                                    None => Entry::Var(c.moment(
+                                        &mut extra,
+                                        Moment::ThetaDelta(*k, *d),
+                                        (col_t(*k), tb[*k]),
+                                        (model.col_delta(*d), db[*d]),
+                                    )),
+                                }
+                            }
+                            (V::T(k), V::T(l)) => {
+                                let (k, l) = ((*k).min(*l), (*k).max(*l));
+                                Entry::Var(c.moment(
+                                    &mut extra,
+                                    Moment::ThetaTheta(k, l),
+                                    (col_t(k), tb[k]),
+                                    (col_t(l), tb[l]),
+                                ))
+                            }
+                            (V::D(d), V::D(e)) => {
+                                let (d, e) = ((*d).min(*e), (*d).max(*e));
+                                Entry::Var(c.moment(
+                                    &mut extra,
+                                    Moment::DeltaDelta(d, e),
+                                    (model.col_delta(d), db[d]),
+                                    (model.col_delta(e), db[e]),
+                                ))
+                            }
+                        };
+                        m[i][j] = e;
+                        m[j][i] = e;
+                    }
+                }
+                c.psd.push(m);
+            }
+            Ok(c)
+        }
+
+        /// The column of moment `key = u·v` (created with its box and McCormick envelopes).
+        fn moment(
+            &mut self,
+            extra: &mut HashMap<Moment, usize>,
+            key: Moment,
+            (cu, bu): (usize, Interval),
+            (cv, bv): (usize, Interval),
+        ) -> usize {
+            if let Some(&c) = extra.get(&key) {
+                return c;
+            }
+            let cw = self.n;
+            self.n += 1;
+            self.boxes.push(mul(bu, bv));
+            extra.insert(key, cw);
+            let (l, u, dl, du) = (bu.lo, bu.hi, bv.lo, bv.hi);
+            // McCormick envelopes of w = u v (for u = v: the secant and two tangents).
+            let mut push = |row: Vec<(usize, f64)>, h: f64| {
+                let row = merge(row);
+                self.le.push((row, h));
+            };
+            push(vec![(cv, l), (cu, dl), (cw, -1.0)], l * dl);
+            push(vec![(cv, u), (cu, du), (cw, -1.0)], u * du);
+            push(vec![(cw, 1.0), (cv, -u), (cu, -dl)], -u * dl);
+            push(vec![(cw, 1.0), (cv, -l), (cu, -du)], -l * du);
+            cw
+        }
+
+        pub(super) fn solver(self) -> Result<SdpSolver> {
+            let m_le = self.le.len();
+            let m_eq = self.eq.len();
+            let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); self.n];
+            let mut b = Vec::new();
+            for (r, (g, h)) in self.le.iter().enumerate() {
+                for &(c, v) in g {
+                    cols[c].push((r, v));
+                }
+                b.push(h + ROW_PAD * (1.0 + h.abs()));
+            }
+            for (r, (e, f)) in self.eq.iter().enumerate() {
+                for &(c, v) in e {
+                    cols[c].push((m_le + r, v));
+                }
+                b.push(*f);
+            }
+            let mut cones = Vec::new();
+            if m_le > 0 {
+                cones.push(SupportedConeT::NonnegativeConeT(m_le));
+            }
+            if m_eq > 0 {
+                cones.push(SupportedConeT::ZeroConeT(m_eq));
+            }
+            let mut blocks = Vec::new();
+            for m in &self.psd {
+                let dim = m.len();
+                let start = b.len();
+                // Upper triangle packed by columns, off-diagonals scaled by sqrt(2): s = b - A x.
+                // (Symmetric: row j's first j + 1 entries are column j's upper triangle.)
+                for (j, row) in m.iter().enumerate() {
+                    for (i, entry) in row.iter().enumerate().take(j + 1) {
+                        let scale = if i == j {
+                            1.0
+                        } else {
+                            std::f64::consts::SQRT_2
+                        };
+                        let r = b.len();
+                        match *entry {
+                            Entry::One => b.push(scale),
+                            Entry::Var(c) => {
+                                cols[c].push((r, -scale));
+                                b.push(0.0);
+                            }
+                        }
+                    }
+                }
+                cones.push(SupportedConeT::PSDTriangleConeT(dim));
+                blocks.push((start, dim));
+            }
+            let m = b.len();
+            for col in cols.iter_mut() {
+                col.sort_by_key(|e| e.0);
+            }
+            let mut colptr = vec![0];
+            let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
+            for col in &cols {
+                for &(r, v) in col {
+                    rowval.push(r);
+                    nzval.push(v);
+                }
+                colptr.push(rowval.len());
+            }
+            if b.iter().any(|v| !v.is_finite()) || nzval.iter().any(|v: &f64| !v.is_finite()) {
+                return Err(SmidError::Solver(
+                    "non-finite coefficient in the moment relaxation".into(),
+                ));
+            }
+            let a = CscMatrix::new(m, self.n, colptr, rowval, nzval);
+            let p = CscMatrix::zeros((self.n, self.n));
+            let settings: DefaultSettings<f64> = DefaultSettingsBuilder::default()
+                .verbose(false)
+                .presolve_enable(false)
+                .max_iter(100)
+                .build()
+                .map_err(|e| SmidError::Solver(e.to_string()))?;
+            let q = vec![0.0; self.n];
+            let solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings)
+                .map_err(|e| SmidError::Solver(e.to_string()))?;
+            Ok(SdpSolver {
+                n: self.n,
+                cols,
+                b,
+                m_le,
+                m_eq,
+                blocks,
+                boxes: self.boxes,
+                solver,
+            })
+        }
+    }
+
+    /// A set-up conic program, bounded along many objectives.
+    pub(super) struct SdpSolver {
+        n: usize,
+        cols: Vec<Vec<(usize, f64)>>,
+        b: Vec<f64>,
+        m_le: usize,
+        m_eq: usize,
+        blocks: Vec<(usize, usize)>,
+        boxes: Vec<Interval>,
+        solver: DefaultSolver<f64>,
+    }
+
+    impl SdpSolver {
+        /// A guaranteed lower bound of `min x_c` (`max`: upper bound of `max x_c`) by weak
+        /// duality from the solver's dual point projected onto the dual cone; `None` when no
+        /// finite bound comes out.
+        pub(super) fn bound(&mut self, c: usize, max: bool) -> Result<Option<f64>> {
+            let mut q = vec![0.0; self.n];
+            q[c] = if max { -1.0 } else { 1.0 };
+            self.solver
+                .update_q(&q)
+                .map_err(|e| SmidError::Solver(format!("{e:?}")))?;
+            self.solver.solve();
+            let mut z = self.solver.solution.z.clone();
+            if z.len() != self.b.len() || z.iter().any(|v| !v.is_finite()) {
+                return Ok(None);
+            }
+            Ok(safe_bound(
+                &q,
+                &self.cols,
+                &self.b,
+                self.m_le,
+                self.m_eq,
+                &self.blocks,
+                &self.boxes,
+                &mut z,
+            )
+            .map(|l| if max { -l } else { l }))
+        }
+    }
+
+    /// `min q·x >= -b·z + Σ_j min(r_j l_j, r_j u_j)`, `r = q + Aᵀz`, for `z` projected onto the
+    /// dual cone (modified in place); padded outward for rounding.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn safe_bound(
+        q: &[f64],
+        cols: &[Vec<(usize, f64)>],
+        b: &[f64],
+        m_le: usize,
+        m_eq: usize,
+        blocks: &[(usize, usize)],
+        boxes: &[Interval],
+        z: &mut [f64],
+    ) -> Option<f64> {
+        for v in z.iter_mut().take(m_le) {
+            *v = v.max(0.0);
+        }
+        let _ = m_eq; // zero cone: its dual is free
+        for &(start, dim) in blocks {
+            project_psd(&mut z[start..start + dim * (dim + 1) / 2], dim);
+        }
+        let mut total = 0.0;
+        let mut mag = 0.0;
+        for (zi, bi) in z.iter().zip(b) {
+            total -= zi * bi;
+            mag += (zi * bi).abs();
+        }
+        for (j, col) in cols.iter().enumerate() {
+            let mut r = q[j];
+            for &(i, a) in col {
+                r += a * z[i];
+                mag += (a * z[i]).abs();
+            }
+            if r == 0.0 {
+                continue;
+            }
+            let bx = boxes[j];
+            let term = if r > 0.0 { r * bx.lo } else { r * bx.hi };
+            if !term.is_finite() {
+                return None;
+            }
+            total += term;
+            mag += term.abs();
+        }
+        let v = total - RESULT_PAD * (1.0 + total.abs()) - 1e-12 * mag;
+        v.is_finite().then_some(v)
+    }
+
+    /// Project a packed symmetric block (upper triangle by columns, off-diagonals scaled by
+    /// sqrt(2)) onto the PSD cone: eigenvalues clipped at zero.
+    fn project_psd(z: &mut [f64], dim: usize) {
+        let s2 = std::f64::consts::SQRT_2;
+        let mut m = nalgebra::DMatrix::<f64>::zeros(dim, dim);
+        let mut k = 0;
+        for j in 0..dim {
+            for i in 0..=j {
+                let v = if i == j { z[k] } else { z[k] / s2 };
+                m[(i, j)] = v;
+                m[(j, i)] = v;
+                k += 1;
+            }
+        }
+        let eig = m.symmetric_eigen();
+        if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
+            return;
+        }
+        let clipped = eig.eigenvalues.map(|l| l.max(0.0));
+        let p = &eig.eigenvectors
+            * nalgebra::DMatrix::from_diagonal(&clipped)
+            * eig.eigenvectors.transpose();
+        let mut k = 0;
+        for j in 0..dim {
+            for i in 0..=j {
+                let v = 0.5 * (p[(i, j)] + p[(j, i)]);
+                z[k] = if i == j { v } else { v * s2 };
+                k += 1;
+            }
+        }
+    }
+
+    /// The moment relaxation, starting from a guaranteed result `start` (the shared-error one).
+    pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SdpOptions) -> Result<EivResult> {
+        smid_openblas::single_threaded();
+        let model = SharedModel::new(prob, start.equations.clone());
+        let mut tb = start.bounds.clone();
+        let mut db = model.initial_deltas();
+        for _round in 0..opts.max_rounds.max(1) {
+            for _ in 0..2 {
+                if let Some(t) = model.propagate(&tb, &mut db) {
+                    return Err(inconsistent(t));
+                }
+            }
+            let mut solver = Conic::build(&model, &tb, &db)?.solver()?;
+            let mut gain: f64 = 0.0;
+            for (c, &k) in model.free.iter().enumerate() {
+                let old = tb[k];
+                let lo = solver.bound(c, false)?;
+                let hi = solver.bound(c, true)?;
+                let new = Interval::new(
+                    lo.map_or(old.lo, |v| v.max(old.lo)),
+                    hi.map_or(old.hi, |v| v.min(old.hi)),
+                );
+                if new.lo > new.hi {
+                    // Two guaranteed bounds that do not meet: no θ is consistent.
+                    return Err(inconsistent(*model.times.last().unwrap_or(&0)));
+                }
+                if old.radius() > 0.0 {
+                    gain = gain.max(1.0 - new.radius() / old.radius());
+                }
+                tb[k] = new;
+            }
+            if gain < opts.min_improvement {
+                break;
+            }
+        }
+        Ok(EivResult {
+            bounds: tb,
+            equations: start.equations,
+            feasible_orthants: start.feasible_orthants,
+        })
+    }
+
+    fn inconsistent(t: usize) -> SmidError {
+        SmidError::Inconsistent {
+            stage: Stage::Linear,
+            sample: t,
+            detail: format!(
+                "the moment relaxation admits no θ and inner-signal errors within their bounds (equations up to t = {t})"
+            ),
+        }
+    }
+
+    #[cfg(test)]
+    mod tests {
+        use super::*;
+
+        /// min x s.t. [[1, x], [x, 1]] PSD, -5 <= x <= 5: the optimum is -1; the safe bound
+        /// must lie at or below it, and close.
+        #[test]
+        fn safe_bound_of_a_small_sdp() {
+            smid_openblas::single_threaded();
+            let c = Conic {
+                n: 1,
+                le: vec![(vec![(0, 1.0)], 5.0), (vec![(0, -1.0)], 5.0)],
+                eq: vec![],
+                psd: vec![vec![
+                    vec![Entry::One, Entry::Var(0)],
+                    vec![Entry::Var(0), Entry::One],
+                ]],
+                boxes: vec![Interval::new(-5.0, 5.0)],
+            };
+            let mut s = c.solver().unwrap();
+            let lo = s.bound(0, false).unwrap().unwrap();
+            let hi = s.bound(0, true).unwrap().unwrap();
+            assert!(lo <= -1.0 && lo > -1.0 - 1e-5, "{lo}");
+            assert!(hi >= 1.0 && hi < 1.0 + 1e-5, "{hi}");
+        }
+
+        /// A dual point off the cone is projected, so the bound stays valid: any z gives a
+        /// bound below the true minimum.
+        #[test]
+        fn any_dual_point_gives_a_valid_bound() {
+            // min x s.t. x >= 2 (row -x <= -2), box [0, 10].
+            let cols = vec![vec![(0usize, -1.0)]];
+            let b = vec![-2.0];
+            let boxes = vec![Interval::new(0.0, 10.0)];
+            for z0 in [-3.0, 0.0, 0.5, 1.0, 4.0] {
+                let mut z = vec![z0];
+                let v = safe_bound(&[1.0], &cols, &b, 1, 0, &[], &boxes, &mut z).unwrap();
+                assert!(v <= 2.0, "z = {z0}: {v}");
+            }
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
+    #[cfg(not(feature = "sdp"))]
     #[test]
     fn selecting_sdp_names_the_feature() {
-        let out = [];
-        let input = [];
         let prob = crate::eiv::EivProblem {
             na: 0,
             nb: 0,
             fixed: vec![None],
             unit_gain: false,
-            output: &out,
-            input: &input,
+            output: &[],
+            input: &[],
             use_band_samples: false,
         };
         let e = super::solve(&prob).unwrap_err().to_string();
         assert!(e.contains("feature `sdp`") && e.contains("shared"), "{e}");
+    }
+
+    #[cfg(feature = "sdp")]
+    #[test]
+    fn sdp_contains_the_truth_and_the_exact_inner_hull_and_is_never_wider_than_shared() {
+        use crate::eiv_exact::{self, ExactOptions};
+        use crate::eiv_shared::tests::{problem, random_case};
+        use crate::eiv_shared::{self, SharedOptions};
+        for seed in 0..6 {
+            let (m, out, input) = random_case(seed, 40);
+            let prob = problem(&out, &input, true);
+            let shared = eiv_shared::solve(&prob, &SharedOptions::default()).unwrap();
+            let sdp = super::solve_from(&prob, shared.clone(), &Default::default()).unwrap();
+            let exact = eiv_exact::solve_from(
+                &prob,
+                &shared,
+                &ExactOptions {
+                    depth: 4,
+                    ..Default::default()
+                },
+                || {},
+            )
+            .unwrap();
+            let truth: Vec<f64> = m.a.iter().chain(&m.b).copied().collect();
+            for (k, t) in truth.into_iter().enumerate() {
+                let (s, sh) = (sdp.bounds[k], shared.bounds[k]);
+                assert!(s.contains(t), "seed {seed} θ{k}: sdp {s:?} misses {t}");
+                assert!(
+                    sh.lo <= s.lo && s.hi <= sh.hi,
+                    "seed {seed} θ{k}: wider than shared"
+                );
+                if let Some(i) = exact.inner[k] {
+                    // Inner points are consistent θ (up to the LPs' row pads).
+                    let tol = 1e-7 * (1.0 + i.lo.abs().max(i.hi.abs()));
+                    assert!(
+                        s.lo <= i.lo + tol && i.hi - tol <= s.hi,
+                        "seed {seed} θ{k}: sdp {s:?} cuts the exact inner hull {i:?}"
+                    );
+                }
+            }
+        }
     }
 }

@@ -62,14 +62,14 @@ pub(crate) struct SharedModel<'p, 'a> {
     /// Column of each θ index (None when fixed).
     pub col_theta: Vec<Option<usize>>,
     pub deltas: Vec<Sig>,
-    delta_of: HashMap<(Side, usize), usize>,
+    pub(crate) delta_of: HashMap<(Side, usize), usize>,
     /// Products `(θ index, δ index)`.
     pub products: Vec<(usize, usize)>,
-    product_of: HashMap<(usize, usize), usize>,
+    pub(crate) product_of: HashMap<(usize, usize), usize>,
 }
 
 /// One term `sign · coef · signal` of an equation; `coef` is `None` for the leading `x_t`.
-type Term = (Option<usize>, f64, Side, usize);
+pub(crate) type Term = (Option<usize>, f64, Side, usize);
 
 impl<'p, 'a> SharedModel<'p, 'a> {
     pub fn p(&self) -> usize {
@@ -143,10 +143,10 @@ impl<'p, 'a> SharedModel<'p, 'a> {
     pub fn n_cols(&self) -> usize {
         self.free.len() + self.deltas.len() + self.products.len()
     }
-    fn col_delta(&self, d: usize) -> usize {
+    pub(crate) fn col_delta(&self, d: usize) -> usize {
         self.free.len() + d
     }
-    fn col_product(&self, w: usize) -> usize {
+    pub(crate) fn col_product(&self, w: usize) -> usize {
         self.free.len() + self.deltas.len() + w
     }
 

@@ -21,8 +21,8 @@ use clarabel::solver::{
 pub struct SparseLp {
     /// Number of variables.
     pub n: usize,
-    le: Vec<(Vec<(usize, f64)>, f64)>,
-    eq: Vec<(Vec<(usize, f64)>, f64)>,
+    pub(crate) le: Vec<(Vec<(usize, f64)>, f64)>,
+    pub(crate) eq: Vec<(Vec<(usize, f64)>, f64)>,
 }
 
 /// Outcome of one optimisation.
@@ -37,7 +37,8 @@ pub enum Optimum {
     Unknown,
 }
 
-fn merge(mut row: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
+/// Sum the coefficients of equal columns of a sparse row (dropping zeros).
+pub(crate) fn merge(mut row: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
     row.sort_by_key(|e| e.0);
     let mut out: Vec<(usize, f64)> = Vec::with_capacity(row.len());
     for (c, v) in row {
