@@ -1,7 +1,8 @@
 //! Speed of the stage-3 methods (paper Section 5) on the Section 6 example
 //! (`examples/paper.yaml`, n_bit = 10, seed 1): the classical orthant LP, the shared-error
-//! relaxation (the default), and the whole pipeline with the default method, whose target is
-//! under one second in release mode.
+//! relaxation (the default), the moment relaxation (`--features sdp`), the exact-grid
+//! reference, and the whole pipeline with the default method, whose target is under one second
+//! in release mode: `cargo bench --bench eiv_methods [--features sdp]`.
 use criterion::{criterion_group, criterion_main, Criterion};
 use smid::core::eiv::EivProblem;
 use smid::core::eiv_shared::{self, SharedOptions};
@@ -52,6 +53,16 @@ fn bench(c: &mut Criterion) {
     });
     g.bench_function("stage3_shared_nbit10", |b| {
         b.iter(|| eiv_shared::solve(&prob(true), &SharedOptions::default()).expect("bounds"))
+    });
+    // The moment relaxation (shared start included), with `--features sdp`.
+    if smid::core::eiv_sdp::AVAILABLE {
+        g.bench_function("stage3_sdp_nbit10", |b| {
+            b.iter(|| smid::core::eiv_sdp::solve(&prob(true)).expect("bounds"))
+        });
+    }
+    // The exact-grid reference (shared start included, depth 7, inner hull).
+    g.bench_function("stage3_exact_grid_nbit10", |b| {
+        b.iter(|| eiv_shared::solve_method(EivMethod::ExactGrid, &prob(true)).expect("bounds"))
     });
     g.finish();
 }

@@ -22,7 +22,7 @@ pub struct MethodRow {
     pub method: String,
     pub name: String,
     pub median_radius: f64,
-    /// For `exact-grid`: median radius of the inner hull of feasible grid points.
+    /// For `exact-grid`: median radius of the inner hull (consistent points of the exact set).
     pub median_inner_radius: Option<f64>,
     /// Runs whose bound on this parameter contains the truth.
     pub contained: usize,
@@ -164,7 +164,7 @@ pub fn format_comparison(c: &Comparison) -> String {
         "Stage-3 methods on the Section 6 example; median radius over {} seeds{}",
         c.seeds,
         if has_exact {
-            "; ratio = radius / exact-set radius (inner hull of feasible grid points; the exact-grid column's own radius is its guaranteed outer hull)"
+            "; ratio = radius / exact-set radius (inner hull of consistent points, so the ratio is an upper bound of the true one; the exact-grid column's own radius is its guaranteed outer hull)"
         } else {
             ""
         }

@@ -19,7 +19,7 @@ use crate::eiv_shared::SharedModel;
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
 use crate::sparse_lp::{merge, Optimum, SparseLp};
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::BinaryHeap;
 
 /// Options of the exact-grid reference.
 #[derive(Debug, Clone, Copy)]
@@ -507,7 +507,6 @@ pub fn solve_from(
     let mut inner: Vec<Option<Interval>> = (0..p)
         .map(|k| prob.fixed[k].map(|v| Interval::new(v, v)))
         .collect();
-    let mut cache: HashMap<(Cell, usize, bool), Option<(f64, [f64; 2])>> = HashMap::new();
     for (col, &k) in model.free.iter().enumerate() {
         for max in [false, true] {
             // Best-first search: key = bound in the direction of improvement.
@@ -518,29 +517,32 @@ pub fn solve_from(
                 i: 0,
                 j: 0,
             };
-            let mut eval = |g: &mut Grid,
-                            c: Cell,
-                            parent: Option<(f64, [f64; 2])>|
+            // Each cell is evaluated once per direction (its relaxation contains its children's).
+            let eval = |g: &mut Grid,
+                        c: Cell,
+                        parent: Option<(f64, [f64; 2])>|
              -> Result<Option<(f64, [f64; 2])>> {
-                if let Some(r) = cache.get(&(c, col, max)) {
-                    return Ok(*r);
-                }
                 let tb = g.cell_box(c);
-                let r = match g.solve(&tb, col, max)? {
+                Ok(match g.solve(&tb, col, max)? {
                     Optimum2::Value(v, at) => Some((v, at)),
                     Optimum2::Infeasible => None,
                     // No conclusion: keep the parent's (or the start box's) bound: conservative.
-                    Optimum2::Unknown => Some(parent.unwrap_or((
-                        if max {
-                            start.bounds[k].hi
-                        } else {
-                            start.bounds[k].lo
-                        },
-                        [0.0; 2],
-                    ))),
-                };
-                cache.insert((c, col, max), r);
-                Ok(r)
+                    Optimum2::Unknown => {
+                        let mut centre = [0.0; 2];
+                        for (d, &kk) in g.dims.iter().enumerate() {
+                            centre[d] = tb[kk].center();
+                        }
+                        let v = parent.map_or(
+                            if max {
+                                start.bounds[k].hi
+                            } else {
+                                start.bounds[k].lo
+                            },
+                            |p| p.0,
+                        );
+                        Some((v, centre))
+                    }
+                })
             };
             if let Some((v, at)) = eval(&mut g, root, None)? {
                 heap.push(Node {
