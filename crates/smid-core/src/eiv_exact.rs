@@ -136,12 +136,7 @@ impl Grid<'_, '_, '_> {
         self.lps += 1;
         let lp = self.model.build(tb, &self.db, &self.model.times)?;
         let mut s = lp.solver()?;
-        let o = if max {
-            s.maximise(col)?
-        } else {
-            s.minimise(col)?
-        };
-        Ok(match o {
+        Ok(match s.optimise(col, max)? {
             Optimum::Value(v) => {
                 let mut at = [0.0; 2];
                 for (d, &k) in self.dims.iter().enumerate() {
@@ -334,13 +329,7 @@ impl AtA<'_, '_> {
             return Ok(self.prob.fixed[k]);
         };
         self.lps += 1;
-        let mut s = m.lp.solver()?;
-        let o = if max {
-            s.maximise(col)?
-        } else {
-            s.minimise(col)?
-        };
-        Ok(match o {
+        Ok(match m.lp.solver()?.optimise(col, max)? {
             Optimum::Value(v) => {
                 let pad = crate::lp::RESULT_PAD * (1.0 + v.abs());
                 Some(if max { v - pad } else { v + pad })

@@ -70,11 +70,11 @@ pub use imp::solve_from;
 #[cfg(feature = "sdp")]
 mod imp {
     use super::*;
-    use crate::eiv_shared::SharedModel;
+    use crate::eiv_shared::{tighten, SharedModel};
     use crate::error::Stage;
     use crate::interval::Interval;
     use crate::lp::{RESULT_PAD, ROW_PAD};
-    use crate::sparse_lp::merge;
+    use crate::sparse_lp::{csc, merge};
     use clarabel::algebra::CscMatrix;
     use clarabel::solver::{
         DefaultSettings, DefaultSettingsBuilder, DefaultSolver, IPSolver, SupportedConeT,
@@ -296,21 +296,7 @@ mod imp {
             for col in cols.iter_mut() {
                 col.sort_by_key(|e| e.0);
             }
-            let mut colptr = vec![0];
-            let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
-            for col in &cols {
-                for &(r, v) in col {
-                    rowval.push(r);
-                    nzval.push(v);
-                }
-                colptr.push(rowval.len());
-            }
-            if b.iter().any(|v| !v.is_finite()) || nzval.iter().any(|v: &f64| !v.is_finite()) {
-                return Err(SmidError::Solver(
-                    "non-finite coefficient in the moment relaxation".into(),
-                ));
-            }
-            let a = CscMatrix::new(m, self.n, colptr, rowval, nzval);
+            let a = csc(m, &cols, &b, "moment relaxation")?;
             let p = CscMatrix::zeros((self.n, self.n));
             let settings: DefaultSettings<f64> = DefaultSettingsBuilder::default()
                 .verbose(false)
@@ -472,17 +458,11 @@ mod imp {
                 let old = tb[k];
                 let lo = solver.bound(c, false)?;
                 let hi = solver.bound(c, true)?;
-                let new = Interval::new(
-                    lo.map_or(old.lo, |v| v.max(old.lo)),
-                    hi.map_or(old.hi, |v| v.min(old.hi)),
-                );
-                if new.lo > new.hi {
+                let Some((new, g)) = tighten(old, lo, hi) else {
                     // Two guaranteed bounds that do not meet: no θ is consistent.
                     return Err(inconsistent(*model.times.last().unwrap_or(&0)));
-                }
-                if old.radius() > 0.0 {
-                    gain = gain.max(1.0 - new.radius() / old.radius());
-                }
+                };
+                gain = gain.max(g);
                 tb[k] = new;
             }
             if gain < opts.min_improvement {

@@ -310,6 +310,25 @@ pub(crate) fn bound_all(
     Ok(Some(out))
 }
 
+/// Intersect `old` with new guaranteed bounds (`None`: no conclusion, keep the old end).
+/// Returns the new interval and the fraction its radius shrank, or `None` when the bounds do
+/// not meet (no θ is consistent).
+pub(crate) fn tighten(old: Interval, lo: Option<f64>, hi: Option<f64>) -> Option<(Interval, f64)> {
+    let new = Interval::new(
+        lo.map_or(old.lo, |v| v.max(old.lo)),
+        hi.map_or(old.hi, |v| v.min(old.hi)),
+    );
+    if new.lo > new.hi {
+        return None;
+    }
+    let gain = if old.radius() > 0.0 {
+        1.0 - new.radius() / old.radius()
+    } else {
+        0.0
+    };
+    Some((new, gain))
+}
+
 /// The shared-error relaxation, starting from the classical result `start` (a guaranteed box).
 pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> Result<EivResult> {
     let model = SharedModel::new(prob, start.equations.clone());
@@ -330,17 +349,11 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
         for (c, &k) in model.free.iter().enumerate() {
             let old = tb[k];
             let (lo, hi) = found[c];
-            let new = Interval::new(
-                lo.map_or(old.lo, |v| v.max(old.lo)),
-                hi.map_or(old.hi, |v| v.min(old.hi)),
-            );
-            if new.lo > new.hi {
+            let Some((new, g)) = tighten(old, lo, hi) else {
                 // Two guaranteed bounds that do not meet: no θ is consistent.
                 return Err(inconsistent(locate(&model, &tb, &db)?));
-            }
-            if old.radius() > 0.0 {
-                gain = gain.max(1.0 - new.radius() / old.radius());
-            }
+            };
+            gain = gain.max(g);
             tb[k] = new;
         }
         if gain < opts.min_improvement {

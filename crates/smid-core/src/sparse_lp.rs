@@ -37,6 +37,32 @@ pub enum Optimum {
     Unknown,
 }
 
+/// The `m`-row CSC matrix of column lists `cols` (rows sorted within each column), after checking
+/// that it and the right-hand side `b` are finite (`what` names the program in the error).
+pub(crate) fn csc(
+    m: usize,
+    cols: &[Vec<(usize, f64)>],
+    b: &[f64],
+    what: &str,
+) -> Result<CscMatrix<f64>> {
+    let mut colptr = Vec::with_capacity(cols.len() + 1);
+    let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
+    colptr.push(0);
+    for col in cols {
+        for &(r, v) in col {
+            rowval.push(r);
+            nzval.push(v);
+        }
+        colptr.push(rowval.len());
+    }
+    if b.iter().any(|v| !v.is_finite()) || nzval.iter().any(|v: &f64| !v.is_finite()) {
+        return Err(SmidError::Solver(format!(
+            "non-finite coefficient in the {what}"
+        )));
+    }
+    Ok(CscMatrix::new(m, cols.len(), colptr, rowval, nzval))
+}
+
 /// Sum the coefficients of equal columns of a sparse row (dropping zeros).
 pub(crate) fn merge(mut row: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
     row.sort_by_key(|e| e.0);
@@ -94,23 +120,7 @@ impl SparseLp {
             }
             b.push(*f);
         }
-        let mut colptr = Vec::with_capacity(self.n + 1);
-        let mut rowval = Vec::new();
-        let mut nzval = Vec::new();
-        colptr.push(0);
-        for col in cols {
-            for (r, v) in col {
-                rowval.push(r);
-                nzval.push(v);
-            }
-            colptr.push(rowval.len());
-        }
-        if b.iter().any(|v| !v.is_finite()) || nzval.iter().any(|v: &f64| !v.is_finite()) {
-            return Err(SmidError::Solver(
-                "non-finite coefficient in the linear program".into(),
-            ));
-        }
-        let a = CscMatrix::new(m, self.n, colptr, rowval, nzval);
+        let a = csc(m, &cols, &b, "linear program")?;
         let p = CscMatrix::zeros((self.n, self.n));
         let mut cones = Vec::new();
         if !self.le.is_empty() {
@@ -203,6 +213,15 @@ impl LpSolver {
             Optimum::Value(v) => Optimum::Value(-v + Self::pad(v)),
             o => o,
         })
+    }
+
+    /// [`Self::maximise`] when `max`, else [`Self::minimise`].
+    pub fn optimise(&mut self, c: usize, max: bool) -> Result<Optimum> {
+        if max {
+            self.maximise(c)
+        } else {
+            self.minimise(c)
+        }
     }
 
     /// Whether the polytope is non-empty; `None` when the solver could not tell.
