@@ -137,12 +137,8 @@ proptest! {
     fn every_stage3_method_contains_the_truth(seed in any::<u64>()) {
         use smid_core::spec::EivMethod;
         let trial = Trial::random(seed);
-        let mut methods = vec![EivMethod::Classical, EivMethod::Shared, EivMethod::ExactGrid];
-        if smid_core::eiv_sdp::AVAILABLE {
-            methods.push(EivMethod::Sdp);
-        }
         let mut shared = None;
-        for m in methods {
+        for m in EivMethod::ALL.into_iter().filter(|m| m.available()) {
             match trial.run_method(m) {
                 Ok(id) => {
                     prop_assert_eq!(id.all_contain_truth(), Some(true), "{}: {}", m.name(), smid_core::report::table(&id));

@@ -324,15 +324,29 @@ pub enum EivMethod {
     /// ([`crate::eiv_shared`]). Never wider than `classical`; close to the exact set.
     #[default]
     Shared,
-    /// Moment (SDP) relaxation on cliques of consecutive samples; needs the cargo feature `sdp`.
+    /// Moment (SDP) relaxation on each equation's clique of consecutive samples, bounds by weak
+    /// duality ([`crate::eiv_sdp`]); needs the cargo feature `sdp`. Never wider than `shared`.
     Sdp,
     /// Exact set measured on a grid of the a-plane (na <= 2, Wiener): outer hull of feasible
-    /// cells reported, inner hull of feasible grid points measured ([`crate::eiv_exact`]).
+    /// cells reported, inner hull of consistent points measured ([`crate::eiv_exact`]).
     #[serde(rename = "exact-grid", alias = "exact_grid")]
     ExactGrid,
 }
 
 impl EivMethod {
+    /// Every method, in documentation order.
+    pub const ALL: [EivMethod; 4] = [
+        EivMethod::Classical,
+        EivMethod::Shared,
+        EivMethod::Sdp,
+        EivMethod::ExactGrid,
+    ];
+
+    /// Whether this build can run the method (`sdp` needs the cargo feature `sdp`).
+    pub fn available(self) -> bool {
+        self != EivMethod::Sdp || crate::eiv_sdp::AVAILABLE
+    }
+
     /// The name used in specs and on the command line.
     pub fn name(self) -> &'static str {
         match self {
@@ -344,14 +358,9 @@ impl EivMethod {
     }
     /// Parse a name as used in specs (`classical`, `shared`, `sdp`, `exact-grid`).
     pub fn from_name(s: &str) -> Option<Self> {
-        [
-            EivMethod::Classical,
-            EivMethod::Shared,
-            EivMethod::Sdp,
-            EivMethod::ExactGrid,
-        ]
-        .into_iter()
-        .find(|m| m.name() == s || m.name().replace('-', "_") == s)
+        Self::ALL
+            .into_iter()
+            .find(|m| m.name() == s || m.name().replace('-', "_") == s)
     }
 }
 
