@@ -157,3 +157,38 @@ fn input_backlash_is_refused_in_a_wiener_structure() {
         .to_string();
     assert!(err.contains("model.structure"), "{err}");
 }
+
+/// `smid check --plugin P --method M` runs stage 3 by `M`: exact-grid refuses the Hammerstein
+/// structure of an input nonlinearity (a clear error), and classical is never tighter than the
+/// default (shared) on the same trial.
+#[test]
+fn plugin_trials_honour_the_stage3_method() {
+    use smid_core::spec::EivMethod;
+    let trial = || PluginTrial::random("dead_zone_input", 3).unwrap();
+    assert!(matches!(
+        trial().run(Some(EivMethod::ExactGrid)),
+        Err(SmidError::Unsupported { .. })
+    ));
+    let (Ok(classical), Ok(shared)) = (
+        trial().run(Some(EivMethod::Classical)),
+        trial().run(Some(EivMethod::Shared)),
+    ) else {
+        panic!("seed 3 identifies with both methods");
+    };
+    let mut wider = 0;
+    for name in ["a1", "a2", "b1", "b2"] {
+        let (c, s) = (
+            classical.parameter(name).unwrap(),
+            shared.parameter(name).unwrap(),
+        );
+        assert!(
+            c.lower <= s.lower && s.upper <= c.upper,
+            "{name}: shared wider than classical"
+        );
+        wider += usize::from(c.radius > s.radius * 1.5);
+    }
+    assert!(
+        wider > 0,
+        "classical and shared gave the same bounds: was the method ignored?"
+    );
+}
