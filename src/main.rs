@@ -186,7 +186,7 @@ fn real_main() -> Result<()> {
             ref plugin,
             ref method,
             jobs,
-        } if plugin != "output_backlash" => {
+        } => {
             let method = method.as_deref().map(parse_method).transpose()?;
             let pb = progress(trials, plugin);
             let s = smid::plugin_check::run(
@@ -354,46 +354,6 @@ fn real_main() -> Result<()> {
                         .with_context(|| format!("writing {}", path.display()))?;
                 }
             }
-        }
-        Command::Check {
-            trials,
-            first_seed,
-            method,
-            jobs,
-            ..
-        } => {
-            let method = match method {
-                Some(m) => parse_method(&m)?,
-                None => Default::default(),
-            };
-            let pb = progress(trials, "containment trials");
-            let s = smid::montecarlo::run_method(
-                first_seed,
-                trials,
-                method,
-                jobs_or_cores(jobs),
-                || pb.inc(1),
-            );
-            println!("stage-3 method: {}", method.name());
-            pb.finish_and_clear();
-            println!(
-                "{} trials: truth inside every bound in {}, missed in {}, no bound (error) in {}",
-                s.trials,
-                s.contained,
-                s.missed.len(),
-                s.errors.len()
-            );
-            for seed in &s.missed {
-                println!("  MISSED: seed {seed}");
-            }
-            for (seed, e) in s.errors.iter().take(20) {
-                println!("  error: seed {seed}: {e}");
-            }
-            anyhow::ensure!(
-                s.missed.is_empty(),
-                "{} trials missed the truth",
-                s.missed.len()
-            );
         }
     }
     Ok(())

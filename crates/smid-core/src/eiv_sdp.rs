@@ -74,11 +74,8 @@ mod imp {
     use crate::error::Stage;
     use crate::interval::Interval;
     use crate::lp::{RESULT_PAD, ROW_PAD};
-    use crate::sparse_lp::{csc, merge};
-    use clarabel::algebra::CscMatrix;
-    use clarabel::solver::{
-        DefaultSettings, DefaultSettingsBuilder, DefaultSolver, IPSolver, SupportedConeT,
-    };
+    use crate::sparse_lp::{conic_solver, csc, merge};
+    use clarabel::solver::{DefaultSolver, IPSolver, SupportedConeT};
     use std::collections::HashMap;
 
     /// `a·b` over boxes, widened outward by a rounding pad.
@@ -297,16 +294,7 @@ mod imp {
                 col.sort_by_key(|e| e.0);
             }
             let a = csc(m, &cols, &b, "moment relaxation")?;
-            let p = CscMatrix::zeros((self.n, self.n));
-            let settings: DefaultSettings<f64> = DefaultSettingsBuilder::default()
-                .verbose(false)
-                .presolve_enable(false)
-                .max_iter(100)
-                .build()
-                .map_err(|e| SmidError::Solver(e.to_string()))?;
-            let q = vec![0.0; self.n];
-            let solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings)
-                .map_err(|e| SmidError::Solver(e.to_string()))?;
+            let solver = conic_solver(&a, &b, &cones, None)?;
             Ok(SdpSolver {
                 n: self.n,
                 cols,

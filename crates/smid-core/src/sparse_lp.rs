@@ -63,6 +63,29 @@ pub(crate) fn csc(
     Ok(CscMatrix::new(m, cols.len(), colptr, rowval, nzval))
 }
 
+/// A Clarabel solver for `min q·x` (no quadratic term, `q` set later with `update_q`; presolve
+/// off so that works), rows `a x + s = b`, `s` in `cones`, at most 100 iterations; `tol` sets
+/// the gap and feasibility tolerances (else Clarabel's defaults).
+pub(crate) fn conic_solver(
+    a: &CscMatrix<f64>,
+    b: &[f64],
+    cones: &[SupportedConeT<f64>],
+    tol: Option<f64>,
+) -> Result<DefaultSolver<f64>> {
+    let mut builder = DefaultSettingsBuilder::default();
+    builder.verbose(false).presolve_enable(false).max_iter(100);
+    if let Some(t) = tol {
+        builder.tol_gap_abs(t).tol_gap_rel(t).tol_feas(t);
+    }
+    let settings: DefaultSettings<f64> = builder
+        .build()
+        .map_err(|e| SmidError::Solver(e.to_string()))?;
+    let n = a.n;
+    let p = CscMatrix::zeros((n, n));
+    DefaultSolver::new(&p, &vec![0.0; n], a, b, cones, settings)
+        .map_err(|e| SmidError::Solver(e.to_string()))
+}
+
 /// Sum the coefficients of equal columns of a sparse row (dropping zeros).
 pub(crate) fn merge(mut row: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
     row.sort_by_key(|e| e.0);
@@ -121,7 +144,6 @@ impl SparseLp {
             b.push(*f);
         }
         let a = csc(m, &cols, &b, "linear program")?;
-        let p = CscMatrix::zeros((self.n, self.n));
         let mut cones = Vec::new();
         if !self.le.is_empty() {
             cones.push(SupportedConeT::NonnegativeConeT(self.le.len()));
@@ -129,18 +151,7 @@ impl SparseLp {
         if !self.eq.is_empty() {
             cones.push(SupportedConeT::ZeroConeT(self.eq.len()));
         }
-        let settings: DefaultSettings<f64> = DefaultSettingsBuilder::default()
-            .verbose(false)
-            .presolve_enable(false)
-            .tol_gap_abs(1e-10)
-            .tol_gap_rel(1e-10)
-            .tol_feas(1e-10)
-            .max_iter(100)
-            .build()
-            .map_err(|e| SmidError::Solver(e.to_string()))?;
-        let q = vec![0.0; self.n];
-        let solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings)
-            .map_err(|e| SmidError::Solver(e.to_string()))?;
+        let solver = conic_solver(&a, &b, &cones, Some(1e-10))?;
         Ok(LpSolver {
             n: self.n,
             solver,
