@@ -4,11 +4,10 @@
 //! reference, and the whole pipeline with the default method, whose target is under one second
 //! in release mode: `cargo bench --bench eiv_methods [--features sdp]`.
 use criterion::{criterion_group, criterion_main, Criterion};
-use smid::core::eiv::EivProblem;
-use smid::core::eiv_shared::{self, SharedOptions};
 use smid::core::interval::Interval;
 use smid::core::pipeline;
 use smid::core::spec::{EivMethod, Spec};
+use smid::core::stage3::{self, EivProblem};
 use std::path::Path;
 use std::time::Duration;
 
@@ -49,20 +48,20 @@ fn bench(c: &mut Criterion) {
         use_band_samples: band,
     };
     g.bench_function("stage3_classical_nbit10", |b| {
-        b.iter(|| prob(false).solve().expect("bounds"))
+        b.iter(|| stage3::solve(EivMethod::Classical, &prob(false)).expect("bounds"))
     });
     g.bench_function("stage3_shared_nbit10", |b| {
-        b.iter(|| eiv_shared::solve(&prob(true), &SharedOptions::default()).expect("bounds"))
+        b.iter(|| stage3::solve(EivMethod::Shared, &prob(true)).expect("bounds"))
     });
     // The moment relaxation (shared start included), with `--features sdp`.
-    if smid::core::eiv_sdp::AVAILABLE {
+    if EivMethod::Sdp.available() {
         g.bench_function("stage3_sdp_nbit10", |b| {
-            b.iter(|| smid::core::eiv_sdp::solve(&prob(true)).expect("bounds"))
+            b.iter(|| stage3::solve(EivMethod::Sdp, &prob(true)).expect("bounds"))
         });
     }
     // The exact-grid reference (shared start included, depth 7, inner hull).
     g.bench_function("stage3_exact_grid_nbit10", |b| {
-        b.iter(|| eiv_shared::solve_method(EivMethod::ExactGrid, &prob(true)).expect("bounds"))
+        b.iter(|| stage3::solve(EivMethod::ExactGrid, &prob(true)).expect("bounds"))
     });
     g.finish();
 }

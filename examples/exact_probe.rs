@@ -4,11 +4,11 @@
 //! - Monte Carlo trials (`smid check`): `cargo run --release --example exact_probe mc SEED [SEED..]`
 //! - `DEPTH=d` sets the grid depth; `SDP=1` (with `--features sdp`) prints the moment
 //!   relaxation's bounds instead.
-use smid_core::eiv::EivProblem;
-use smid_core::eiv_exact::{self, ExactOptions};
-use smid_core::eiv_shared::{self, SharedOptions};
 use smid_core::interval::Interval;
 use smid_core::pipeline;
+use smid_core::spec::EivMethod;
+use smid_core::stage3::exact_grid::{self, ExactOptions};
+use smid_core::stage3::{self, EivProblem};
 use std::path::Path;
 fn main() {
     smid::link_plugins();
@@ -22,7 +22,7 @@ fn main() {
         let (spec, id) = if mc {
             let t = smid::montecarlo::Trial::random(seed);
             let mut spec = t.spec();
-            spec.method.eiv = smid_core::spec::EivMethod::Classical;
+            spec.method.eiv = EivMethod::Classical;
             let mut plant = smid_core::plant::SimulatedPlant {
                 linear: t.linear.clone(),
                 nonlinearity: &t.backlash,
@@ -46,11 +46,11 @@ fn main() {
             use_band_samples: true,
         };
         let t0 = std::time::Instant::now();
-        let shared = eiv_shared::solve(&prob, &SharedOptions::default()).unwrap();
+        let shared = stage3::solve(EivMethod::Shared, &prob).unwrap();
         let t1 = t0.elapsed();
         if std::env::var("SDP").is_ok() {
             let t = std::time::Instant::now();
-            let r = smid_core::eiv_sdp::solve(&prob);
+            let r = stage3::solve(EivMethod::Sdp, &prob);
             println!(
                 "sdp {:?}: {:?}",
                 t.elapsed(),
@@ -71,7 +71,7 @@ fn main() {
             .ok()
             .and_then(|d| d.parse().ok())
             .unwrap_or(7);
-        let ex = eiv_exact::solve_from(
+        let ex = exact_grid::solve_from(
             &prob,
             &shared,
             &ExactOptions {
@@ -92,7 +92,7 @@ fn main() {
             ex.cell_lps,
             ex.anchor
         );
-        let names = smid_core::eiv::theta_names(2, 2);
+        let names = prob.names();
         let truth: Vec<f64> = names
             .iter()
             .map(|n| id.parameter(n).and_then(|p| p.truth).unwrap_or(f64::NAN))

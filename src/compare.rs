@@ -4,13 +4,12 @@
 //! table gives per method and `n_bit` the median radius per parameter and its ratio to the
 //! exact set measured by `exact-grid` (to its inner hull, which lies inside the exact set, so the
 //! ratio shown is an upper bound of the true ratio), and how many runs contained the truth.
-use smid_core::eiv::{theta_names, EivProblem, EivResult};
-use smid_core::eiv_exact::{self, ExactOptions};
-use smid_core::eiv_shared::{self, SharedOptions};
 use smid_core::interval::Interval;
 use smid_core::nonlinearity::Structure;
 use smid_core::pipeline;
 use smid_core::spec::EivMethod;
+use smid_core::stage3::exact_grid::{self, ExactOptions};
+use smid_core::stage3::{self, theta_names, EivProblem, EivResult};
 use smid_core::Result;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -53,11 +52,11 @@ fn stage3(
 ) -> Result<(EivResult, Option<Vec<Option<Interval>>>)> {
     match method {
         EivMethod::ExactGrid => {
-            let shared = eiv_shared::solve(prob, &SharedOptions::default())?;
-            let ex = eiv_exact::solve_from(prob, &shared, &ExactOptions::default(), || {})?;
+            let shared = stage3::solve(EivMethod::Shared, prob)?;
+            let ex = exact_grid::solve_from(prob, &shared, &ExactOptions::default(), || {})?;
             Ok((ex.to_eiv(), Some(ex.inner)))
         }
-        m => Ok((eiv_shared::solve_method(m, prob)?, None)),
+        m => Ok((stage3::solve(m, prob)?, None)),
     }
 }
 

@@ -6,11 +6,12 @@
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use smid::montecarlo::{random_backlash, random_linear, Trial};
-use smid_core::eiv::EivProblem;
 use smid_core::interval::Interval;
 use smid_core::inversion::{InnerBound, InnerKind};
 use smid_core::nonlinearity::{Nonlinearity, NonlinearitySet, SteadyPoint, SteadyStateData};
 use smid_core::signals::prbs;
+use smid_core::spec::EivMethod;
+use smid_core::stage3::{self, EivProblem};
 use smid_core::SmidError;
 use smid_output_backlash::branch_polygons;
 
@@ -101,7 +102,7 @@ proptest! {
         }).collect();
         let input: Vec<Interval> = u.iter().map(|&v| Interval::new(v, v)).collect();
         let prob = EivProblem { na: 2, nb: 2, fixed: vec![None, None, Some(0.0), None, None], unit_gain: true, output: &out, input: &input, use_band_samples: false };
-        match prob.solve() {
+        match stage3::solve(EivMethod::Classical, &prob) {
             Ok(r) => {
                 let truth = [lin.a[0], lin.a[1], 0.0, lin.b[1], lin.b[2]];
                 for (b, t) in r.bounds.iter().zip(truth) {
@@ -135,7 +136,6 @@ proptest! {
     /// wider than the ones they start from (classical ⊇ shared ⊇ sdp, exact-grid).
     #[test]
     fn every_stage3_method_contains_the_truth(seed in any::<u64>()) {
-        use smid_core::spec::EivMethod;
         let trial = Trial::random(seed);
         let mut shared = None;
         for m in EivMethod::ALL.into_iter().filter(|m| m.available()) {

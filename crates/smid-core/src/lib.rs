@@ -3,7 +3,7 @@
 //! The core of smid, a framework for set-membership (bounded-error) identification of
 //! block-oriented nonlinear systems. It holds the plugin traits ([`nonlinearity`]), the
 //! engines (exact 2-D [`polygon`]s, interval [`inversion`], the [`lp`] polytope bounder and the
-//! errors-in-variables stage [`eiv`]), plants and experiments, the YAML [`spec`], the
+//! errors-in-variables stage 3 [`stage3`]), plants and experiments, the YAML [`spec`], the
 //! three-stage [`pipeline`], reports and plots. It names no nonlinearity plugin.
 //!
 //! Equation numbers refer to Cerone, Piga & Regruto, "Parameter bounds evaluation for linear
@@ -11,10 +11,6 @@
 #![forbid(unsafe_code)]
 
 pub mod data;
-pub mod eiv;
-pub mod eiv_exact;
-pub mod eiv_sdp;
-pub mod eiv_shared;
 pub mod error;
 pub mod experiment;
 pub mod interval;
@@ -32,6 +28,7 @@ pub mod report;
 pub mod signals;
 pub mod sparse_lp;
 pub mod spec;
+pub mod stage3;
 
 pub use error::{Result, SmidError, Stage};
 

@@ -2,8 +2,7 @@
 //! structure: acquire data (run the experiments on a [`Plant`] or load CSV files), stage 1
 //! (nonlinearity parameter set from steady-state data, Section 3), stage 2 (inner-signal bounds,
 //! Section 4: inversion for Wiener, propagation for Hammerstein), stage 3 (linear parameters,
-//! Section 5, [`crate::eiv`]).
-use crate::eiv::{theta_names, EivProblem};
+//! Section 5, [`crate::stage3`]).
 use crate::error::{Result, SmidError};
 use crate::experiment::{self, FilterDesign, SteadyRecord};
 use crate::interval::Interval;
@@ -12,6 +11,7 @@ use crate::noise;
 use crate::nonlinearity::{NonlinearitySet, SteadyStateData, Structure};
 use crate::plant::{Plant, SimulatedPlant};
 use crate::spec::{AlphaSpec, Spec};
+use crate::stage3::EivProblem;
 use rand::SeedableRng;
 use serde::Serialize;
 use std::path::Path;
@@ -294,16 +294,13 @@ pub fn identify(
         input: &input,
         use_band_samples: spec.method.use_band_samples(),
     };
-    let eiv = crate::eiv_shared::solve_method(spec.method.eiv, &problem)?;
+    let eiv = crate::stage3::solve(spec.method.eiv, &problem)?;
 
     let mut parameters: Vec<ParamResult> = gamma
         .iter()
         .map(|b| ParamResult::new(&b.name, b.interval, truth_of(&b.name)))
         .collect();
-    for (name, b) in theta_names(spec.model.na, spec.model.nb)
-        .iter()
-        .zip(&eiv.bounds)
-    {
+    for (name, b) in problem.names().iter().zip(&eiv.bounds) {
         parameters.push(ParamResult::new(name, *b, truth_of(name)));
     }
     let snr_db = match (&data.w, &data.noise) {

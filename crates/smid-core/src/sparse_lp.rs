@@ -1,7 +1,7 @@
 //! A small sparse linear-programming front end on Clarabel (CSC matrices, no modelling layer):
 //! `min q·z` subject to rows `g·z <= h` and `e·z = f`. One factorisation is reused for many
-//! objectives (`update_q`), which is what the shared-error EIV relaxation ([`crate::eiv_shared`])
-//! and the exact-grid reference ([`crate::eiv_exact`]) need: the same polytope bounded along many
+//! objectives (`update_q`), which is what the shared-error EIV relaxation ([`crate::stage3::shared`])
+//! and the exact-grid reference ([`crate::stage3::exact_grid`]) need: the same polytope bounded along many
 //! coordinates.
 //!
 //! Guarantee (as in [`crate::lp`]): every inequality right-hand side is relaxed outward by

@@ -11,6 +11,9 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+/// The stage-3 method names (defined with the methods, in [`crate::stage3`]).
+pub use crate::stage3::EivMethod;
+
 /// A whole spec.
 #[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -310,60 +313,6 @@ pub enum AlphaSpec {
     Zero,
 }
 
-/// Stage-3 method.
-#[derive(
-    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema, Default,
-)]
-#[serde(rename_all = "snake_case")]
-pub enum EivMethod {
-    /// Orthant-wise LP outer set of Section 5 (Cerone 1993): each equation's error bounded on
-    /// its own.
-    Classical,
-    /// Shared-error relaxation: the inner-signal errors are variables shared by consecutive
-    /// equations, products relaxed by McCormick envelopes, box shrunk until the radii settle
-    /// ([`crate::eiv_shared`]). Never wider than `classical`; close to the exact set.
-    #[default]
-    Shared,
-    /// Moment (SDP) relaxation on each equation's clique of consecutive samples, bounds by weak
-    /// duality ([`crate::eiv_sdp`]); needs the cargo feature `sdp`. Never wider than `shared`.
-    Sdp,
-    /// Exact set measured on a grid of the a-plane (na <= 2, Wiener): outer hull of feasible
-    /// cells reported, inner hull of consistent points measured ([`crate::eiv_exact`]).
-    #[serde(rename = "exact-grid", alias = "exact_grid")]
-    ExactGrid,
-}
-
-impl EivMethod {
-    /// Every method, in documentation order.
-    pub const ALL: [EivMethod; 4] = [
-        EivMethod::Classical,
-        EivMethod::Shared,
-        EivMethod::Sdp,
-        EivMethod::ExactGrid,
-    ];
-
-    /// Whether this build can run the method (`sdp` needs the cargo feature `sdp`).
-    pub fn available(self) -> bool {
-        self != EivMethod::Sdp || crate::eiv_sdp::AVAILABLE
-    }
-
-    /// The name used in specs and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            EivMethod::Classical => "classical",
-            EivMethod::Shared => "shared",
-            EivMethod::Sdp => "sdp",
-            EivMethod::ExactGrid => "exact-grid",
-        }
-    }
-    /// Parse a name as used in specs (`classical`, `shared`, `sdp`, `exact-grid`).
-    pub fn from_name(s: &str) -> Option<Self> {
-        Self::ALL
-            .into_iter()
-            .find(|m| m.name() == s || m.name().replace('-', "_") == s)
-    }
-}
-
 /// Method options.
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema, Default)]
 #[serde(deny_unknown_fields)]
@@ -444,7 +393,7 @@ impl Spec {
 
     /// Parameter count and the θ-index of each fixed coefficient.
     pub fn fixed_theta(&self) -> Result<Vec<Option<f64>>> {
-        let names = crate::eiv::theta_names(self.model.na, self.model.nb);
+        let names = crate::stage3::theta_names(self.model.na, self.model.nb);
         let mut out = vec![None; names.len()];
         for (k, v) in &self.model.fixed {
             let Some(i) = names.iter().position(|n| n == k) else {

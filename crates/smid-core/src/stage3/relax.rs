@@ -1,41 +1,19 @@
-//! Stage 3 (paper Section 5) by the shared-error relaxation: guaranteed bounds on
-//! `θ = [a_1..a_na, b_0..b_nb]` that keep the inner-signal errors `δx_t` (eqs 28-30) as variables
-//! shared by the equations they enter, instead of bounding each equation's error on its own as
-//! the classical orthant method ([`crate::eiv`]) does.
+//! The shared-error LP model of stage 3 (paper Section 5, eqs 1, 28-30), common to the
+//! `shared`, `exact-grid` and `sdp` methods: the variable layout, the equation rows with the
+//! bilinear products `w = θ_k δ_s` relaxed by McCormick envelopes over the current boxes, the
+//! interval propagation that shrinks the `δ` boxes, and the box-tightening step.
 //!
 //! Variables: the free θ, one `δ_s` per uncertain signal sample (`|δ_s| <= Δ_s`; output side
 //! `x_s = x^c_s + δx_s`, and for Hammerstein the input side `v_s = v^c_s + δv_s`), and one
 //! `w = θ_k δ_s` per product. Each equation `x_t + Σ a_i x_{t-i} - Σ b_j v_{t-j} = 0` (eq 1 with
-//! eq 29 substituted) is linear in `(θ, δ, w)`; the bilinear `w` are relaxed by McCormick
-//! envelopes over the current box of `θ_k` and of `δ_s`, so the LP's feasible set contains every
-//! `(θ, δ)` consistent with the data: its coordinate bounds are guaranteed. Starting from the
-//! classical box (so the result is never wider than the classical one), each round bounds every
-//! free parameter by LP, shrinks the θ box, tightens the `δ` boxes by interval propagation through
-//! the equations, and repeats until the radii stop improving. As the θ box shrinks the envelopes
-//! become exact, so the result approaches the exact feasible set (see [`crate::eiv_exact`]).
-use crate::eiv::{EivProblem, EivResult};
-use crate::error::{Result, SmidError, Stage};
+//! eq 29 substituted) is linear in `(θ, δ, w)`; the McCormick envelopes over a box of `θ_k` and
+//! of `δ_s` contain every product of the box, so the LP's feasible set contains every `(θ, δ)`
+//! consistent with the data and its coordinate bounds are guaranteed.
+use super::EivProblem;
+use crate::error::{Result, SmidError};
 use crate::interval::Interval;
 use crate::sparse_lp::{LpSolver, Optimum, SparseLp};
 use std::collections::HashMap;
-
-/// Options of the shared-error relaxation.
-#[derive(Debug, Clone, Copy)]
-pub struct SharedOptions {
-    /// Maximum number of LP rounds.
-    pub max_rounds: usize,
-    /// Stop when no radius shrinks by more than this fraction in a round.
-    pub min_improvement: f64,
-}
-
-impl Default for SharedOptions {
-    fn default() -> Self {
-        SharedOptions {
-            max_rounds: 12,
-            min_improvement: 0.03,
-        }
-    }
-}
 
 /// Which signal a sample belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -179,7 +157,7 @@ impl<'p, 'a> SharedModel<'p, 'a> {
             let (dl, du) = (db[d].lo, db[d].hi);
             if !(l.is_finite() && u.is_finite()) {
                 return Err(SmidError::Unbounded {
-                    parameter: crate::eiv::theta_names(self.prob.na, self.prob.nb)[k].clone(),
+                    parameter: super::theta_names(self.prob.na, self.prob.nb)[k].clone(),
                     message: "the shared-error relaxation needs a bounded start box".into(),
                 });
             }
@@ -327,231 +305,4 @@ pub(crate) fn tighten(old: Interval, lo: Option<f64>, hi: Option<f64>) -> Option
         0.0
     };
     Some((new, gain))
-}
-
-/// The shared-error relaxation, starting from the classical result `start` (a guaranteed box).
-pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> Result<EivResult> {
-    let model = SharedModel::new(prob, start.equations.clone());
-    let mut tb = start.bounds.clone();
-    let mut db = model.initial_deltas();
-    for _round in 0..opts.max_rounds.max(1) {
-        for _ in 0..2 {
-            if let Some(t) = model.propagate(&tb, &mut db) {
-                return Err(inconsistent(t));
-            }
-        }
-        let lp = model.build(&tb, &db, &model.times)?;
-        let mut solver = lp.solver()?;
-        let Some(found) = bound_all(&model, &mut solver)? else {
-            return Err(inconsistent(locate(&model, &tb, &db)?));
-        };
-        let mut gain: f64 = 0.0;
-        for (c, &k) in model.free.iter().enumerate() {
-            let old = tb[k];
-            let (lo, hi) = found[c];
-            let Some((new, g)) = tighten(old, lo, hi) else {
-                // Two guaranteed bounds that do not meet: no θ is consistent.
-                return Err(inconsistent(locate(&model, &tb, &db)?));
-            };
-            gain = gain.max(g);
-            tb[k] = new;
-        }
-        if gain < opts.min_improvement {
-            break;
-        }
-    }
-    Ok(EivResult {
-        bounds: tb,
-        equations: start.equations,
-        feasible_orthants: start.feasible_orthants,
-    })
-}
-
-/// The shared-error relaxation of `prob` (classical start, then LP rounds).
-pub fn solve(prob: &EivProblem, opts: &SharedOptions) -> Result<EivResult> {
-    let start = prob.solve()?;
-    solve_from(prob, start, opts)
-}
-
-fn inconsistent(t: usize) -> SmidError {
-    SmidError::Inconsistent {
-        stage: Stage::Linear,
-        sample: t,
-        detail: format!(
-            "no θ and inner-signal errors satisfy the equations up to t = {t} within their bounds"
-        ),
-    }
-}
-
-/// The first equation whose addition empties the relaxation (bisection on prefixes).
-fn locate(model: &SharedModel, tb: &[Interval], db: &[Interval]) -> Result<usize> {
-    let times = &model.times;
-    let (mut good, mut bad) = (0usize, times.len());
-    while bad - good > 1 {
-        let mid = (good + bad) / 2;
-        let feasible = model
-            .build(tb, db, &times[..mid])?
-            .solver()?
-            .feasible()?
-            .unwrap_or(true);
-        if feasible {
-            good = mid;
-        } else {
-            bad = mid;
-        }
-    }
-    Ok(times.get(bad.saturating_sub(1)).copied().unwrap_or(0))
-}
-
-/// Stage 3 by the chosen method (the pipeline's dispatch).
-pub fn solve_method(method: crate::spec::EivMethod, prob: &EivProblem) -> Result<EivResult> {
-    use crate::spec::EivMethod;
-    match method {
-        EivMethod::Classical => prob.solve(),
-        EivMethod::Shared => solve(prob, &SharedOptions::default()),
-        EivMethod::Sdp => crate::eiv_sdp::solve(prob),
-        EivMethod::ExactGrid => {
-            let shared = solve(prob, &SharedOptions::default())?;
-            Ok(crate::eiv_exact::solve_from(prob, &shared, &Default::default(), || {})?.to_eiv())
-        }
-    }
-}
-
-#[cfg(test)]
-pub(crate) mod tests {
-    use super::*;
-    use crate::inversion::{InnerBound, InnerKind};
-    use crate::linear::LinearModel;
-    use proptest::prelude::*;
-    use rand::{Rng, SeedableRng};
-
-    /// A random stable 2nd-order block with `b0 = 0` and unit gain, its PRBS-driven inner
-    /// signal, and bounds `x_t ± Δ_t` around the true value moved by a uniform error in the bound
-    /// (some samples band-wide, as the output-backlash plugin gives them).
-    pub(crate) fn random_case(
-        seed: u64,
-        n: usize,
-    ) -> (LinearModel, Vec<InnerBound>, Vec<Interval>) {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let r: f64 = rng.gen_range(0.2..0.85);
-        let phi: f64 = rng.gen_range(0.0..std::f64::consts::PI);
-        let (a1, a2) = (-2.0 * r * phi.cos(), r * r);
-        let g = 1.0 + a1 + a2;
-        let b1 = rng.gen_range(0.2..1.5) * g;
-        let m = LinearModel {
-            a: vec![a1, a2],
-            b: vec![0.0, b1, g - b1],
-        };
-        let u: Vec<f64> = (0..n)
-            .map(|_| if rng.gen_bool(0.5) { 1.0 } else { -1.0 })
-            .collect();
-        let x = m.simulate(&u);
-        let dx = 10f64.powf(rng.gen_range(-4.0..-1.5));
-        let out = x
-            .iter()
-            .map(|&v| {
-                let band = rng.gen_bool(0.1);
-                let d = if band {
-                    20.0 * dx
-                } else {
-                    dx * rng.gen_range(0.5..1.5)
-                };
-                let c = v + rng.gen_range(-d..=d);
-                InnerBound {
-                    interval: Interval::new(c - d, c + d),
-                    kind: if band {
-                        InnerKind::Band
-                    } else {
-                        InnerKind::Inverted
-                    },
-                }
-            })
-            .collect();
-        let input = u.iter().map(|&v| Interval::new(v, v)).collect();
-        (m, out, input)
-    }
-
-    pub(crate) fn problem<'a>(
-        out: &'a [InnerBound],
-        input: &'a [Interval],
-        band: bool,
-    ) -> EivProblem<'a> {
-        EivProblem {
-            na: 2,
-            nb: 2,
-            fixed: vec![None, None, Some(0.0), None, None],
-            unit_gain: true,
-            output: out,
-            input,
-            use_band_samples: band,
-        }
-    }
-
-    fn truth(m: &LinearModel) -> Vec<f64> {
-        m.a.iter().chain(&m.b).copied().collect()
-    }
-
-    #[test]
-    fn shared_is_never_wider_than_classical_and_contains_the_truth() {
-        for seed in 0..6 {
-            let (m, out, input) = random_case(seed, 60);
-            for band in [false, true] {
-                let prob = problem(&out, &input, band);
-                let classical = prob.solve().unwrap();
-                let shared = solve(&prob, &SharedOptions::default()).unwrap();
-                for (k, t) in truth(&m).into_iter().enumerate() {
-                    let (c, s) = (classical.bounds[k], shared.bounds[k]);
-                    assert!(s.contains(t), "seed {seed}: shared {s:?} misses {t}");
-                    assert!(
-                        c.lo <= s.lo && s.hi <= c.hi,
-                        "seed {seed}: {s:?} not inside {c:?}"
-                    );
-                }
-                // The sharing pays: the a's shrink markedly.
-                assert!(shared.bounds[0].radius() < 0.7 * classical.bounds[0].radius());
-            }
-        }
-    }
-
-    #[test]
-    fn an_outlier_is_reported_as_inconsistent_not_a_panic() {
-        let (_, mut out, input) = random_case(3, 60);
-        let c = out[30].interval;
-        out[30].interval = Interval::new(c.lo + 0.5, c.hi + 0.5);
-        match solve(&problem(&out, &input, true), &SharedOptions::default()) {
-            Err(SmidError::Inconsistent {
-                stage: Stage::Linear,
-                ..
-            }) => {}
-            other => panic!("expected inconsistency, got {other:?}"),
-        }
-    }
-
-    proptest! {
-        #![proptest_config(ProptestConfig { cases: 8, .. ProptestConfig::default() })]
-        #[test]
-        fn shared_bounds_contain_the_truth(seed in any::<u64>(), band in any::<bool>()) {
-            let (m, out, input) = random_case(seed, 50);
-            // Data that leave a parameter unbounded are an honest outcome, not a miss.
-            let r = match solve(&problem(&out, &input, band), &SharedOptions::default()) {
-                Err(SmidError::Unbounded { .. }) => { prop_assume!(false); unreachable!() }
-                other => other.unwrap(),
-            };
-            for (k, t) in truth(&m).into_iter().enumerate() {
-                prop_assert!(r.bounds[k].contains(t), "{:?} misses {}", r.bounds[k], t);
-            }
-        }
-
-        #[test]
-        fn classical_bounds_contain_the_truth(seed in any::<u64>(), band in any::<bool>()) {
-            let (m, out, input) = random_case(seed, 50);
-            let r = match problem(&out, &input, band).solve() {
-                Err(SmidError::Unbounded { .. }) => { prop_assume!(false); unreachable!() }
-                other => other.unwrap(),
-            };
-            for (k, t) in truth(&m).into_iter().enumerate() {
-                prop_assert!(r.bounds[k].contains(t), "{:?} misses {}", r.bounds[k], t);
-            }
-        }
-    }
 }

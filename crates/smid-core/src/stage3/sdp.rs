@@ -2,7 +2,7 @@
 //! (eqs 1, 28-30), behind the cargo feature `sdp` (Clarabel's PSD cone over the system
 //! OpenBLAS).
 //!
-//! The variables of the shared-error relaxation ([`crate::eiv_shared`]: the free θ, the
+//! The variables of the shared-error relaxation (`relax.rs`: the free θ, the
 //! inner-signal errors `δ_s`, the products `w = θ_k δ_s`) get the second moments they lack
 //! (`θ_k θ_l`, `δ_s δ_r`, missing `θ_k δ_s`), and for every equation `t` the moment matrix of
 //! `(1, θ_k, δ_s)` over the coefficients and samples of that equation (a sparse clique of
@@ -19,7 +19,7 @@
 //! boxes by interval arithmetic). An inaccurate solve gives a looser bound, never a wrong one.
 //! The result is intersected with the shared-error result it starts from, so it is never wider.
 //! Without the feature, selecting `method.eiv: sdp` is an error naming it.
-use crate::eiv::{EivProblem, EivResult};
+use super::{EivMethod, EivProblem, EivResult, Stage3Method};
 use crate::error::{Result, SmidError};
 
 /// Options of the moment relaxation.
@@ -31,50 +31,89 @@ pub struct SdpOptions {
     pub min_improvement: f64,
 }
 
+impl SdpOptions {
+    /// The defaults: 3 rounds, stop below 1% improvement.
+    pub const DEFAULT: SdpOptions = SdpOptions {
+        max_rounds: 3,
+        min_improvement: 0.01,
+    };
+}
+
 impl Default for SdpOptions {
     fn default() -> Self {
-        SdpOptions {
-            max_rounds: 3,
-            min_improvement: 0.01,
-        }
+        Self::DEFAULT
     }
 }
 
 /// Whether this build has the moment relaxation (the cargo feature `sdp`).
 pub const AVAILABLE: bool = cfg!(feature = "sdp");
 
-/// The moment relaxation of `prob`, starting from the shared-error result.
+/// The moment relaxation (`method.eiv: sdp`), starting from `shared`.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Sdp {
+    pub opts: SdpOptions,
+}
+
+impl Stage3Method for Sdp {
+    fn name(&self) -> &'static str {
+        "sdp"
+    }
+    fn available(&self) -> bool {
+        AVAILABLE
+    }
+    fn start(&self) -> Option<EivMethod> {
+        Some(EivMethod::Shared)
+    }
+    /// Without the feature `sdp`: an error naming it (before any start is computed).
+    fn check(&self, _prob: &EivProblem) -> Result<()> {
+        if AVAILABLE {
+            Ok(())
+        } else {
+            Err(unsupported())
+        }
+    }
+    fn solve_from(&self, prob: &EivProblem, start: EivResult) -> Result<EivResult> {
+        solve_from(prob, start, &self.opts)
+    }
+}
+
+/// The moment relaxation of `prob`, starting from the shared-error result (through the
+/// registry).
 pub fn solve(prob: &EivProblem) -> Result<EivResult> {
     solve_with(prob, &SdpOptions::default())
 }
 
 /// As [`solve`], with options.
-#[cfg(feature = "sdp")]
 pub fn solve_with(prob: &EivProblem, opts: &SdpOptions) -> Result<EivResult> {
-    let shared = crate::eiv_shared::solve(prob, &crate::eiv_shared::SharedOptions::default())?;
-    imp::solve_from(prob, shared, opts)
+    Sdp { opts: *opts }.solve(prob)
 }
 
-/// As [`solve`], with options (this build has no `sdp` feature: an error naming it).
-#[cfg(not(feature = "sdp"))]
-pub fn solve_with(_prob: &EivProblem, _opts: &SdpOptions) -> Result<EivResult> {
-    Err(SmidError::Unsupported {
-        plugin: "smid-core".into(),
-        what: "`method.eiv: sdp` in this build: the moment relaxation needs the cargo feature `sdp` (build with `--features sdp`; it needs apt libopenblas-dev libgfortran-12-dev); or choose `shared` (within a few percent of the exact set on the paper's example) or `exact-grid`".into(),
-    })
-}
-
+/// The moment relaxation from a guaranteed result `start` (the shared-error one).
 #[cfg(feature = "sdp")]
 pub use imp::solve_from;
+
+/// The moment relaxation from `start` (this build has no `sdp` feature: an error naming it).
+#[cfg(not(feature = "sdp"))]
+pub fn solve_from(_prob: &EivProblem, _start: EivResult, _opts: &SdpOptions) -> Result<EivResult> {
+    Err(unsupported())
+}
+
+/// Selecting the method in a build without the feature `sdp`.
+fn unsupported() -> SmidError {
+    SmidError::Unsupported {
+        plugin: "smid-core".into(),
+        what: "`method.eiv: sdp` in this build: the moment relaxation needs the cargo feature `sdp` (build with `--features sdp`; it needs apt libopenblas-dev libgfortran-12-dev); or choose `shared` (within a few percent of the exact set on the paper's example) or `exact-grid`".into(),
+    }
+}
 
 #[cfg(feature = "sdp")]
 mod imp {
     use super::*;
-    use crate::eiv_shared::{tighten, SharedModel};
     use crate::error::Stage;
     use crate::interval::Interval;
     use crate::lp::{RESULT_PAD, ROW_PAD};
     use crate::sparse_lp::{conic_solver, csc, merge};
+    use crate::stage3::relax::{tighten, SharedModel};
     use clarabel::solver::{DefaultSolver, IPSolver, SupportedConeT};
     use std::collections::HashMap;
 
@@ -522,7 +561,7 @@ mod tests {
     #[cfg(not(feature = "sdp"))]
     #[test]
     fn selecting_sdp_names_the_feature() {
-        let prob = crate::eiv::EivProblem {
+        let prob = crate::stage3::EivProblem {
             na: 0,
             nb: 0,
             fixed: vec![None],
@@ -538,15 +577,15 @@ mod tests {
     #[cfg(feature = "sdp")]
     #[test]
     fn sdp_contains_the_truth_and_the_exact_inner_hull_and_is_never_wider_than_shared() {
-        use crate::eiv_exact::{self, ExactOptions};
-        use crate::eiv_shared::tests::{problem, random_case};
-        use crate::eiv_shared::{self, SharedOptions};
+        use crate::stage3::exact_grid::{self, ExactOptions};
+        use crate::stage3::shared::{self, SharedOptions};
+        use crate::stage3::testutil::{problem, random_case};
         for seed in 0..6 {
             let (m, out, input) = random_case(seed, 40);
             let prob = problem(&out, &input, true);
-            let shared = eiv_shared::solve(&prob, &SharedOptions::default()).unwrap();
+            let shared = shared::solve(&prob, &SharedOptions::default()).unwrap();
             let sdp = super::solve_from(&prob, shared.clone(), &Default::default()).unwrap();
-            let exact = eiv_exact::solve_from(
+            let exact = exact_grid::solve_from(
                 &prob,
                 &shared,
                 &ExactOptions {

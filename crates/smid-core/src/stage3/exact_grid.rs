@@ -14,8 +14,8 @@
 //! guaranteed outer bound) and explored by best-first branch and bound per parameter and
 //! direction: a cell's relaxation contains its children's, so a cell whose bound cannot beat the
 //! current best never needs refining, and the result equals the hull over all finest cells.
-use crate::eiv::{EivProblem, EivResult};
-use crate::eiv_shared::SharedModel;
+use super::relax::SharedModel;
+use super::{EivMethod, EivProblem, EivResult, Stage3Method};
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
 use crate::sparse_lp::{merge, Optimum, SparseLp};
@@ -32,13 +32,37 @@ pub struct ExactOptions {
     pub anchor_evals: usize,
 }
 
+impl ExactOptions {
+    /// The defaults: depth 7, 30 bisection steps, 120 anchor evaluations.
+    pub const DEFAULT: ExactOptions = ExactOptions {
+        depth: 7,
+        line_steps: 30,
+        anchor_evals: 120,
+    };
+}
+
 impl Default for ExactOptions {
     fn default() -> Self {
-        ExactOptions {
-            depth: 7,
-            line_steps: 30,
-            anchor_evals: 120,
-        }
+        Self::DEFAULT
+    }
+}
+
+/// The exact-grid reference (`method.eiv: exact-grid`), starting from `shared`; reports the
+/// guaranteed outer hull.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ExactGrid {
+    pub opts: ExactOptions,
+}
+
+impl Stage3Method for ExactGrid {
+    fn name(&self) -> &'static str {
+        "exact-grid"
+    }
+    fn start(&self) -> Option<EivMethod> {
+        Some(EivMethod::Shared)
+    }
+    fn solve_from(&self, prob: &EivProblem, start: EivResult) -> Result<EivResult> {
+        Ok(solve_from(prob, &start, &self.opts, || {})?.to_eiv())
     }
 }
 
@@ -610,8 +634,8 @@ pub fn solve_from(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eiv_shared::tests::{problem, random_case};
-    use crate::eiv_shared::{self, SharedOptions};
+    use crate::stage3::shared::{self, SharedOptions};
+    use crate::stage3::testutil::{problem, random_case};
     use proptest::prelude::*;
 
     fn quick() -> ExactOptions {
@@ -627,7 +651,7 @@ mod tests {
         fn exact_grid_outer_contains_truth_and_inner_hull(seed in any::<u64>()) {
             let (m, out, input) = random_case(seed, 40);
             let prob = problem(&out, &input, true);
-            let shared = eiv_shared::solve(&prob, &SharedOptions::default()).unwrap();
+            let shared = shared::solve(&prob, &SharedOptions::default()).unwrap();
             let ex = solve_from(&prob, &shared, &quick(), || {}).unwrap();
             let truth: Vec<f64> = m.a.iter().chain(&m.b).copied().collect();
             for (k, t) in truth.into_iter().enumerate() {
@@ -652,7 +676,7 @@ mod tests {
         for seed in 0..8 {
             let (m, out, input) = random_case(seed, 40);
             let prob = problem(&out, &input, true);
-            let shared = eiv_shared::solve(&prob, &SharedOptions::default()).unwrap();
+            let shared = shared::solve(&prob, &SharedOptions::default()).unwrap();
             let model = SharedModel::new(&prob, shared.equations.clone());
             let mut at = AtA {
                 prob: &prob,

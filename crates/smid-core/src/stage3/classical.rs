@@ -1,0 +1,327 @@
+//! Stage 3 (paper Section 5) by the classical orthant-wise LP outer set (Cerone 1993): bounds on
+//! the linear-block parameters `θ = [a_1..a_na, b_0..b_nb]` (eq 7) from interval-valued inner
+//! signals, each equation's error bounded on its own.
+//!
+//! With `x_t = x^c_t + δx_t`, `|δx_t| <= Δx_t` (eqs 28-30) on the output side and, for
+//! Hammerstein structures, `v_t = v^c_t + δv_t`, `|δv_t| <= Δv_t` on the input side, each
+//! equation `x_t + Σ a_i x_{t-i} = Σ b_j v_{t-j}` gives
+//! `|x^c_t + Σ a_i x^c_{t-i} - Σ b_j v^c_{t-j}| <= Δx_t + Σ |a_i| Δx_{t-i} + Σ |b_j| Δv_{t-j}`,
+//! linear in θ inside each sign orthant of the uncertain-multiplied coefficients. The outer set is
+//! the union over orthants; its coordinate bounds are the min/max over feasible orthants of one
+//! LP pair per parameter. The unit steady-state gain (eq 8) enters as `Σ b_j - Σ a_i = 1`, fixed
+//! coefficients as equalities.
+use super::{EivProblem, EivResult, Stage3Method};
+use crate::error::{Result, SmidError, Stage};
+use crate::interval::Interval;
+use crate::lp::{LpOutcome, Polytope};
+
+/// The classical orthant-wise LP outer set (`method.eiv: classical`).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Classical;
+
+impl Stage3Method for Classical {
+    fn name(&self) -> &'static str {
+        "classical"
+    }
+    /// Starts from the problem alone (`start` is not read).
+    fn solve_from(&self, prob: &EivProblem, _start: EivResult) -> Result<EivResult> {
+        solve(prob)
+    }
+}
+
+/// Which θ entries multiply an uncertain quantity (and so split into orthants).
+fn uncertain_coefficients(prob: &EivProblem, times: &[usize]) -> Vec<usize> {
+    let mut out = Vec::new();
+    for i in 1..=prob.na {
+        if prob.fixed[i - 1].is_none()
+            && times
+                .iter()
+                .any(|&t| prob.output[t - i].interval.radius() > 0.0)
+        {
+            out.push(i - 1);
+        }
+    }
+    for j in 0..=prob.nb {
+        if prob.fixed[prob.na + j].is_none()
+            && times.iter().any(|&t| prob.input[t - j].radius() > 0.0)
+        {
+            out.push(prob.na + j);
+        }
+    }
+    out
+}
+
+fn polytope(prob: &EivProblem, times: &[usize], signs: &[(usize, f64)]) -> Polytope {
+    let p = prob.na + prob.nb + 1;
+    let sign_of = |k: usize| signs.iter().find(|(i, _)| *i == k).map(|(_, s)| *s);
+    let mut poly = Polytope::new(p);
+    for &t in times {
+        // e_t(θ) = x^c_t + Σ a_i x^c_{t-i} - Σ b_j v^c_{t-j};
+        // slack(θ) = Δx_t + Σ |a_i| Δx_{t-i} + Σ |b_j| Δv_{t-j}, |a| = s a in the orthant.
+        let mut e = vec![0.0; p];
+        let mut s = vec![0.0; p];
+        let mut e0 = prob.output[t].interval.center();
+        let mut s0 = prob.output[t].interval.radius();
+        for i in 1..=prob.na {
+            let xi = prob.output[t - i].interval;
+            let k = i - 1;
+            match prob.fixed[k] {
+                Some(a) => {
+                    e0 += a * xi.center();
+                    s0 += a.abs() * xi.radius();
+                }
+                None => {
+                    e[k] += xi.center();
+                    if xi.radius() > 0.0 {
+                        s[k] += sign_of(k).unwrap_or(1.0) * xi.radius();
+                    }
+                }
+            }
+        }
+        for j in 0..=prob.nb {
+            let vj = prob.input[t - j];
+            let k = prob.na + j;
+            match prob.fixed[k] {
+                Some(b) => {
+                    e0 -= b * vj.center();
+                    s0 += b.abs() * vj.radius();
+                }
+                None => {
+                    e[k] -= vj.center();
+                    if vj.radius() > 0.0 {
+                        s[k] += sign_of(k).unwrap_or(1.0) * vj.radius();
+                    }
+                }
+            }
+        }
+        // e0 + e·θ <= s0 + s·θ  and  -(e0 + e·θ) <= s0 + s·θ
+        let up: Vec<f64> = e.iter().zip(&s).map(|(a, b)| a - b).collect();
+        let dn: Vec<f64> = e.iter().zip(&s).map(|(a, b)| -a - b).collect();
+        poly.le.push((up, s0 - e0, t));
+        poly.le.push((dn, s0 + e0, t));
+    }
+    for &(k, sgn) in signs {
+        let mut g = vec![0.0; p];
+        g[k] = -sgn; // s θ_k >= 0
+        poly.le.push((g, 0.0, usize::MAX));
+    }
+    for (k, f) in prob.fixed.iter().enumerate() {
+        if let Some(v) = f {
+            let mut g = vec![0.0; p];
+            g[k] = 1.0;
+            poly.eq.push((g, *v));
+        }
+    }
+    if prob.unit_gain {
+        let mut g = vec![0.0; p];
+        for v in g.iter_mut().take(prob.na) {
+            *v = -1.0;
+        }
+        for v in g.iter_mut().skip(prob.na) {
+            *v = 1.0;
+        }
+        poly.eq.push((g, 1.0));
+    }
+    poly
+}
+
+fn orthants(unc: &[usize]) -> Vec<Vec<(usize, f64)>> {
+    (0..(1usize << unc.len()))
+        .map(|mask| {
+            unc.iter()
+                .enumerate()
+                .map(|(bit, &k)| (k, if mask >> bit & 1 == 1 { -1.0 } else { 1.0 }))
+                .collect()
+        })
+        .collect()
+}
+
+fn any_feasible(prob: &EivProblem, times: &[usize], unc: &[usize]) -> Result<bool> {
+    for signs in orthants(unc) {
+        if polytope(prob, times, &signs).feasible()? {
+            return Ok(true);
+        }
+    }
+    Ok(false)
+}
+
+/// Solve: per-parameter guaranteed bounds (union over orthants).
+pub fn solve(prob: &EivProblem) -> Result<EivResult> {
+    let p = prob.na + prob.nb + 1;
+    if prob.fixed.len() != p {
+        return Err(SmidError::invalid(
+            "model.fixed",
+            format!("expected {p} entries, got {}", prob.fixed.len()),
+        ));
+    }
+    let times = prob.equation_times();
+    let free: Vec<usize> = (0..p).filter(|&k| prob.fixed[k].is_none()).collect();
+    let n_eq = free.len().saturating_sub(usize::from(prob.unit_gain));
+    if times.len() < n_eq.max(1) {
+        return Err(SmidError::Unbounded {
+            parameter: "θ".into(),
+            message: format!(
+                "only {} usable equations for {} free parameters: lengthen the dynamic experiment or enable band samples",
+                times.len(),
+                free.len()
+            ),
+        });
+    }
+    let unc = uncertain_coefficients(prob, &times);
+    let mut lo = vec![f64::INFINITY; p];
+    let mut hi = vec![f64::NEG_INFINITY; p];
+    let mut feasible = 0;
+    for signs in orthants(&unc) {
+        let names = prob.names();
+        let bounded = polytope(prob, &times, &signs).bound(&free).map_err(|e| match e {
+            SmidError::Unbounded { parameter, message } => SmidError::Unbounded {
+                parameter: parameter
+                    .trim_start_matches("θ[")
+                    .trim_end_matches(']')
+                    .parse::<usize>()
+                    .ok()
+                    .and_then(|k| names.get(k).cloned())
+                    .unwrap_or(parameter),
+                message: format!("{message} ({} usable equations; a longer or richer dynamic experiment helps)", times.len()),
+            },
+            other => other,
+        })?;
+        match bounded {
+            LpOutcome::Infeasible => {}
+            LpOutcome::Bounds(b) => {
+                feasible += 1;
+                for &k in &free {
+                    lo[k] = lo[k].min(b[k].lo);
+                    hi[k] = hi[k].max(b[k].hi);
+                }
+            }
+        }
+    }
+    if feasible == 0 {
+        // Locate the first equation whose addition empties the set (bisection on prefixes).
+        let (mut good, mut bad) = (0usize, times.len());
+        while bad - good > 1 {
+            let mid = (good + bad) / 2;
+            if any_feasible(prob, &times[..mid], &unc)? {
+                good = mid;
+            } else {
+                bad = mid;
+            }
+        }
+        return Err(SmidError::Inconsistent {
+            stage: Stage::Linear,
+            sample: times[bad - 1],
+            detail: format!(
+                "no θ satisfies the equations up to t = {} within their error bounds",
+                times[bad - 1]
+            ),
+        });
+    }
+    let bounds = (0..p)
+        .map(|k| match prob.fixed[k] {
+            Some(v) => Interval::new(v, v),
+            None => Interval::new(lo[k], hi[k]),
+        })
+        .collect();
+    Ok(EivResult {
+        bounds,
+        equations: times,
+        feasible_orthants: feasible,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::inversion::{InnerBound, InnerKind};
+    use crate::linear::LinearModel;
+    use crate::stage3::testutil::{problem, random_case, truth};
+    use proptest::prelude::*;
+
+    fn bounds_from(x: &[f64], dx: f64) -> Vec<InnerBound> {
+        x.iter()
+            .map(|&v| InnerBound {
+                interval: Interval::new(v - dx, v + dx),
+                kind: InnerKind::Inverted,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn recovers_paper_linear_block_from_exact_and_noisy_inner_signal() {
+        let m = LinearModel {
+            a: vec![0.5, 0.7],
+            b: vec![0.0, 1.4, 0.8],
+        };
+        let u: Vec<f64> = (0..120)
+            .map(|t| if (t * 7 + 3) % 11 < 5 { 1.0 } else { -1.0 })
+            .collect();
+        let x = m.simulate(&u);
+        let input: Vec<Interval> = u.iter().map(|&v| Interval::new(v, v)).collect();
+        for dx in [1e-6, 1e-3] {
+            let out = bounds_from(&x, dx);
+            let prob = EivProblem {
+                na: 2,
+                nb: 2,
+                fixed: vec![None, None, Some(0.0), None, None],
+                unit_gain: true,
+                output: &out,
+                input: &input,
+                use_band_samples: false,
+            };
+            let r = solve(&prob).unwrap();
+            let truth = [0.5, 0.7, 0.0, 1.4, 0.8];
+            for (b, t) in r.bounds.iter().zip(truth) {
+                assert!(b.contains(t), "dx={dx}: {b:?} misses {t}");
+                assert!(b.radius() < 200.0 * dx + 1e-7, "dx={dx}: too wide {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn inconsistent_data_name_the_first_offending_equation() {
+        let m = LinearModel {
+            a: vec![0.5],
+            b: vec![0.0, 1.5],
+        };
+        let u: Vec<f64> = (0..60)
+            .map(|t| if t % 3 == 0 { 1.0 } else { -1.0 })
+            .collect();
+        let mut x = m.simulate(&u);
+        x[40] += 0.5; // an outlier far beyond the bound
+        let out = bounds_from(&x, 1e-4);
+        let input: Vec<Interval> = u.iter().map(|&v| Interval::new(v, v)).collect();
+        let prob = EivProblem {
+            na: 1,
+            nb: 1,
+            fixed: vec![None, Some(0.0), None],
+            unit_gain: true,
+            output: &out,
+            input: &input,
+            use_band_samples: false,
+        };
+        match solve(&prob) {
+            Err(SmidError::Inconsistent {
+                stage: Stage::Linear,
+                sample,
+                ..
+            }) => assert!(sample == 40 || sample == 41, "{sample}"),
+            other => panic!("expected inconsistency, got {other:?}"),
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 8, .. ProptestConfig::default() })]
+        #[test]
+        fn classical_bounds_contain_the_truth(seed in any::<u64>(), band in any::<bool>()) {
+            let (m, out, input) = random_case(seed, 50);
+            let r = match solve(&problem(&out, &input, band)) {
+                Err(SmidError::Unbounded { .. }) => { prop_assume!(false); unreachable!() }
+                other => other.unwrap(),
+            };
+            for (k, t) in truth(&m).into_iter().enumerate() {
+                prop_assert!(r.bounds[k].contains(t), "{:?} misses {}", r.bounds[k], t);
+            }
+        }
+    }
+}
