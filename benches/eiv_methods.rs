@@ -46,6 +46,8 @@ fn bench(c: &mut Criterion) {
         output: &id.inner,
         input: &input,
         use_band_samples: band,
+        extra: &[],
+        prior: None,
     };
     g.bench_function("stage3_classical_nbit10", |b| {
         b.iter(|| stage3::solve(EivMethod::Classical, &prob(false)).expect("bounds"))

@@ -44,6 +44,8 @@ fn main() {
             output: &id.inner,
             input: &input,
             use_band_samples: true,
+            extra: &[],
+            prior: None,
         };
         let t0 = std::time::Instant::now();
         let shared = stage3::solve(EivMethod::Shared, &prob).unwrap();

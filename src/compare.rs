@@ -111,6 +111,8 @@ pub fn compare(
                         .method
                         .band_samples
                         .unwrap_or(m != EivMethod::Classical),
+                    extra: &[],
+                    prior: None,
                 };
                 match stage3(m, &prob) {
                     Ok((r, inner)) => {

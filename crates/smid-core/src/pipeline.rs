@@ -293,6 +293,8 @@ pub fn identify(
         output: &output,
         input: &input,
         use_band_samples: spec.method.use_band_samples(),
+        extra: &[],
+        prior: None,
     };
     let eiv = crate::stage3::solve(spec.method.eiv, &problem)?;
 

@@ -1,15 +1,22 @@
 //! Stage 3 (paper Section 5) by the classical orthant-wise LP outer set (Cerone 1993): bounds on
-//! the linear-block parameters `θ = [a_1..a_na, b_0..b_nb]` (eq 7) from interval-valued inner
-//! signals, each equation's error bounded on its own.
+//! the linear-block parameters `θ = [a_1..a_na, b_0..b_nb, c_1..c_m]` (eq 7, with the extra
+//! regressors' coefficients) from interval-valued inner signals, each equation's error bounded
+//! on its own.
 //!
-//! With `x_t = x^c_t + δx_t`, `|δx_t| <= Δx_t` (eqs 28-30) on the output side and, for
-//! Hammerstein structures, `v_t = v^c_t + δv_t`, `|δv_t| <= Δv_t` on the input side, each
-//! equation `x_t + Σ a_i x_{t-i} = Σ b_j v_{t-j}` gives
-//! `|x^c_t + Σ a_i x^c_{t-i} - Σ b_j v^c_{t-j}| <= Δx_t + Σ |a_i| Δx_{t-i} + Σ |b_j| Δv_{t-j}`,
-//! linear in θ inside each sign orthant of the uncertain-multiplied coefficients. The outer set is
-//! the union over orthants; its coordinate bounds are the min/max over feasible orthants of one
-//! LP pair per parameter. The unit steady-state gain (eq 8) enters as `Σ b_j - Σ a_i = 1`, fixed
-//! coefficients as equalities.
+//! With `x_t = x^c_t + δx_t`, `|δx_t| <= Δx_t` (eqs 28-30) on the output side, for Hammerstein
+//! structures `v_t = v^c_t + δv_t`, `|δv_t| <= Δv_t` on the input side, and
+//! `φ_k(t) = φ^c_k(t) + δφ_k(t)`, `|δφ_k(t)| <= Δφ_k(t)` for the extra regressors, each equation
+//! `x_t + Σ a_i x_{t-i} = Σ b_j v_{t-j} + Σ c_k φ_k(t)` gives
+//! `|x^c_t + Σ a_i x^c_{t-i} - Σ b_j v^c_{t-j} - Σ c_k φ^c_k(t)|
+//!  <= Δx_t + Σ |a_i| Δx_{t-i} + Σ |b_j| Δv_{t-j} + Σ |c_k| Δφ_k(t)`,
+//! linear in θ inside each sign orthant of the uncertain-multiplied coefficients (exact extra
+//! columns are plain LP coefficients, like an exact input). A coefficient whose prior box fixes
+//! its sign is not split. The outer set is the union over orthants; its coordinate bounds are the
+//! min/max over feasible orthants of one LP pair per parameter. The unit steady-state gain
+//! (eq 8) enters as `Σ b_j - Σ a_i = 1`, fixed coefficients as equalities, the prior box as bound
+//! rows of every orthant's LP (and the result is intersected with it).
+//!
+//! Guarantee: the LP engine ([`crate::lp`]) relaxes every row outward and widens every optimum.
 use super::{EivProblem, EivResult, Stage3Method};
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
@@ -29,7 +36,21 @@ impl Stage3Method for Classical {
     }
 }
 
-/// Which θ entries multiply an uncertain quantity (and so split into orthants).
+/// The sign of θ entry `k` when its prior box fixes it (`+1` inside `[0, ∞)`, `-1` inside
+/// `(-∞, 0]`), so that `|θ_k| = sign · θ_k` without splitting.
+fn prior_sign(prob: &EivProblem, k: usize) -> Option<f64> {
+    let b = prob.prior_of(k);
+    if b.lo >= 0.0 {
+        Some(1.0)
+    } else if b.hi <= 0.0 {
+        Some(-1.0)
+    } else {
+        None
+    }
+}
+
+/// Which θ entries multiply an uncertain quantity (and so split into orthants, unless the prior
+/// fixes their sign).
 fn uncertain_coefficients(prob: &EivProblem, times: &[usize]) -> Vec<usize> {
     let mut out = Vec::new();
     for i in 1..=prob.na {
@@ -48,16 +69,30 @@ fn uncertain_coefficients(prob: &EivProblem, times: &[usize]) -> Vec<usize> {
             out.push(prob.na + j);
         }
     }
+    for (e, r) in prob.extra.iter().enumerate() {
+        let k = prob.n_ab() + e;
+        if prob.fixed[k].is_none() && times.iter().any(|&t| r.values[t].radius() > 0.0) {
+            out.push(k);
+        }
+    }
+    out.retain(|&k| prior_sign(prob, k).is_none());
     out
 }
 
 fn polytope(prob: &EivProblem, times: &[usize], signs: &[(usize, f64)]) -> Polytope {
-    let p = prob.na + prob.nb + 1;
-    let sign_of = |k: usize| signs.iter().find(|(i, _)| *i == k).map(|(_, s)| *s);
+    let p = prob.p();
+    let sign_of = |k: usize| {
+        signs
+            .iter()
+            .find(|(i, _)| *i == k)
+            .map(|(_, s)| *s)
+            .or_else(|| prior_sign(prob, k))
+    };
     let mut poly = Polytope::new(p);
     for &t in times {
-        // e_t(θ) = x^c_t + Σ a_i x^c_{t-i} - Σ b_j v^c_{t-j};
-        // slack(θ) = Δx_t + Σ |a_i| Δx_{t-i} + Σ |b_j| Δv_{t-j}, |a| = s a in the orthant.
+        // e_t(θ) = x^c_t + Σ a_i x^c_{t-i} - Σ b_j v^c_{t-j} - Σ c_k φ^c_k(t);
+        // slack(θ) = Δx_t + Σ |a_i| Δx_{t-i} + Σ |b_j| Δv_{t-j} + Σ |c_k| Δφ_k(t),
+        // |a| = s a in the orthant.
         let mut e = vec![0.0; p];
         let mut s = vec![0.0; p];
         let mut e0 = prob.output[t].interval.center();
@@ -94,6 +129,22 @@ fn polytope(prob: &EivProblem, times: &[usize], signs: &[(usize, f64)]) -> Polyt
                 }
             }
         }
+        for (ex, r) in prob.extra.iter().enumerate() {
+            let phi = r.values[t];
+            let k = prob.n_ab() + ex;
+            match prob.fixed[k] {
+                Some(c) => {
+                    e0 -= c * phi.center();
+                    s0 += c.abs() * phi.radius();
+                }
+                None => {
+                    e[k] -= phi.center();
+                    if phi.radius() > 0.0 {
+                        s[k] += sign_of(k).unwrap_or(1.0) * phi.radius();
+                    }
+                }
+            }
+        }
         // e0 + e·θ <= s0 + s·θ  and  -(e0 + e·θ) <= s0 + s·θ
         let up: Vec<f64> = e.iter().zip(&s).map(|(a, b)| a - b).collect();
         let dn: Vec<f64> = e.iter().zip(&s).map(|(a, b)| -a - b).collect();
@@ -106,20 +157,31 @@ fn polytope(prob: &EivProblem, times: &[usize], signs: &[(usize, f64)]) -> Polyt
         poly.le.push((g, 0.0, usize::MAX));
     }
     for (k, f) in prob.fixed.iter().enumerate() {
-        if let Some(v) = f {
-            let mut g = vec![0.0; p];
-            g[k] = 1.0;
-            poly.eq.push((g, *v));
+        match f {
+            Some(v) => {
+                let mut g = vec![0.0; p];
+                g[k] = 1.0;
+                poly.eq.push((g, *v));
+            }
+            None => {
+                // The prior box: θ_k <= hi, -θ_k <= -lo.
+                let b = prob.prior_of(k);
+                if b.hi.is_finite() {
+                    let mut g = vec![0.0; p];
+                    g[k] = 1.0;
+                    poly.le.push((g, b.hi, usize::MAX));
+                }
+                if b.lo.is_finite() {
+                    let mut g = vec![0.0; p];
+                    g[k] = -1.0;
+                    poly.le.push((g, -b.lo, usize::MAX));
+                }
+            }
         }
     }
     if prob.unit_gain {
-        let mut g = vec![0.0; p];
-        for v in g.iter_mut().take(prob.na) {
-            *v = -1.0;
-        }
-        for v in g.iter_mut().skip(prob.na) {
-            *v = 1.0;
-        }
+        // Σ b_j - Σ a_i = 1 (eq 8); the extras do not enter.
+        let g = (0..p).map(|k| prob.gain_sign(k)).collect();
         poly.eq.push((g, 1.0));
     }
     poly
@@ -147,17 +209,14 @@ fn any_feasible(prob: &EivProblem, times: &[usize], unc: &[usize]) -> Result<boo
 
 /// Solve: per-parameter guaranteed bounds (union over orthants).
 pub fn solve(prob: &EivProblem) -> Result<EivResult> {
-    let p = prob.na + prob.nb + 1;
-    if prob.fixed.len() != p {
-        return Err(SmidError::invalid(
-            "model.fixed",
-            format!("expected {p} entries, got {}", prob.fixed.len()),
-        ));
-    }
+    let p = prob.p();
+    let start = prob.start_box()?;
     let times = prob.equation_times();
     let free: Vec<usize> = (0..p).filter(|&k| prob.fixed[k].is_none()).collect();
-    let n_eq = free.len().saturating_sub(usize::from(prob.unit_gain));
-    if times.len() < n_eq.max(1) {
+    // Parameters the prior does not bound need the equations.
+    let open = free.iter().filter(|&&k| !start[k].is_finite()).count();
+    let n_eq = open.saturating_sub(usize::from(prob.unit_gain));
+    if open > 0 && times.len() < n_eq.max(1) {
         return Err(SmidError::Unbounded {
             parameter: "θ".into(),
             message: format!(
@@ -171,8 +230,8 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
     let mut lo = vec![f64::INFINITY; p];
     let mut hi = vec![f64::NEG_INFINITY; p];
     let mut feasible = 0;
+    let names = prob.names();
     for signs in orthants(&unc) {
-        let names = prob.names();
         let bounded = polytope(prob, &times, &signs).bound(&free).map_err(|e| match e {
             SmidError::Unbounded { parameter, message } => SmidError::Unbounded {
                 parameter: parameter
@@ -208,21 +267,46 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
                 bad = mid;
             }
         }
+        // No equation at all: the prior box and the unit gain alone are empty.
+        let sample = times.get(bad.saturating_sub(1)).copied().unwrap_or(0);
         return Err(SmidError::Inconsistent {
             stage: Stage::Linear,
-            sample: times[bad - 1],
+            sample,
             detail: format!(
-                "no θ satisfies the equations up to t = {} within their error bounds",
-                times[bad - 1]
+                "no θ satisfies the equations up to t = {sample} within their error bounds{}",
+                if prob.prior.is_some() {
+                    " and the prior box"
+                } else {
+                    ""
+                }
             ),
         });
     }
-    let bounds = (0..p)
-        .map(|k| match prob.fixed[k] {
+    // Fixed entries at their values; the others inside the prior (the LP's pads may reach past
+    // it, and the truth is inside it by assumption).
+    let mut bounds = Vec::with_capacity(p);
+    for k in 0..p {
+        bounds.push(match prob.fixed[k] {
             Some(v) => Interval::new(v, v),
-            None => Interval::new(lo[k], hi[k]),
-        })
-        .collect();
+            None => {
+                // The LP's bounds contain the set; the set lies inside the prior: bounds that
+                // miss the prior leave it empty.
+                let (l, h) = (lo[k].max(start[k].lo), hi[k].min(start[k].hi));
+                if l > h {
+                    let sample = times.last().copied().unwrap_or(0);
+                    return Err(SmidError::Inconsistent {
+                        stage: Stage::Linear,
+                        sample,
+                        detail: format!(
+                            "the equations up to t = {sample} leave `{}` outside its prior [{}, {}]",
+                            names[k], start[k].lo, start[k].hi
+                        ),
+                    });
+                }
+                Interval::new(l, h)
+            }
+        });
+    }
     Ok(EivResult {
         bounds,
         equations: times,
@@ -235,7 +319,7 @@ mod tests {
     use super::*;
     use crate::inversion::{InnerBound, InnerKind};
     use crate::linear::LinearModel;
-    use crate::stage3::testutil::{problem, random_case, truth};
+    use crate::stage3::testutil::{cases, problem, random_case, random_extra_case, truth};
     use proptest::prelude::*;
 
     fn bounds_from(x: &[f64], dx: f64) -> Vec<InnerBound> {
@@ -268,6 +352,8 @@ mod tests {
                 output: &out,
                 input: &input,
                 use_band_samples: false,
+                extra: &[],
+                prior: None,
             };
             let r = solve(&prob).unwrap();
             let truth = [0.5, 0.7, 0.0, 1.4, 0.8];
@@ -299,6 +385,8 @@ mod tests {
             output: &out,
             input: &input,
             use_band_samples: false,
+            extra: &[],
+            prior: None,
         };
         match solve(&prob) {
             Err(SmidError::Inconsistent {
@@ -323,5 +411,93 @@ mod tests {
                 prop_assert!(r.bounds[k].contains(t), "{:?} misses {}", r.bounds[k], t);
             }
         }
+    }
+
+    proptest! {
+        #![proptest_config(cases(8))]
+        /// Extra columns (an exact offset; a friction column, exact or known to ±0.05): the
+        /// truth, extra coefficients included, is inside.
+        #[test]
+        fn classical_with_extra_columns_contains_the_truth(
+            seed in any::<u64>(),
+            band in any::<bool>(),
+            uncertain in any::<bool>(),
+        ) {
+            let case = random_extra_case(seed, 60, if uncertain { 0.05 } else { 0.0 });
+            let r = match solve(&case.problem(band)) {
+                Err(SmidError::Unbounded { .. }) => { prop_assume!(false); unreachable!() }
+                other => other.unwrap(),
+            };
+            prop_assert_eq!(r.bounds.len(), 7);
+            for (k, t) in case.truth().into_iter().enumerate() {
+                prop_assert!(r.bounds[k].contains(t), "θ{}: {:?} misses {}", k, r.bounds[k], t);
+            }
+        }
+    }
+
+    /// An uncertain extra column splits its coefficient's sign orthants, unless the prior fixes
+    /// its sign; either way the truth is inside.
+    #[test]
+    fn an_uncertain_extra_column_splits_orthants_unless_the_prior_fixes_its_sign() {
+        let case = random_extra_case(5, 60, 0.05);
+        let prob = case.problem(false);
+        let times = prob.equation_times();
+        assert!(uncertain_coefficients(&prob, &times).contains(&6));
+        let truth = case.truth();
+        let mut prior = vec![Interval::entire(); 7];
+        prior[6] = if truth[6] >= 0.0 {
+            Interval::new(0.0, 1.0)
+        } else {
+            Interval::new(-1.0, 0.0)
+        };
+        let with_prior = EivProblem {
+            prior: Some(&prior),
+            ..prob.clone()
+        };
+        assert!(!uncertain_coefficients(&with_prior, &times).contains(&6));
+        for p in [&prob, &with_prior] {
+            let r = solve(p).unwrap();
+            for (k, t) in truth.iter().enumerate() {
+                assert!(
+                    r.bounds[k].contains(*t),
+                    "θ{k}: {:?} misses {t}",
+                    r.bounds[k]
+                );
+            }
+        }
+    }
+
+    /// The prior enters every orthant's LP as bound rows, so a prior on the a's alone also
+    /// narrows the b's and the extra coefficients (the set is coupled), never cutting the truth.
+    #[test]
+    fn a_prior_on_the_a_coefficients_narrows_the_others() {
+        let case = random_extra_case(4, 60, 0.05);
+        let prob = case.problem(true);
+        let truth = case.truth();
+        let free = solve(&prob).unwrap();
+        let mut prior = vec![Interval::entire(); 7];
+        for k in 0..2 {
+            let r = 0.25 * free.bounds[k].radius();
+            prior[k] = Interval::new(truth[k] - r, truth[k] + r);
+        }
+        let r = solve(&EivProblem {
+            prior: Some(&prior),
+            ..prob.clone()
+        })
+        .unwrap();
+        let mut narrower = 0;
+        for (k, (&b, &f)) in r.bounds.iter().zip(&free.bounds).enumerate() {
+            assert!(b.contains(truth[k]), "θ{k}: {b:?} misses {}", truth[k]);
+            // Two LPs, each within its own pads of the exact bound.
+            let tol = 1e-7 * (1.0 + f.lo.abs().max(f.hi.abs()));
+            assert!(
+                f.lo - tol <= b.lo && b.hi <= f.hi + tol,
+                "θ{k}: {b:?} wider than {f:?}"
+            );
+            if k >= 3 && b.radius() < 0.9 * f.radius() {
+                narrower += 1;
+            }
+        }
+        assert!(narrower > 0, "{:?} vs {:?}", r.bounds, free.bounds);
     }
 }

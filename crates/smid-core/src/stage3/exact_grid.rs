@@ -1,10 +1,11 @@
 //! Stage 3 (paper Section 5) reference: the exact feasible parameter set of the EIV problem
 //! (eqs 1, 28-30), measured on a grid of the `a`-plane, for at most two free `a`
-//! coefficients and an exactly known input (Wiener structure).
+//! coefficients, an exactly known input (Wiener structure) and exactly known extra regressor
+//! columns (an uncertain one is refused, like an uncertain input).
 //!
-//! For `a` fixed the equations `x_t + Σ a_i x_{t-i} = Σ b_j u_{t-j}` with `x_s = x^c_s + δx_s`,
-//! `|δx_s| <= Δx_s` are linear in `(b, δx)`: one LP decides whether a grid point is feasible and
-//! bounds the `b`'s there (the **inner hull** of feasible grid points: inside the exact set, up to
+//! For `a` fixed the equations `x_t + Σ a_i x_{t-i} = Σ b_j u_{t-j} + Σ c_k φ_k(t)` with
+//! `x_s = x^c_s + δx_s`, `|δx_s| <= Δx_s` are linear in `(b, c, δx)`: one LP decides whether a
+//! grid point is feasible and bounds the `b`'s and `c`'s there (the **inner hull** of feasible grid points: inside the exact set, up to
 //! the LP's outward tolerances). Over a grid cell, the products `a_i δx_s` are relaxed by
 //! McCormick envelopes over the cell, which is exact as the cell shrinks: the cell LP's bounds
 //! contain every feasible point of the cell, so the hull of the cell bounds over all feasible
@@ -61,9 +62,32 @@ impl Stage3Method for ExactGrid {
     fn start(&self) -> Option<EivMethod> {
         Some(EivMethod::Shared)
     }
+    /// Refuses uncertain extra regressor columns before the start is computed.
+    fn check(&self, prob: &EivProblem) -> Result<()> {
+        check_extras(prob, &prob.equation_times())
+    }
     fn solve_from(&self, prob: &EivProblem, start: EivResult) -> Result<EivResult> {
         Ok(solve_from(prob, &start, &self.opts, || {})?.to_eiv())
     }
+}
+
+/// Refuse an extra regressor that is uncertain (radius > 0) at a sample of `times`: the exact
+/// LPs substitute the extra columns in the equations, and gridding their coefficients too is
+/// out of reach.
+fn check_extras(prob: &EivProblem, times: &[usize]) -> Result<()> {
+    for r in prob.extra {
+        if let Some(&t) = times.iter().find(|&&t| r.values[t].radius() > 0.0) {
+            return Err(SmidError::Unsupported {
+                plugin: "exact-grid".into(),
+                what: format!(
+                    "an uncertain extra regressor `{}` (radius {:e} at t = {t}): only exact extra columns enter its exact LPs; use `shared` or `sdp`",
+                    r.name,
+                    r.values[t].radius()
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The exact set measured on the grid.
@@ -233,7 +257,7 @@ impl AtA<'_, '_> {
     /// `s` is fixed to 0.
     fn lp(&self, a: &[f64], slack: bool) -> AtALp {
         let prob = self.prob;
-        let p = prob.na + prob.nb + 1;
+        let p = prob.p();
         let mut theta: Vec<Option<f64>> = prob.fixed.clone();
         for (d, &k) in self.dims.iter().enumerate() {
             theta[k] = Some(a[d]);
@@ -274,6 +298,16 @@ impl AtA<'_, '_> {
                     (None, None) => {}
                 }
             }
+            // Exact extra columns (checked by `check_extras`): `+ c_k φ_k(t)`.
+            for (e, r) in prob.extra.iter().enumerate() {
+                let phi = r.values[t].center();
+                let k = prob.n_ab() + e;
+                match (theta[k], col_theta[k]) {
+                    (Some(v), _) => c += v * phi,
+                    (None, Some(col)) => row.push((col, phi)),
+                    (None, None) => {}
+                }
+            }
             x[t] = Some((c, merge(row)));
         }
         let s_col = n;
@@ -310,11 +344,11 @@ impl AtA<'_, '_> {
             }
         }
         if prob.unit_gain {
-            // Σ b_j - Σ a_i = 1 (eq 8).
+            // Σ b_j - Σ a_i = 1 (eq 8); the extras do not enter.
             let mut row = Vec::new();
             let mut rhs = 1.0;
-            for k in 0..p {
-                let sg = if k < prob.na { -1.0 } else { 1.0 };
+            for k in 0..prob.n_ab() {
+                let sg = prob.gain_sign(k);
                 match (theta[k], col_theta[k]) {
                     (Some(v), _) => rhs -= sg * v,
                     (None, Some(col)) => row.push((col, sg)),
@@ -464,6 +498,7 @@ pub fn solve_from(
     opts: &ExactOptions,
     mut tick: impl FnMut(),
 ) -> Result<ExactResult> {
+    prob.validate()?;
     let model = SharedModel::new(prob, start.equations.clone());
     let dims: Vec<usize> = (0..prob.na).filter(|&k| prob.fixed[k].is_none()).collect();
     if dims.len() > 2 {
@@ -472,6 +507,7 @@ pub fn solve_from(
             what: format!("{} free a coefficients (at most 2)", dims.len()),
         });
     }
+    check_extras(prob, &model.times)?;
     if model.products.iter().any(|(k, _)| !dims.contains(k)) {
         return Err(SmidError::Unsupported {
             plugin: "exact-grid".into(),
@@ -515,7 +551,7 @@ pub fn solve_from(
     } else {
         None
     };
-    let p = prob.na + prob.nb + 1;
+    let p = prob.p();
     let mut outer: Vec<Interval> = start.bounds.clone();
     let mut inner: Vec<Option<Interval>> = (0..p)
         .map(|k| prob.fixed[k].map(|v| Interval::new(v, v)))
@@ -635,7 +671,7 @@ pub fn solve_from(
 mod tests {
     use super::*;
     use crate::stage3::shared::{self, SharedOptions};
-    use crate::stage3::testutil::{problem, random_case};
+    use crate::stage3::testutil::{cases, problem, random_case, random_extra_case};
     use proptest::prelude::*;
 
     fn quick() -> ExactOptions {
@@ -722,5 +758,95 @@ mod tests {
             solve_from(&prob, &start, &quick(), || {}),
             Err(SmidError::Unsupported { .. })
         ));
+    }
+
+    proptest! {
+        #![proptest_config(cases(3))]
+        /// Exact extra columns (an offset, a friction column) are free LP variables like the
+        /// b's: the outer hull contains the truth, lies inside the shared start, and the inner
+        /// hull (consistent points) lies inside the outer one.
+        #[test]
+        fn exact_grid_with_exact_extra_columns_contains_the_truth(seed in any::<u64>()) {
+            let case = random_extra_case(seed, 40, 0.0);
+            let prob = case.problem(true);
+            let shared = match shared::solve(&prob, &SharedOptions::default()) {
+                Err(SmidError::Unbounded { .. }) => { prop_assume!(false); unreachable!() }
+                other => other.unwrap(),
+            };
+            let ex = solve_from(&prob, &shared, &quick(), || {}).unwrap();
+            for (k, t) in case.truth().into_iter().enumerate() {
+                let o = ex.outer[k];
+                prop_assert!(o.contains(t), "θ{}: outer {:?} misses {}", k, o, t);
+                prop_assert!(shared.bounds[k].lo <= o.lo && o.hi <= shared.bounds[k].hi);
+                if let Some(i) = ex.inner[k] {
+                    let tol = 10.0 * crate::lp::RESULT_PAD * (1.0 + o.lo.abs().max(o.hi.abs()));
+                    prop_assert!(o.lo - tol <= i.lo && i.hi <= o.hi + tol, "inner {:?} outside outer {:?}", i, o);
+                }
+            }
+        }
+    }
+
+    /// The fixed-`a` LP substitutes the exact extra columns in the equations: at the true `a`
+    /// the data are consistent, far from it they are not.
+    #[test]
+    fn fixed_a_lp_with_extra_columns_is_consistent_at_the_truth() {
+        for seed in 0..6 {
+            let case = random_extra_case(seed, 40, 0.0);
+            let prob = case.problem(true);
+            let shared = shared::solve(&prob, &SharedOptions::default()).unwrap();
+            let mut at = AtA {
+                prob: &prob,
+                dims: vec![0, 1],
+                times: shared.equations.clone(),
+                tb: shared.bounds.clone(),
+                lps: 0,
+            };
+            let r = [shared.bounds[0].radius(), shared.bounds[1].radius()];
+            let a = [case.m.a[0], case.m.a[1]];
+            assert!(
+                at.slack(&a).unwrap() <= 0.0,
+                "seed {seed}: truth inconsistent"
+            );
+            // The b's and extra coefficients at the true a: an inner value on each side of the truth.
+            for (k, t) in case.truth().into_iter().enumerate().skip(2) {
+                let lo = at.value(&a, k, false).unwrap().unwrap();
+                let hi = at.value(&a, k, true).unwrap().unwrap();
+                let tol = 1e-7 * (1.0 + t.abs());
+                assert!(
+                    lo <= t + tol && t - tol <= hi,
+                    "seed {seed} θ{k}: [{lo}, {hi}] misses {t}"
+                );
+            }
+            for shift in [3.0, -3.0] {
+                let far = [a[0] + shift * r[0], a[1] - shift * r[1]];
+                assert!(at.slack(&far).unwrap() > 0.0, "seed {seed} shift {shift}");
+            }
+        }
+    }
+
+    /// An uncertain extra column is refused with an error naming it, before any start is
+    /// computed (through the registry) and by `solve_from` itself.
+    #[test]
+    fn uncertain_extra_columns_are_refused() {
+        let case = random_extra_case(2, 40, 0.05);
+        let prob = case.problem(true);
+        for e in [
+            ExactGrid::default().solve(&prob).unwrap_err(),
+            solve_from(
+                &prob,
+                &crate::stage3::solve(EivMethod::Shared, &prob).unwrap(),
+                &quick(),
+                || {},
+            )
+            .unwrap_err(),
+        ] {
+            match e {
+                SmidError::Unsupported { plugin, what } => {
+                    assert_eq!(plugin, "exact-grid");
+                    assert!(what.contains("`friction`"), "{what}");
+                }
+                other => panic!("expected a refusal, got {other:?}"),
+            }
+        }
     }
 }

@@ -1,9 +1,12 @@
 //! Stage 3 (paper Section 5): guaranteed bounds on the linear-block parameters
-//! `θ = [a_1..a_na, b_0..b_nb]` (eq 7) from interval-valued inner signals, an errors-in-variables
-//! problem. Each equation `x_t + Σ a_i x_{t-i} - Σ b_j v_{t-j} = 0` (eq 1) holds for the true
-//! signals, known only as intervals `x_s = x^c_s + δx_s`, `|δx_s| <= Δx_s` (eqs 28-30; output
-//! side) and `v_s` (input side; exact for Wiener). The unit steady-state gain (eq 8) is
-//! `Σ b_j - Σ a_i = 1`.
+//! `θ = [a_1..a_na, b_0..b_nb, c_1..c_m]` (eq 7, extended by the coefficients of extra
+//! regressors) from interval-valued inner signals, an errors-in-variables problem. Each equation
+//! `x_t + Σ a_i x_{t-i} - Σ b_j v_{t-j} - Σ c_k φ_k(t) = 0` (eq 1 with additive effect terms
+//! `φ_k`: offset, drift, friction...) holds for the true signals, known only as intervals
+//! `x_s = x^c_s + δx_s`, `|δx_s| <= Δx_s` (eqs 28-30; output side), `v_s` (input side; exact for
+//! Wiener) and `φ_k(s)` (exact or uncertain). The unit steady-state gain (eq 8) is
+//! `Σ b_j - Σ a_i = 1` (the extras do not enter it). An optional prior box on θ is intersected
+//! with every method's start.
 //!
 //! This module holds the problem and result types ([`EivProblem`], [`EivResult`]), the method
 //! trait ([`Stage3Method`]), the method names ([`EivMethod`], used by specs) and the registry
@@ -19,7 +22,7 @@
 //!
 //! A method that starts from another one names it in [`Stage3Method::start`]; the chaining goes
 //! through the registry ([`Stage3Method::solve`]), so no method file imports another.
-use crate::error::Result;
+use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
 use crate::inversion::{InnerBound, InnerKind};
 use serde::{Deserialize, Serialize};
@@ -49,6 +52,22 @@ pub struct EivProblem<'a> {
     pub input: &'a [Interval],
     /// Also use equations whose samples are only band-bounded (wide but valid).
     pub use_band_samples: bool,
+    /// Extra regressors: θ gains one coefficient c_k per column, appended after b_nb.
+    pub extra: &'a [Regressor],
+    /// Optional prior box on θ (all coefficients, in θ order incl. extras); None = unbounded.
+    pub prior: Option<&'a [Interval]>,
+}
+
+/// An extra regressor column `φ_k` of the linear block (an additive effect such as an offset,
+/// a drift or friction): each equation gains the term `- c_k φ_k(t)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Regressor {
+    /// The name of its coefficient `c_k` in θ (and in reports and errors).
+    pub name: String,
+    /// `φ_k(t)`, one interval per sample (same indexing as `output`/`input`). Exact values are
+    /// degenerate intervals; a non-finite interval means "unknown here" and excludes the
+    /// equation at that sample.
+    pub values: Vec<Interval>,
 }
 
 /// Stage-3 result: one guaranteed interval per parameter, and the equations used.
@@ -70,14 +89,44 @@ pub fn theta_names(na: usize, nb: usize) -> Vec<String> {
 }
 
 impl EivProblem<'_> {
-    /// Number of θ entries.
-    pub fn p(&self) -> usize {
+    /// Number of `a`'s and `b`'s (`na + nb + 1`): the θ index of the first extra coefficient.
+    pub fn n_ab(&self) -> usize {
         self.na + self.nb + 1
     }
 
-    /// Parameter names in θ order.
+    /// Number of θ entries (`a`'s, `b`'s and one coefficient per extra regressor).
+    pub fn p(&self) -> usize {
+        self.n_ab() + self.extra.len()
+    }
+
+    /// Parameter names in θ order: `a1..a_na, b0..b_nb`, then each regressor's name.
     pub fn names(&self) -> Vec<String> {
-        theta_names(self.na, self.nb)
+        let mut names = theta_names(self.na, self.nb);
+        names.extend(self.extra.iter().map(|r| r.name.clone()));
+        names
+    }
+
+    /// The name of θ entry `k`.
+    pub fn name(&self, k: usize) -> String {
+        match k.checked_sub(self.n_ab()) {
+            None => theta_names(self.na, self.nb)[k].clone(),
+            Some(e) => self
+                .extra
+                .get(e)
+                .map_or_else(|| format!("θ[{k}]"), |r| r.name.clone()),
+        }
+    }
+
+    /// The coefficient of θ entry `k` in the unit-gain constraint `Σ b_j - Σ a_i = 1` (eq 8):
+    /// -1 for an `a`, +1 for a `b`, 0 for an extra coefficient.
+    pub fn gain_sign(&self, k: usize) -> f64 {
+        if k < self.na {
+            -1.0
+        } else if k < self.n_ab() {
+            1.0
+        } else {
+            0.0
+        }
     }
 
     fn usable(&self, b: &InnerBound) -> bool {
@@ -86,13 +135,100 @@ impl EivProblem<'_> {
                 || (self.use_band_samples && b.kind == InnerKind::Band))
     }
 
-    /// Time indices whose equation involves only usable samples.
+    /// Time indices whose equation involves only usable samples (every extra regressor's value
+    /// at `t` finite, too).
     pub fn equation_times(&self) -> Vec<usize> {
-        let n = self.output.len().min(self.input.len());
+        let n = self
+            .extra
+            .iter()
+            .map(|r| r.values.len())
+            .fold(self.output.len().min(self.input.len()), usize::min);
         let start = self.na.max(self.nb);
         (start..n)
             .filter(|&t| (0..=self.na).all(|i| self.usable(&self.output[t - i])))
             .filter(|&t| (0..=self.nb).all(|j| self.input[t - j].is_finite()))
+            .filter(|&t| self.extra.iter().all(|r| r.values[t].is_finite()))
+            .collect()
+    }
+
+    /// Check the shape of the problem: one `fixed` (and `prior`) entry per θ entry, a prior of
+    /// closed intervals, regressor names distinct from each other and from the `a`'s and `b`'s.
+    pub fn validate(&self) -> Result<()> {
+        let p = self.p();
+        if self.fixed.len() != p {
+            return Err(SmidError::invalid(
+                "model.fixed",
+                format!("expected {p} entries, got {}", self.fixed.len()),
+            ));
+        }
+        let names = self.names();
+        for (e, r) in self.extra.iter().enumerate() {
+            let k = self.n_ab() + e;
+            if r.name.is_empty() || names[..k].contains(&r.name) {
+                return Err(SmidError::invalid(
+                    format!("extra[{e}].name"),
+                    format!(
+                        "`{}` must be non-empty and differ from {}",
+                        r.name,
+                        names[..k].join(", ")
+                    ),
+                ));
+            }
+        }
+        if let Some(prior) = self.prior {
+            if prior.len() != p {
+                return Err(SmidError::invalid(
+                    "prior",
+                    format!(
+                        "expected {p} intervals ({}), got {}",
+                        names.join(", "),
+                        prior.len()
+                    ),
+                ));
+            }
+            if let Some(k) = prior
+                .iter()
+                .position(|b| b.lo.is_nan() || b.hi.is_nan() || b.lo > b.hi)
+            {
+                return Err(SmidError::invalid(
+                    format!("prior.{}", names[k]),
+                    format!("[{}, {}] is not an interval", prior[k].lo, prior[k].hi),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The prior box of θ entry `k` (the whole line without a prior).
+    pub fn prior_of(&self, k: usize) -> Interval {
+        self.prior
+            .and_then(|p| p.get(k).copied())
+            .unwrap_or_else(Interval::entire)
+    }
+
+    /// The box every method starts inside: fixed entries at their values, the others their
+    /// prior (the whole line without one). A fixed value outside its prior is the empty set:
+    /// [`SmidError::Inconsistent`] at the first equation.
+    pub fn start_box(&self) -> Result<Vec<Interval>> {
+        self.validate()?;
+        (0..self.p())
+            .map(|k| {
+                let prior = self.prior_of(k);
+                match self.fixed[k] {
+                    Some(v) if prior.contains(v) => Ok(Interval::new(v, v)),
+                    Some(v) => Err(SmidError::Inconsistent {
+                        stage: Stage::Linear,
+                        sample: self.equation_times().first().copied().unwrap_or(0),
+                        detail: format!(
+                            "the fixed value {v} of `{}` is outside its prior [{}, {}]",
+                            self.name(k),
+                            prior.lo,
+                            prior.hi
+                        ),
+                    }),
+                    None => Ok(prior),
+                }
+            })
             .collect()
     }
 }
@@ -179,6 +315,8 @@ impl EivMethod {
 ///     output: &output,
 ///     input: &input,
 ///     use_band_samples: false,
+///     extra: &[],
+///     prior: None,
 /// };
 /// let start = EivResult {
 ///     bounds: vec![smid_core::interval::Interval::new(1.0, 1.0)],
@@ -213,31 +351,28 @@ pub trait Stage3Method: Send + Sync {
         Ok(())
     }
 
-    /// Guaranteed θ bounds of `prob`: [`check`](Self::check), then the start (the result of
-    /// [`start`](Self::start) through the registry), then [`solve_from`](Self::solve_from).
+    /// Guaranteed θ bounds of `prob`: [`EivProblem::validate`], [`check`](Self::check), then
+    /// the start (the result of [`start`](Self::start) through the registry, or
+    /// [`prior_start`]), then [`solve_from`](Self::solve_from).
     fn solve(&self, prob: &EivProblem) -> Result<EivResult> {
+        prob.validate()?;
         self.check(prob)?;
         let start = match self.start() {
             Some(m) => solve(m, prob)?,
-            None => unbounded_start(prob),
+            None => prior_start(prob)?,
         };
         self.solve_from(prob, start)
     }
 }
 
-/// The start of a method that starts from the problem alone: every free parameter unbounded,
-/// fixed ones at their values, every usable equation.
-pub fn unbounded_start(prob: &EivProblem) -> EivResult {
-    EivResult {
-        bounds: (0..prob.p())
-            .map(|k| match prob.fixed.get(k).copied().flatten() {
-                Some(v) => Interval::new(v, v),
-                None => Interval::entire(),
-            })
-            .collect(),
+/// The start of a method that starts from the problem alone: its [`EivProblem::start_box`]
+/// (prior box, fixed entries at their values) over every usable equation.
+pub fn prior_start(prob: &EivProblem) -> Result<EivResult> {
+    Ok(EivResult {
+        bounds: prob.start_box()?,
         equations: prob.equation_times(),
         feasible_orthants: 0,
-    }
+    })
 }
 
 static CLASSICAL: classical::Classical = classical::Classical;
@@ -280,6 +415,197 @@ pub fn solve(m: EivMethod, prob: &EivProblem) -> Result<EivResult> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::stage3::testutil::random_extra_case;
+
+    /// The methods this build runs.
+    fn methods() -> impl Iterator<Item = (EivMethod, &'static dyn Stage3Method)> {
+        all().filter(|(_, m)| m.available())
+    }
+
+    #[test]
+    fn names_and_counts_include_the_extra_columns() {
+        let case = random_extra_case(1, 30, 0.0);
+        let prob = case.problem(false);
+        assert_eq!((prob.n_ab(), prob.p()), (5, 7));
+        assert_eq!(
+            prob.names(),
+            ["a1", "a2", "b0", "b1", "b2", "offset", "friction"]
+        );
+        assert_eq!(prob.name(6), "friction");
+        let gain: Vec<f64> = (0..7).map(|k| prob.gain_sign(k)).collect();
+        assert_eq!(gain, [-1.0, -1.0, 1.0, 1.0, 1.0, 0.0, 0.0]);
+    }
+
+    /// A non-finite extra sample excludes exactly the equation at that sample (the extras
+    /// enter at `t` only); a shorter column ends the equations.
+    #[test]
+    fn an_unknown_extra_sample_leaves_out_its_equation() {
+        let mut case = random_extra_case(1, 30, 0.0);
+        let all_times = case.problem(false).equation_times();
+        case.extra[1].values[20] = Interval::new(f64::NAN, f64::NAN);
+        case.extra[0].values[25] = Interval::entire();
+        case.extra[0].values.truncate(28);
+        let times = case.problem(false).equation_times();
+        let expected: Vec<usize> = all_times
+            .into_iter()
+            .filter(|&t| t != 20 && t != 25 && t < 28)
+            .collect();
+        assert_eq!(times, expected);
+    }
+
+    #[test]
+    fn a_malformed_problem_is_an_error_naming_the_field() {
+        let case = random_extra_case(1, 30, 0.0);
+        let prob = case.problem(false);
+        let short = vec![Interval::entire(); 5];
+        let bad_prior = {
+            let mut v = vec![Interval::entire(); 7];
+            v[6] = Interval::new(1.0, -1.0);
+            v
+        };
+        let mut dup = case.extra.clone();
+        dup[1].name = "b1".into();
+        let cases: [(EivProblem, &str); 4] = [
+            (
+                EivProblem {
+                    fixed: vec![None; 5],
+                    ..prob.clone()
+                },
+                "model.fixed",
+            ),
+            (
+                EivProblem {
+                    prior: Some(&short),
+                    ..prob.clone()
+                },
+                "prior",
+            ),
+            (
+                EivProblem {
+                    prior: Some(&bad_prior),
+                    ..prob.clone()
+                },
+                "prior.friction",
+            ),
+            (
+                EivProblem {
+                    extra: &dup,
+                    ..prob.clone()
+                },
+                "extra[1].name",
+            ),
+        ];
+        for (p, field) in cases {
+            for (m, imp) in methods() {
+                match imp.solve(&p) {
+                    Err(SmidError::Invalid { field: f, .. }) => {
+                        assert_eq!(f, field, "{}", m.name())
+                    }
+                    other => panic!("{}: expected an error on {field}, got {other:?}", m.name()),
+                }
+            }
+        }
+    }
+
+    /// Every method keeps inside a prior box that cuts its start; a prior the data exclude, or
+    /// one that excludes a fixed value, is an empty set: `Inconsistent` at an equation's sample.
+    #[test]
+    fn every_method_honours_a_prior_box() {
+        for seed in 0..2 {
+            let case = random_extra_case(seed, 50, 0.0);
+            let prob = case.problem(true);
+            let truth = case.truth();
+            let classical = solve(EivMethod::Classical, &prob).unwrap();
+            // Around the truth, narrower than the classical box: it cuts every free entry.
+            let prior: Vec<Interval> = truth
+                .iter()
+                .zip(&classical.bounds)
+                .map(|(&t, b)| {
+                    let r = 0.5 * b.radius() + 1e-6;
+                    Interval::new(t - r, t + r)
+                })
+                .collect();
+            let with_prior = EivProblem {
+                prior: Some(&prior),
+                ..prob.clone()
+            };
+            // Beyond what the data allow for a1: no θ at all.
+            let mut excluded = prior.clone();
+            let a1 = classical.bounds[0];
+            excluded[0] = Interval::new(a1.hi + 0.1, a1.hi + 0.2);
+            // b0 is fixed at 0; a prior without 0 empties the set before any equation.
+            let mut off_fixed = prior.clone();
+            off_fixed[2] = Interval::new(0.5, 1.0);
+            for (m, imp) in methods() {
+                let r = imp.solve(&with_prior).unwrap();
+                for (k, t) in truth.iter().enumerate() {
+                    let (b, p) = (r.bounds[k], prior[k]);
+                    assert!(
+                        b.contains(*t),
+                        "seed {seed} {} θ{k}: {b:?} misses {t}",
+                        m.name()
+                    );
+                    assert!(
+                        p.lo <= b.lo && b.hi <= p.hi,
+                        "seed {seed} {} θ{k}: {b:?} outside the prior {p:?}",
+                        m.name()
+                    );
+                }
+                for (p, what) in [(&excluded, "excluded a1"), (&off_fixed, "b0 off its prior")] {
+                    let q = EivProblem {
+                        prior: Some(p),
+                        ..prob.clone()
+                    };
+                    match imp.solve(&q) {
+                        Err(SmidError::Inconsistent {
+                            stage: Stage::Linear,
+                            sample,
+                            ..
+                        }) => assert!(
+                            classical.equations.contains(&sample),
+                            "seed {seed} {} ({what}): sample {sample}",
+                            m.name()
+                        ),
+                        other => panic!(
+                            "seed {seed} {} ({what}): expected Inconsistent, got {other:?}",
+                            m.name()
+                        ),
+                    }
+                }
+            }
+        }
+    }
+
+    /// A column the data cannot bound (all zeros) is `Unbounded` naming its coefficient, in
+    /// every method; a prior on it bounds it again.
+    #[test]
+    fn an_unbounded_extra_coefficient_is_named() {
+        let mut case = random_extra_case(3, 50, 0.0);
+        case.extra.push(Regressor {
+            name: "drift".into(),
+            values: vec![Interval::new(0.0, 0.0); 50],
+        });
+        let prob = EivProblem {
+            fixed: vec![None, None, Some(0.0), None, None, None, None, None],
+            ..case.problem(true)
+        };
+        let mut prior = vec![Interval::entire(); 8];
+        prior[7] = Interval::new(-2.0, 3.0);
+        for (m, imp) in methods() {
+            match imp.solve(&prob) {
+                Err(SmidError::Unbounded { parameter, .. }) => {
+                    assert_eq!(parameter, "drift", "{}", m.name())
+                }
+                other => panic!("{}: expected `drift` unbounded, got {other:?}", m.name()),
+            }
+            let bounded = EivProblem {
+                prior: Some(&prior),
+                ..prob.clone()
+            };
+            let r = imp.solve(&bounded).unwrap();
+            assert_eq!(r.bounds[7], prior[7], "{}", m.name());
+        }
+    }
 
     #[test]
     fn the_registry_knows_every_method_by_its_spec_name() {

@@ -4,11 +4,13 @@
 //! interval propagation that shrinks the `δ` boxes, and the box-tightening step.
 //!
 //! Variables: the free θ, one `δ_s` per uncertain signal sample (`|δ_s| <= Δ_s`; output side
-//! `x_s = x^c_s + δx_s`, and for Hammerstein the input side `v_s = v^c_s + δv_s`), and one
-//! `w = θ_k δ_s` per product. Each equation `x_t + Σ a_i x_{t-i} - Σ b_j v_{t-j} = 0` (eq 1 with
-//! eq 29 substituted) is linear in `(θ, δ, w)`; the McCormick envelopes over a box of `θ_k` and
-//! of `δ_s` contain every product of the box, so the LP's feasible set contains every `(θ, δ)`
-//! consistent with the data and its coordinate bounds are guaranteed.
+//! `x_s = x^c_s + δx_s`, for Hammerstein the input side `v_s = v^c_s + δv_s`, and each uncertain
+//! extra regressor sample `φ_k(s) = φ^c_k(s) + δφ_k(s)`), and one `w = θ_k δ_s` per product. Each
+//! equation `x_t + Σ a_i x_{t-i} - Σ b_j v_{t-j} - Σ c_k φ_k(t) = 0` (eq 1 with eq 29
+//! substituted) is linear in `(θ, δ, w)`; exact samples (a Wiener input, exact extra columns)
+//! are plain coefficients. The McCormick envelopes over a box of `θ_k` and of `δ_s` contain
+//! every product of the box, so the LP's feasible set contains every `(θ, δ)` consistent with
+//! the data and its coordinate bounds are guaranteed.
 use super::EivProblem;
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
@@ -22,6 +24,8 @@ pub(crate) enum Side {
     Out,
     /// The signal entering `B` (`v_t`; `u_t` itself for Wiener).
     In,
+    /// Extra regressor `k` (`φ_k(t)`, entering with coefficient `c_k`).
+    Extra(usize),
 }
 
 /// One uncertain signal sample.
@@ -50,17 +54,15 @@ pub(crate) struct SharedModel<'p, 'a> {
 pub(crate) type Term = (Option<usize>, f64, Side, usize);
 
 impl<'p, 'a> SharedModel<'p, 'a> {
-    pub fn p(&self) -> usize {
-        self.prob.na + self.prob.nb + 1
-    }
-
     fn signal(&self, side: Side, s: usize) -> Interval {
         match side {
             Side::Out => self.prob.output[s].interval,
             Side::In => self.prob.input[s],
+            Side::Extra(k) => self.prob.extra[k].values[s],
         }
     }
 
+    /// The terms of equation `t`: `x_t`, `a_i x_{t-i}`, `-b_j v_{t-j}`, `-c_k φ_k(t)`.
     pub fn terms(&self, t: usize) -> Vec<Term> {
         let mut v: Vec<Term> = vec![(None, 1.0, Side::Out, t)];
         for i in 1..=self.prob.na {
@@ -69,11 +71,14 @@ impl<'p, 'a> SharedModel<'p, 'a> {
         for j in 0..=self.prob.nb {
             v.push((Some(self.prob.na + j), -1.0, Side::In, t - j));
         }
+        for k in 0..self.prob.extra.len() {
+            v.push((Some(self.prob.n_ab() + k), -1.0, Side::Extra(k), t));
+        }
         v
     }
 
     pub fn new(prob: &'p EivProblem<'a>, times: Vec<usize>) -> Self {
-        let p = prob.na + prob.nb + 1;
+        let p = prob.p();
         let free: Vec<usize> = (0..p).filter(|&k| prob.fixed[k].is_none()).collect();
         let mut col_theta = vec![None; p];
         for (c, &k) in free.iter().enumerate() {
@@ -157,7 +162,7 @@ impl<'p, 'a> SharedModel<'p, 'a> {
             let (dl, du) = (db[d].lo, db[d].hi);
             if !(l.is_finite() && u.is_finite()) {
                 return Err(SmidError::Unbounded {
-                    parameter: super::theta_names(self.prob.na, self.prob.nb)[k].clone(),
+                    parameter: self.prob.name(k),
                     message: "the shared-error relaxation needs a bounded start box".into(),
                 });
             }
@@ -206,11 +211,11 @@ impl<'p, 'a> SharedModel<'p, 'a> {
             lp.le(neg, c0);
         }
         if self.prob.unit_gain {
-            // Σ b_j - Σ a_i = 1 (eq 8).
+            // Σ b_j - Σ a_i = 1 (eq 8); the extras do not enter.
             let mut row = Vec::new();
             let mut rhs = 1.0;
-            for k in 0..self.p() {
-                let s = if k < self.prob.na { -1.0 } else { 1.0 };
+            for k in 0..self.prob.n_ab() {
+                let s = self.prob.gain_sign(k);
                 match self.prob.fixed[k] {
                     Some(v) => rhs -= s * v,
                     None => row.push((self.col_theta[k].unwrap_or(0), s)),
@@ -222,7 +227,7 @@ impl<'p, 'a> SharedModel<'p, 'a> {
     }
 
     /// Tighten the `δ` boxes by interval propagation: each equation gives
-    /// `x_t = -Σ a_i x_{t-i} + Σ b_j v_{t-j}` over the current boxes. Returns the first sample
+    /// `x_t = -Σ a_i x_{t-i} + Σ b_j v_{t-j} + Σ c_k φ_k(t)` over the current boxes. Returns the first sample
     /// whose box became empty.
     pub fn propagate(&self, tb: &[Interval], db: &mut [Interval]) -> Option<usize> {
         for &t in &self.times {

@@ -7,7 +7,11 @@
 //! (`θ_k θ_l`, `δ_s δ_r`, missing `θ_k δ_s`), and for every equation `t` the moment matrix of
 //! `(1, θ_k, δ_s)` over the coefficients and samples of that equation (a sparse clique of
 //! consecutive samples) is constrained positive semidefinite (order-1 moment relaxation), on top
-//! of the McCormick envelopes of every moment and the equations themselves. Every `(θ, δ)`
+//! of the McCormick envelopes of every moment and the equations themselves. Extra regressor
+//! columns enter like the input side: an uncertain sample `φ_k(t)` is a `δ` of the clique of
+//! equation `t` with its coefficient `c_k`; exact columns are plain coefficients, as a Wiener
+//! input is. The prior box enters through the start (the `shared` result lies inside it).
+//! Every `(θ, δ)`
 //! consistent with the data, with its rank-one moments, satisfies all of this, so the relaxation
 //! contains the exact set.
 //!
@@ -470,6 +474,7 @@ mod imp {
     /// The moment relaxation, starting from a guaranteed result `start` (the shared-error one).
     pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SdpOptions) -> Result<EivResult> {
         smid_openblas::single_threaded();
+        prob.validate()?;
         let model = SharedModel::new(prob, start.equations.clone());
         let mut tb = start.bounds.clone();
         let mut db = model.initial_deltas();
@@ -569,6 +574,8 @@ mod tests {
             output: &[],
             input: &[],
             use_band_samples: false,
+            extra: &[],
+            prior: None,
         };
         let e = super::solve(&prob).unwrap_err().to_string();
         assert!(e.contains("feature `sdp`") && e.contains("shared"), "{e}");
@@ -609,6 +616,34 @@ mod tests {
                     assert!(
                         s.lo <= i.lo + tol && i.hi - tol <= s.hi,
                         "seed {seed} θ{k}: sdp {s:?} cuts the exact inner hull {i:?}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// Extra columns: exact ones as plain coefficients, an uncertain friction column with its
+    /// samples as δ's of the cliques. The truth is inside and the result within shared.
+    #[cfg(feature = "sdp")]
+    #[test]
+    fn sdp_with_extra_columns_contains_the_truth_and_is_never_wider_than_shared() {
+        use crate::stage3::shared::{self, SharedOptions};
+        use crate::stage3::testutil::random_extra_case;
+        for seed in 0..3 {
+            for radius in [0.0, 0.05] {
+                let case = random_extra_case(seed, 40, radius);
+                let prob = case.problem(true);
+                let shared = shared::solve(&prob, &SharedOptions::default()).unwrap();
+                let sdp = super::solve_from(&prob, shared.clone(), &Default::default()).unwrap();
+                for (k, t) in case.truth().into_iter().enumerate() {
+                    let (s, sh) = (sdp.bounds[k], shared.bounds[k]);
+                    assert!(
+                        s.contains(t),
+                        "seed {seed} r {radius} θ{k}: sdp {s:?} misses {t}"
+                    );
+                    assert!(
+                        sh.lo <= s.lo && s.hi <= sh.hi,
+                        "seed {seed} r {radius} θ{k}: wider than shared"
                     );
                 }
             }

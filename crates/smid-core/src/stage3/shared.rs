@@ -1,16 +1,18 @@
 //! Stage 3 (paper Section 5) by the shared-error relaxation (the default method): guaranteed
-//! bounds on `θ = [a_1..a_na, b_0..b_nb]` that keep the inner-signal errors `δx_t` (eqs 28-30) as
-//! variables shared by the equations they enter, instead of bounding each equation's error on its
-//! own as the classical orthant method ([`super::classical`]) does.
+//! bounds on `θ = [a_1..a_na, b_0..b_nb, c_1..c_m]` that keep the inner-signal errors `δx_t`
+//! (eqs 28-30) as variables shared by the equations they enter, instead of bounding each
+//! equation's error on its own as the classical orthant method ([`super::classical`]) does.
 //!
-//! The LP model (`relax.rs`): the free θ, one `δ_s` per uncertain signal sample, one
+//! The LP model (`relax.rs`): the free θ, one `δ_s` per uncertain signal sample (output side,
+//! Hammerstein input side, and each uncertain sample of an extra regressor column), one
 //! `w = θ_k δ_s` per product; each equation (eq 1 with eq 29 substituted) is linear in
 //! `(θ, δ, w)`, the bilinear `w` relaxed by McCormick envelopes over the current boxes, so the
-//! LP's coordinate bounds are guaranteed. Starting from the classical box (so the result is never
-//! wider than the classical one), each round bounds every free parameter by LP, shrinks the θ
-//! box, tightens the `δ` boxes by interval propagation through the equations, and repeats until
-//! the radii stop improving. As the θ box shrinks the envelopes become exact, so the result
-//! approaches the exact feasible set (see [`super::exact_grid`]).
+//! LP's coordinate bounds are guaranteed; exact extra columns are plain coefficients. Starting
+//! from the classical box (so the result is never wider than the classical one, and inside the
+//! prior box, which the classical LPs carry), each round bounds every free parameter by LP,
+//! shrinks the θ box, tightens the `δ` boxes by interval propagation through the equations, and
+//! repeats until the radii stop improving. As the θ box shrinks the envelopes become exact, so
+//! the result approaches the exact feasible set (see [`super::exact_grid`]).
 use super::relax::{bound_all, tighten, SharedModel};
 use super::{EivMethod, EivProblem, EivResult, Stage3Method};
 use crate::error::{Result, SmidError, Stage};
@@ -59,6 +61,7 @@ impl Stage3Method for Shared {
 
 /// The shared-error relaxation, starting from the classical result `start` (a guaranteed box).
 pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> Result<EivResult> {
+    prob.validate()?;
     let model = SharedModel::new(prob, start.equations.clone());
     let mut tb = start.bounds.clone();
     let mut db = model.initial_deltas();
@@ -134,7 +137,7 @@ fn locate(model: &SharedModel, tb: &[Interval], db: &[Interval]) -> Result<usize
 mod tests {
     use super::*;
     use crate::stage3::classical;
-    use crate::stage3::testutil::{problem, random_case, truth};
+    use crate::stage3::testutil::{cases, problem, random_case, random_extra_case, truth};
     use proptest::prelude::*;
 
     #[test]
@@ -185,6 +188,60 @@ mod tests {
             };
             for (k, t) in truth(&m).into_iter().enumerate() {
                 prop_assert!(r.bounds[k].contains(t), "{:?} misses {}", r.bounds[k], t);
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(cases(8))]
+        /// Extra columns (an exact offset; a friction column, exact or known to ±0.05, whose
+        /// samples get their own δ): the truth, extra coefficients included, is inside.
+        #[test]
+        fn shared_with_extra_columns_contains_the_truth(
+            seed in any::<u64>(),
+            band in any::<bool>(),
+            uncertain in any::<bool>(),
+        ) {
+            let case = random_extra_case(seed, 60, if uncertain { 0.05 } else { 0.0 });
+            let r = match solve(&case.problem(band), &SharedOptions::default()) {
+                Err(SmidError::Unbounded { .. }) => { prop_assume!(false); unreachable!() }
+                other => other.unwrap(),
+            };
+            for (k, t) in case.truth().into_iter().enumerate() {
+                prop_assert!(r.bounds[k].contains(t), "θ{}: {:?} misses {}", k, r.bounds[k], t);
+            }
+        }
+    }
+
+    /// With extra columns, classical ⊇ shared still holds, and the uncertain friction samples are
+    /// δ variables of the model.
+    #[test]
+    fn shared_is_never_wider_than_classical_with_extra_columns() {
+        for seed in 0..4 {
+            for radius in [0.0, 0.05] {
+                let case = random_extra_case(seed, 60, radius);
+                let prob = case.problem(true);
+                let model = SharedModel::new(&prob, prob.equation_times());
+                let friction_deltas = model
+                    .delta_of
+                    .keys()
+                    .filter(|(side, _)| *side == crate::stage3::relax::Side::Extra(1))
+                    .count();
+                assert_eq!(friction_deltas > 0, radius > 0.0, "seed {seed}");
+                assert!(!model
+                    .delta_of
+                    .keys()
+                    .any(|(side, _)| *side == crate::stage3::relax::Side::Extra(0)));
+                let classical = classical::solve(&prob).unwrap();
+                let shared = solve(&prob, &SharedOptions::default()).unwrap();
+                for (k, t) in case.truth().into_iter().enumerate() {
+                    let (c, s) = (classical.bounds[k], shared.bounds[k]);
+                    assert!(s.contains(t), "seed {seed} θ{k}: shared {s:?} misses {t}");
+                    assert!(
+                        c.lo <= s.lo && s.hi <= c.hi,
+                        "seed {seed} θ{k}: {s:?} not inside {c:?}"
+                    );
+                }
             }
         }
     }

@@ -1,10 +1,22 @@
-//! Test helpers of the stage-3 methods: random stable linear blocks with interval-valued inner
-//! signals whose bounds contain the truth (eqs 28-30), and the EIV problem over them.
-use super::EivProblem;
+//! Test helpers of the stage-3 methods: random stable linear blocks (with or without extra
+//! regressor columns) with interval-valued inner signals whose bounds contain the truth
+//! (eqs 28-30), and the EIV problem over them.
+use super::{EivProblem, Regressor};
 use crate::interval::Interval;
 use crate::inversion::{InnerBound, InnerKind};
 use crate::linear::LinearModel;
+use proptest::test_runner::Config as ProptestConfig;
 use rand::{Rng, SeedableRng};
+
+/// `default` cases, or `PROPTEST_CASES` when set.
+pub(crate) fn cases(default: u32) -> ProptestConfig {
+    ProptestConfig::with_cases(
+        std::env::var("PROPTEST_CASES")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(default),
+    )
+}
 
 /// A random stable 2nd-order block with `b0 = 0` and unit gain, its PRBS-driven inner
 /// signal, and bounds `x_t ± Δ_t` around the true value moved by a uniform error in the bound
@@ -62,10 +74,128 @@ pub(crate) fn problem<'a>(
         output: out,
         input,
         use_band_samples: band,
+        extra: &[],
+        prior: None,
     }
 }
 
 /// The true θ of `m` (`a_1..a_na, b_0..b_nb`).
 pub(crate) fn truth(m: &LinearModel) -> Vec<f64> {
     m.a.iter().chain(&m.b).copied().collect()
+}
+
+/// A random case with extra regressor columns: the block of [`random_case`]'s kind plus an
+/// offset (a column of exact ones) and a friction-like column `sign(u_t - u_{t-1})`, with
+/// random coefficients.
+pub(crate) struct ExtraCase {
+    pub m: LinearModel,
+    /// True coefficients of the extra columns (offset, friction).
+    pub c: Vec<f64>,
+    pub out: Vec<InnerBound>,
+    pub input: Vec<Interval>,
+    pub extra: Vec<Regressor>,
+}
+
+impl ExtraCase {
+    /// The true θ: `a1, a2, b0, b1, b2, offset, friction`.
+    pub fn truth(&self) -> Vec<f64> {
+        truth(&self.m).into_iter().chain(self.c.clone()).collect()
+    }
+
+    /// The problem with `b0 = 0` fixed, unit gain, both extra columns.
+    pub fn problem(&self, band: bool) -> EivProblem<'_> {
+        EivProblem {
+            fixed: vec![None, None, Some(0.0), None, None, None, None],
+            extra: &self.extra,
+            ..problem(&self.out, &self.input, band)
+        }
+    }
+}
+
+/// An [`ExtraCase`] of `n` samples; the friction column is known to within `friction_radius`
+/// (0: exact), its intervals placed at random around the true value.
+pub(crate) fn random_extra_case(seed: u64, n: usize, friction_radius: f64) -> ExtraCase {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let r: f64 = rng.gen_range(0.2..0.85);
+    let phi: f64 = rng.gen_range(0.0..std::f64::consts::PI);
+    let (a1, a2) = (-2.0 * r * phi.cos(), r * r);
+    let g = 1.0 + a1 + a2;
+    let b1 = rng.gen_range(0.2..1.5) * g;
+    let m = LinearModel {
+        a: vec![a1, a2],
+        b: vec![0.0, b1, g - b1],
+    };
+    let c = vec![rng.gen_range(-0.3..0.3), rng.gen_range(-0.2..0.2)];
+    let u: Vec<f64> = (0..n)
+        .map(|_| if rng.gen_bool(0.5) { 1.0 } else { -1.0 })
+        .collect();
+    let friction: Vec<f64> = (0..n)
+        .map(|t| match t.checked_sub(1).map(|s| u[t] - u[s]) {
+            Some(d) if d > 0.0 => 1.0,
+            Some(d) if d < 0.0 => -1.0,
+            _ => 0.0,
+        })
+        .collect();
+    // x_t = -Σ a_i x_{t-i} + Σ b_j u_{t-j} + c_0 + c_1 φ_t, from rest.
+    let mut x = vec![0.0; n];
+    for t in 0..n {
+        let mut v = c[0] + c[1] * friction[t];
+        for (i, a) in m.a.iter().enumerate() {
+            if t > i {
+                v -= a * x[t - i - 1];
+            }
+        }
+        for (j, b) in m.b.iter().enumerate() {
+            if t >= j {
+                v += b * u[t - j];
+            }
+        }
+        x[t] = v;
+    }
+    let dx = 10f64.powf(rng.gen_range(-4.0..-1.5));
+    let out = x
+        .iter()
+        .map(|&v| {
+            let band = rng.gen_bool(0.1);
+            let d = if band {
+                20.0 * dx
+            } else {
+                dx * rng.gen_range(0.5..1.5)
+            };
+            let c = v + rng.gen_range(-d..=d);
+            InnerBound {
+                interval: Interval::new(c - d, c + d),
+                kind: if band {
+                    InnerKind::Band
+                } else {
+                    InnerKind::Inverted
+                },
+            }
+        })
+        .collect();
+    let input = u.iter().map(|&v| Interval::new(v, v)).collect();
+    let friction = friction
+        .iter()
+        .map(|&f| {
+            let c = f + rng.gen_range(-friction_radius..=friction_radius);
+            Interval::new(c - friction_radius, c + friction_radius)
+        })
+        .collect();
+    let extra = vec![
+        Regressor {
+            name: "offset".into(),
+            values: vec![Interval::new(1.0, 1.0); n],
+        },
+        Regressor {
+            name: "friction".into(),
+            values: friction,
+        },
+    ];
+    ExtraCase {
+        m,
+        c,
+        out,
+        input,
+        extra,
+    }
 }
