@@ -42,7 +42,7 @@ pub struct EivProblem<'a> {
     pub na: usize,
     /// Order of `B` (coefficients `b_0..b_nb`).
     pub nb: usize,
-    /// Fixed values per parameter in θ order (`None` = free).
+    /// Fixed values per parameter in θ order, one per θ entry, extras included (`None` = free).
     pub fixed: Vec<Option<f64>>,
     /// Impose the unit steady-state gain (eq 8).
     pub unit_gain: bool,
@@ -73,6 +73,7 @@ pub struct Regressor {
 /// Stage-3 result: one guaranteed interval per parameter, and the equations used.
 #[derive(Debug, Clone)]
 pub struct EivResult {
+    /// One interval per θ entry, in the order of [`EivProblem::names`].
     pub bounds: Vec<Interval>,
     /// Time indices `t` of the equations used.
     pub equations: Vec<usize>,
