@@ -36,7 +36,11 @@ fn bench(c: &mut Criterion) {
     // Stage 3 alone on the same inner-signal bounds, n_bit = 10.
     let spec = paper(Some(10), EivMethod::Classical);
     let id = pipeline::run(&spec, Path::new(".")).expect("identifies");
-    let input: Vec<Interval> = id.data.u.iter().map(|&v| Interval::new(v, v)).collect();
+    let input: Vec<Interval> = id.data.records[0]
+        .u
+        .iter()
+        .map(|&v| Interval::new(v, v))
+        .collect();
     let fixed = spec.fixed_theta().expect("fixed");
     let prob = |band: bool| EivProblem {
         na: 2,

@@ -17,10 +17,12 @@ fn main() {
         linear: t.linear.clone(),
         nonlinearity: &t.backlash,
         structure: Default::default(),
+        effects: &[],
+        dt: 1.0,
     };
     let data = pipeline::simulate_experiments(&spec, &mut plant).unwrap();
-    let x = data.x.clone().unwrap();
-    let w = data.w.clone().unwrap();
+    let x = data.records[0].x.clone().unwrap();
+    let w = data.records[0].w.clone().unwrap();
     let truth = plant_truth(&t);
     match pipeline::identify(&spec, data.clone(), &truth) {
         Ok(id) => {
@@ -30,8 +32,8 @@ fn main() {
                     println!(
                         "t={tt} x={xv} bound={:?} y={} y_prev={} w={} w_prev={}",
                         b,
-                        data.y[tt],
-                        data.y[tt.saturating_sub(1)],
+                        data.records[0].y[tt],
+                        data.records[0].y[tt.saturating_sub(1)],
                         w[tt],
                         w[tt.saturating_sub(1)]
                     );
@@ -48,6 +50,8 @@ fn plant_truth(t: &Trial) -> Vec<(String, f64)> {
         linear: t.linear.clone(),
         nonlinearity: &t.backlash,
         structure: Default::default(),
+        effects: &[],
+        dt: 1.0,
     }
     .truth()
 }

@@ -27,6 +27,8 @@ fn main() {
                 linear: t.linear.clone(),
                 nonlinearity: &t.backlash,
                 structure: Default::default(),
+                effects: &[],
+                dt: 1.0,
             };
             let id = pipeline::run_with_plant(&spec, &mut plant).unwrap();
             (spec, id)
@@ -35,7 +37,11 @@ fn main() {
             let id = pipeline::run(&spec, Path::new(".")).unwrap();
             (spec, id)
         };
-        let input: Vec<Interval> = id.data.u.iter().map(|&v| Interval::new(v, v)).collect();
+        let input: Vec<Interval> = id.data.records[0]
+            .u
+            .iter()
+            .map(|&v| Interval::new(v, v))
+            .collect();
         let prob = EivProblem {
             na: 2,
             nb: 2,

@@ -88,7 +88,11 @@ pub fn compare(
             if acc.is_empty() {
                 acc = vec![vec![(vec![], vec![], 0); names.len()]; methods.len()];
             }
-            let input: Vec<Interval> = id.data.u.iter().map(|&v| Interval::new(v, v)).collect();
+            let input: Vec<Interval> = id.data.records[0]
+                .u
+                .iter()
+                .map(|&v| Interval::new(v, v))
+                .collect();
             if spec.model.structure != Structure::Wiener {
                 errors.push((
                     b,

@@ -9,7 +9,6 @@
 pub use smid_core as core;
 pub use smid_core::{Result, SmidError};
 pub use smid_dead_zone as dead_zone;
-pub use smid_diagnose as diagnose;
 pub use smid_effects as effects;
 pub use smid_example_gain as example_gain;
 #[cfg(feature = "fmu")]
@@ -18,7 +17,9 @@ pub use smid_input_backlash as input_backlash;
 pub use smid_output_backlash as output_backlash;
 pub use smid_saturation as saturation;
 
+pub mod closeloop;
 pub mod compare;
+pub mod diagnose_check;
 pub mod montecarlo;
 pub mod plugin_check;
 pub mod reproduce;
@@ -55,12 +56,75 @@ pub fn load_spec(path: &Path) -> Result<Spec> {
 /// Load a spec file, acquire its data (simulator, CSV or FMU) and identify. A relative FMU path
 /// resolves against the spec file's directory.
 pub fn run_spec_file(path: &Path) -> Result<Identification> {
+    run_spec_file_with(path, &|_| {})
+}
+
+/// [`run_spec_file`] with a progress callback for the branch and bound.
+pub fn run_spec_file_with(
+    path: &Path,
+    progress: &(dyn Fn(&smid_core::cells::Progress) + Sync),
+) -> Result<Identification> {
     let spec = load_spec(path)?;
     let base = path.parent().unwrap_or(Path::new("."));
-    if spec.plant.fmu.is_some() {
-        return with_fmu_plant(&spec, base, |plant| pipeline::run_with_plant(&spec, plant));
+    run_spec(&spec, base, progress)
+}
+
+/// Acquire the data of a parsed spec (relative paths against `base`) and identify.
+pub fn run_spec(
+    spec: &Spec,
+    base: &Path,
+    progress: &(dyn Fn(&smid_core::cells::Progress) + Sync),
+) -> Result<Identification> {
+    if spec.plant.data.is_some() {
+        let data = pipeline::load_data(spec, base)?;
+        let truth: Vec<(String, f64)> = spec
+            .plant
+            .truth
+            .iter()
+            .map(|(k, v)| (k.clone(), *v))
+            .collect();
+        return pipeline::identify_with(spec, data, &truth, progress);
     }
-    pipeline::run(&spec, base)
+    closeloop::with_plant(spec, base, |plant| {
+        let data = pipeline::simulate_experiments(spec, plant)?;
+        let truth = pipeline::plant_truth(spec, plant)?;
+        pipeline::identify_with(spec, data, &truth, progress)
+    })
+}
+
+/// Write the outputs of `smid run` into `dir`: `result.json` (with the spec and its directory,
+/// so `smid validate result.json` and `smid diagnose result.json` can rebuild everything),
+/// `data.csv`, SVG plots.
+pub fn write_run(
+    id: &Identification,
+    spec: &Spec,
+    spec_path: &Path,
+    dir: &Path,
+) -> Result<Vec<std::path::PathBuf>> {
+    let files = smid_core::report::write_all(id, dir)?;
+    let path = dir.join("result.json");
+    let mut v = smid_core::report::result_json(id);
+    v["spec"] =
+        serde_json::to_value(spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
+    let spec_dir = spec_path
+        .parent()
+        .map(|p| {
+            if p.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                p
+            }
+        })
+        .unwrap_or(Path::new("."));
+    let spec_dir = std::fs::canonicalize(spec_dir).unwrap_or_else(|_| spec_dir.to_path_buf());
+    v["spec_dir"] = serde_json::json!(spec_dir);
+    std::fs::write(&path, serde_json::to_string_pretty(&v).unwrap_or_default()).map_err(
+        |source| SmidError::Io {
+            path: path.clone(),
+            source,
+        },
+    )?;
+    Ok(files)
 }
 
 /// Build the FMU plant a spec names and hand it to `f`.

@@ -61,13 +61,9 @@ enum Command {
         #[arg(long, value_delimiter = ',')]
         methods: Vec<String>,
     },
-    /// Print the JSON Schema of the spec (every registered plugin `type`); the committed copy is
-    /// `schemas/smid-spec.schema.json` (with `--diagnose`: of validate/diagnose specs,
-    /// `schemas/smid-diagnose.schema.json`).
-    Schema {
-        #[arg(long)]
-        diagnose: bool,
-    },
+    /// Print the JSON Schema of the spec (every registered plugin and effect `type`); the
+    /// committed copy is `schemas/smid-spec.schema.json`.
+    Schema,
     /// Monte Carlo containment check: random systems, backlash and noise; every bound must hold.
     Check {
         #[arg(long, default_value_t = 1000)]
@@ -85,41 +81,65 @@ enum Command {
         #[arg(long)]
         jobs: Option<usize>,
     },
-    /// Validate a LIP model set (a diagnosis spec) on fresh data: residual, falsification
-    /// share against the guaranteed band ± Δ, residual correlations, smallest consistent bound.
+    /// Validate the model set of a run spec (identified now) or of a `result.json` on fresh
+    /// records: set-membership verdict, smallest consistent noise bound (PASS/FAIL), free-run
+    /// simulation with an envelope, k-step prediction, residual correlations, the ARX baseline;
+    /// SVG plots. Exit code 3 when the fresh data falsify the model.
     Validate {
+        /// A run spec (YAML) or a `result.json` of `smid run`.
         spec: PathBuf,
-        /// Held-out CSV (default: the spec's held-out records).
+        /// Fresh records (CSV; repeat for several). Default: a record of the spec's plant with
+        /// another seed.
         #[arg(long)]
-        data: Option<PathBuf>,
+        data: Vec<PathBuf>,
         /// Output directory (default: out/<spec name>/validate).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Horizon of the k-step-ahead prediction.
+        #[arg(long, default_value_t = 5)]
+        k: usize,
+        /// Seed of the fresh record drawn from the plant (default: experiment.seed + 1000).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Length of the fresh record drawn from the plant (default: experiment.dynamic.length).
+        #[arg(long)]
+        length: Option<usize>,
     },
-    /// Trace a failed validation to missing effects: rank every effect plugin by held-out
-    /// error, write the augmented spec and before/after report.
+    /// Trace what the model lacks to an effect: every registered effect is added in turn and
+    /// re-identified on the training records only; the choice is made on them; then the
+    /// held-out records are read once for the before/after table. Writes the augmented spec.
     Diagnose {
+        /// A run spec (YAML; its data are the training records) or a `result.json`.
         spec: PathBuf,
-        /// Training CSV (default: the spec's training records).
+        /// Held-out records (CSV; repeat for several). Default: two records of the spec's plant
+        /// with other seeds.
         #[arg(long)]
-        data: Option<PathBuf>,
-        /// Held-out CSV (default: the spec's held-out records, else the last 30% of each).
-        #[arg(long)]
-        holdout: Option<PathBuf>,
+        holdout: Vec<PathBuf>,
         /// Output directory (default: out/<spec name>/diagnose).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Effects added at most.
+        #[arg(long, default_value_t = 2)]
+        max_effects: usize,
+        /// Only these effect types (comma-separated).
+        #[arg(long, value_delimiter = ',')]
+        only: Vec<String>,
     },
-    /// Release-mode check of the diagnosis: per effect, simulated data with the effect present
-    /// but undeclared; the diagnosis must name it (>= 9 of 10).
+    /// Release-mode check of the diagnosis on the paper's plant: each effect present but
+    /// undeclared must be named in at least 9 of 10 trials, with the after-model consistent on
+    /// held-out records and its bounds around the truth.
     DiagnoseCheck {
         #[arg(long, default_value_t = 10)]
         trials: usize,
         #[arg(long, default_value_t = 1)]
         first_seed: u64,
-        /// Only these effect tags (comma-separated).
+        /// Only these cases (comma-separated: none, offset, drift, delay, actuator_lag,
+        /// extra_zero, viscous_friction).
         #[arg(long, value_delimiter = ',')]
         only: Vec<String>,
+        /// Trials run in parallel (default: the number of cores).
+        #[arg(long)]
+        jobs: Option<usize>,
     },
 }
 
@@ -138,7 +158,21 @@ fn progress(n: usize, what: &str) -> ProgressBar {
     pb
 }
 
-/// A stage-3 method by its spec name.
+/// Show the branch and bound's progress: cells done and queued, the current hull.
+fn cell_progress(pb: &ProgressBar, p: &smid::core::cells::Progress) {
+    pb.set_length((p.evaluated + p.queued) as u64);
+    pb.set_position(p.evaluated as u64);
+    pb.set_message(format!(
+        "cells (kept {}; hull {})",
+        p.kept,
+        p.hull
+            .iter()
+            .map(|i| format!("[{:.3e}, {:.3e}]", i.lo, i.hi))
+            .collect::<Vec<_>>()
+            .join(" × ")
+    ));
+}
+
 /// `--jobs`, else the number of cores.
 fn jobs_or_cores(jobs: Option<usize>) -> usize {
     jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
@@ -178,8 +212,10 @@ fn main() {
 fn real_main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
-        Command::Schema { diagnose: false } => print!("{}", smid::core::registry::spec_schema()),
-        Command::Schema { diagnose: true } => print!("{}", smid_diagnose::spec::schema()),
+        Command::Schema => {
+            smid::link_plugins();
+            print!("{}", smid::core::registry::spec_schema())
+        }
         Command::Check {
             trials,
             first_seed,
@@ -206,64 +242,117 @@ fn real_main() -> Result<()> {
                 s.missed.len()
             );
         }
-        Command::Validate { spec, data, out } => {
-            smid::link_plugins();
+        Command::Validate {
+            spec,
+            data,
+            out,
+            k,
+            seed,
+            length,
+        } => {
             let dir = out.unwrap_or_else(|| out_dir(&spec, "validate"));
-            let (text, a, files) = smid::diagnose::commands::validate(&spec, data.as_deref(), &dir)
-                .with_context(|| format!("validating {}", spec.display()))?;
-            print!("{text}");
+            let mut src = smid::closeloop::load_source(&spec)
+                .with_context(|| format!("reading {}", spec.display()))?;
+            let model = match src.model.take() {
+                Some(m) => m,
+                None => {
+                    let pb = progress(0, "cells");
+                    let id = smid::run_spec(&src.spec, &src.base, &|p| cell_progress(&pb, p));
+                    pb.finish_and_clear();
+                    match id {
+                        Ok(id) => id.model,
+                        Err(e @ smid::SmidError::Inconsistent { .. }) => {
+                            eprintln!("identification on the training data: {e}");
+                            std::process::exit(2);
+                        }
+                        Err(e) => {
+                            return Err(e)
+                                .with_context(|| format!("identifying {}", spec.display()))
+                        }
+                    }
+                }
+            };
+            let seed = seed.unwrap_or(src.spec.experiment.seed + 1000);
+            let length = length.unwrap_or(src.spec.experiment.dynamic.length);
+            let fresh =
+                smid::closeloop::fresh_records(&src.spec, &src.base, &data, seed, length, 1)
+                    .context("reading the fresh records")?;
+            let v = smid::core::validate::validate(
+                &model,
+                &fresh,
+                &smid::core::validate::Options {
+                    k,
+                    ..Default::default()
+                },
+            )
+            .with_context(|| format!("validating {}", spec.display()))?;
+            print!("{}", smid::closeloop::format_validation(&v, &fresh));
+            let files = smid::closeloop::write_validation(&v, &dir, "")?;
             println!("wrote {}", join(&files));
-            if !smid::diagnose::validate::passes(&a) {
+            if !v.consistency.consistent {
                 std::process::exit(3);
             }
         }
         Command::Diagnose {
             spec,
-            data,
             holdout,
             out,
+            max_effects,
+            only,
         } => {
-            smid::link_plugins();
             let dir = out.unwrap_or_else(|| out_dir(&spec, "diagnose"));
-            let pb = progress(1, "candidate effects");
-            let (text, _, files) = smid::diagnose::commands::diagnose(
-                &spec,
-                data.as_deref(),
-                holdout.as_deref(),
-                &dir,
-                |done, total| {
-                    pb.set_length(total as u64);
-                    pb.set_position(done as u64);
-                },
-            )
+            let mut src = smid::closeloop::load_source(&spec)
+                .with_context(|| format!("reading {}", spec.display()))?;
+            let training =
+                smid::closeloop::training_data(&mut src).context("acquiring the training data")?;
+            let opts = smid::core::diagnose::Options {
+                max_effects,
+                only,
+                ..Default::default()
+            };
+            let pb = progress(1, "candidates (training data)");
+            let choice = smid::core::diagnose::choose(&src.spec, &training, &opts, &|d, t| {
+                pb.set_length(t as u64);
+                pb.set_position(d as u64);
+            })
             .with_context(|| format!("diagnosing {}", spec.display()))?;
             pb.finish_and_clear();
-            print!("{text}");
+            print!("{}", smid::closeloop::format_choice(&choice));
+            // Only now are the held-out records read.
+            let seed = src.spec.experiment.seed + 1000;
+            let length = src.spec.experiment.dynamic.length;
+            let held =
+                smid::closeloop::fresh_records(&src.spec, &src.base, &holdout, seed, length, 2)
+                    .context("reading the held-out records")?;
+            let (before, after) =
+                smid::core::diagnose::assess(&src.spec, &training, &choice, &held, opts.k)
+                    .context("the before/after table")?;
+            print!("{}", smid::closeloop::format_table(&before, &after));
+            let files =
+                smid::closeloop::write_diagnosis(&src.spec, &choice, &before, &after, &dir)?;
             println!("wrote {}", join(&files));
         }
         Command::DiagnoseCheck {
             trials,
             first_seed,
             only,
+            jobs,
         } => {
-            smid::link_plugins();
-            let n = smid::diagnose::effect::effects()
-                .iter()
-                .filter(|e| only.is_empty() || only.iter().any(|t| t == e.tag))
-                .count();
+            let n = if only.is_empty() {
+                smid::diagnose_check::CASES.len()
+            } else {
+                only.len()
+            };
             let pb = progress(n * trials, "diagnosis trials");
-            let checks = smid::diagnose::check::run(trials, first_seed, &only, || pb.inc(1))?;
+            let r =
+                smid::diagnose_check::run(trials, first_seed, &only, jobs_or_cores(jobs), || {
+                    pb.inc(1)
+                })?;
             pb.finish_and_clear();
-            print!("{}", smid::diagnose::check::format(&checks));
-            let bad: Vec<&str> = checks
-                .iter()
-                .filter(|c| 10 * c.named < 9 * c.trials)
-                .map(|c| c.tag.as_str())
-                .collect();
+            print!("{}", smid::diagnose_check::format(&r));
             anyhow::ensure!(
-                bad.is_empty(),
-                "named in fewer than 9 of 10 trials: {}",
-                bad.join(", ")
+                smid::diagnose_check::meets_bar(&r),
+                "a case was named in fewer than 9 of 10 trials, or a named after-model failed on held-out data or missed the truth"
             );
         }
         Command::Simulate {
@@ -294,7 +383,10 @@ fn real_main() -> Result<()> {
             );
         }
         Command::Run { spec, out } => {
-            let id = match smid::run_spec_file(&spec) {
+            let pb = progress(0, "cells");
+            let id = smid::run_spec_file_with(&spec, &|p| cell_progress(&pb, p));
+            pb.finish_and_clear();
+            let id = match id {
                 Ok(id) => id,
                 Err(e @ smid::SmidError::Inconsistent { .. }) => {
                     // A finding, not a crash: say so plainly and exit with a distinct code.
@@ -309,7 +401,8 @@ fn real_main() -> Result<()> {
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "smid".into());
             let dir = out.unwrap_or_else(|| PathBuf::from("out").join(stem));
-            let files = smid::core::report::write_all(&id, &dir)?;
+            let parsed = smid::load_spec(&spec)?;
+            let files = smid::write_run(&id, &parsed, &spec, &dir)?;
             println!(
                 "wrote {}",
                 files

@@ -116,6 +116,9 @@ impl Trial {
                 nb: 2,
                 fixed: [("b0".to_string(), 0.0)].into_iter().collect(),
                 unit_gain: true,
+                nk: 0,
+                effects: Vec::new(),
+                prior: Default::default(),
             },
             method: MethodSpec::default(),
         }
@@ -128,6 +131,8 @@ impl Trial {
             linear: self.linear.clone(),
             nonlinearity: &self.backlash,
             structure: Default::default(),
+            effects: &[],
+            dt: 1.0,
         };
         pipeline::run_with_plant(&spec, &mut plant)
     }
@@ -211,6 +216,8 @@ impl Trial {
             linear: self.linear.clone(),
             nonlinearity: &self.backlash,
             structure: Default::default(),
+            effects: &[],
+            dt: 1.0,
         };
         pipeline::run_with_plant(&spec, &mut plant)
     }

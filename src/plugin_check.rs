@@ -173,6 +173,9 @@ impl PluginTrial {
                 nb: 2,
                 fixed: [("b0".to_string(), 0.0)].into_iter().collect(),
                 unit_gain: true,
+                nk: 0,
+                effects: Vec::new(),
+                prior: Default::default(),
             },
             method: MethodSpec::default(),
         };
@@ -190,6 +193,8 @@ impl PluginTrial {
             linear,
             nonlinearity: nl.as_ref(),
             structure,
+            effects: &[],
+            dt: 1.0,
         };
         pipeline::run_with_plant(&spec, &mut plant)
     }

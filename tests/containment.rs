@@ -42,6 +42,8 @@ fn steady(b: &smid_output_backlash::Backlash, delta: f64, rng: &mut impl Rng) ->
                 alpha: 0.0,
                 rising,
                 index: points.len(),
+                time: None,
+                step: None,
             });
         }
     }

@@ -251,7 +251,7 @@ fn cli_run_writes_results_and_rerun_on_its_data_gives_the_same_bounds() {
     let mut orig = smid_core::spec::Spec::from_file(Path::new("examples/paper.yaml")).unwrap();
     orig.method.alpha = smid_core::spec::AlphaSpec::Zero;
     let first = smid_core::pipeline::run(&orig, Path::new(".")).unwrap();
-    for (a, b) in first.parameters.iter().zip(&again.parameters) {
+    for (a, b) in first.parameters().iter().zip(again.parameters()) {
         assert_eq!(a.name, b.name);
         assert!(
             (a.lower - b.lower).abs() < 1e-12 && (a.upper - b.upper).abs() < 1e-12,

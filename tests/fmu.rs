@@ -10,13 +10,13 @@ fn fmu_paper_gives_the_bounds_of_the_builtin_paper_example() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let fmu = smid::run_spec_file(&root.join("examples/fmu-paper.yaml")).unwrap();
     let sim = smid::run_spec_file(&root.join("examples/paper.yaml")).unwrap();
-    assert_eq!(fmu.parameters.len(), sim.parameters.len());
-    assert_eq!(fmu.data.y.len(), sim.data.y.len());
+    assert_eq!(fmu.parameters().len(), sim.parameters().len());
+    assert_eq!(fmu.data.records[0].y.len(), sim.data.records[0].y.len());
     assert_eq!(
         fmu.data.filter.as_ref().map(|f| f.pole),
         sim.data.filter.as_ref().map(|f| f.pole)
     );
-    for (a, b) in fmu.parameters.iter().zip(&sim.parameters) {
+    for (a, b) in fmu.parameters().iter().zip(sim.parameters()) {
         assert_eq!(a.name, b.name);
         assert!(
             (a.lower - b.lower).abs() <= 1e-9 && (a.upper - b.upper).abs() <= 1e-9,
@@ -32,7 +32,7 @@ fn fmu_paper_gives_the_bounds_of_the_builtin_paper_example() {
         }
     }
     // The noise-free outputs of both plants agree exactly.
-    assert_eq!(fmu.data.w, sim.data.w);
+    assert_eq!(fmu.data.records[0].w, sim.data.records[0].w);
 }
 
 #[test]

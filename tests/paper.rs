@@ -23,7 +23,7 @@ fn appendix_search_returns_the_papers_pole() {
 
 /// Rounded view of the bounds for snapshots (6 significant digits).
 fn view(id: &pipeline::Identification) -> Vec<String> {
-    id.parameters
+    id.parameters()
         .iter()
         .map(|p| {
             format!(

@@ -28,7 +28,7 @@ fn bounds_view(name: &str) -> Vec<String> {
         Some(true),
         "{name}: truth outside a bound"
     );
-    id.parameters
+    id.parameters()
         .iter()
         .map(|p| {
             format!(
@@ -68,7 +68,7 @@ fn check(plugin: &str, seed: u64) -> std::result::Result<(), TestCaseError> {
                 "{} seed {}: {:?}",
                 plugin,
                 seed,
-                id.parameters
+                id.parameters()
             );
         }
         Err(e @ SmidError::Inconsistent { .. }) => {

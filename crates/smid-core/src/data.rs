@@ -67,3 +67,64 @@ pub fn read_columns(
     }
     Ok((us, ys))
 }
+
+/// One dynamic record named by a spec: columns `u`, `y` of `c.file` (relative to `base`), the
+/// rows `c.rows` (`[start, end)` of the data rows after `part`), block means of `c.decimate`
+/// samples; sample time `dt · decimate`; constant noise bound `delta`. Errors name the file.
+pub fn read_record(
+    base: &Path,
+    c: &crate::spec::CsvColumns,
+    delta: f64,
+    dt: f64,
+) -> Result<crate::model::Record> {
+    let file = base.join(&c.file);
+    let (mut u, mut y) = read_columns(&file, &c.u, &c.y, c.part.as_deref())?;
+    let mut name = file.display().to_string();
+    if let Some([a, b]) = c.rows {
+        if !(a < b && b <= u.len()) {
+            return Err(SmidError::Data {
+                file: file.clone(),
+                location: "rows".into(),
+                message: format!(
+                    "expected 0 <= start < end <= {} (the data rows), got [{a}, {b}]",
+                    u.len()
+                ),
+            });
+        }
+        u = u[a..b].to_vec();
+        y = y[a..b].to_vec();
+        name = format!("{name} rows {a}..{b}");
+    }
+    let k = c.decimate.unwrap_or(1);
+    if k == 0 || k > u.len() {
+        return Err(SmidError::Data {
+            file,
+            location: "decimate".into(),
+            message: format!(
+                "expected 1 <= decimate <= {} (the samples), got {k}",
+                u.len()
+            ),
+        });
+    }
+    if k > 1 {
+        let rest = u.len() % k;
+        if rest > 0 {
+            name = format!("{name} (last {rest} samples, an incomplete block, left out)");
+        }
+        let mean = |v: &[f64]| -> Vec<f64> {
+            v.chunks_exact(k)
+                .map(|c| c.iter().sum::<f64>() / k as f64)
+                .collect()
+        };
+        u = mean(&u);
+        y = mean(&y);
+        name = format!("{name}, means of {k}");
+    }
+    Ok(crate::model::Record::measured(
+        name,
+        u,
+        y,
+        delta,
+        dt * k as f64,
+    ))
+}

@@ -195,6 +195,10 @@ pub struct SteadyStateOptions {
     /// Samples per half-wave; `None` = filter settling time + `settle`.
     pub half_period: Option<usize>,
     pub settle: usize,
+    /// Play the amplitudes in a shuffled order drawn from this seed (`None`: ascending, the
+    /// paper's). Shuffling decorrelates time from amplitude, so a sensor drift cannot pass for
+    /// a change of slope.
+    pub shuffle: Option<u64>,
 }
 
 /// The noise-free steady-state record: the whole filtered square wave and where it was sampled.
@@ -202,8 +206,9 @@ pub struct SteadyStateOptions {
 pub struct SteadyRecord {
     pub u: Vec<f64>,
     pub w: Vec<f64>,
-    /// `(time index, ū, rising)` of each steady-state sample.
-    pub samples: Vec<(usize, f64, bool)>,
+    /// `(time index, ū, rising, step)` of each steady-state sample, `step` the height of the
+    /// square wave's step that led to it (`2|ū|` in ascending order).
+    pub samples: Vec<(usize, f64, bool, f64)>,
 }
 
 /// Run the square wave through the filter and the plant: for each amplitude a positive then a
@@ -238,11 +243,24 @@ pub fn steady_state_experiment(
     let m = o.amplitudes;
     let mut r = Vec::with_capacity(2 * m * half);
     let mut samples = Vec::with_capacity(2 * m);
-    for k in 0..m {
+    let mut order: Vec<usize> = (0..m).collect();
+    if let Some(seed) = o.shuffle {
+        use rand::seq::SliceRandom;
+        use rand::SeedableRng;
+        order.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(seed));
+    }
+    let mut level = 0.0f64;
+    for k in order {
         let amp = o.min + (o.max - o.min) * k as f64 / (m - 1) as f64;
         for sign in [1.0, -1.0] {
-            r.extend(std::iter::repeat(sign * amp).take(half));
-            samples.push((r.len() - 1, sign * amp, sign > 0.0));
+            r.extend(std::iter::repeat_n(sign * amp, half));
+            let step = if o.shuffle.is_some() {
+                (sign * amp - level).abs()
+            } else {
+                2.0 * amp
+            };
+            level = sign * amp;
+            samples.push((r.len() - 1, sign * amp, sign > 0.0, step));
         }
     }
     // The filter delays by one sample: extend by one so the last sample has settled too.
@@ -270,13 +288,15 @@ pub fn noisy_steady_state(
             .samples
             .iter()
             .enumerate()
-            .map(|(i, &(t, u, rising))| SteadyPoint {
+            .map(|(i, &(t, u, rising, step))| SteadyPoint {
                 u,
                 y: rec.w[t] + rng.gen_range(-added..=added),
                 dy: delta,
                 alpha: 0.0,
                 rising,
                 index: i,
+                time: Some(t),
+                step: Some(step),
             })
             .collect(),
     }
@@ -286,7 +306,7 @@ pub fn noisy_steady_state(
 /// non-negative (the paper's signed `ū_j` would shrink the left branch's interval, unsound).
 pub fn apply_alpha(data: &mut SteadyStateData, step: f64) {
     for p in &mut data.points {
-        p.alpha = 2.0 * p.dy * p.u.abs() / step.abs();
+        p.alpha = 2.0 * p.dy * p.step_height() / (2.0 * step.abs());
     }
 }
 
@@ -295,7 +315,7 @@ pub fn apply_alpha(data: &mut SteadyStateData, step: f64) {
 pub fn apply_design_alpha(data: &mut SteadyStateData, overshoot: [f64; 2], step: f64) {
     for p in &mut data.points {
         let d = if p.rising { overshoot[0] } else { overshoot[1] };
-        p.alpha = d * 2.0 * p.u.abs() / step.abs();
+        p.alpha = d * p.step_height() / step.abs();
     }
 }
 
@@ -306,6 +326,8 @@ pub struct DynamicOptions {
     pub length: usize,
     pub amplitude: f64,
     pub hold: usize,
+    /// Magnitude levels (2: the binary PRBS `±amplitude`).
+    pub levels: usize,
 }
 
 /// The PRBS input for the dynamic experiment.
@@ -322,5 +344,9 @@ pub fn dynamic_input(o: &DynamicOptions, rng: &mut impl Rng) -> Result<Vec<f64>>
             "expected a finite amplitude > 0",
         ));
     }
-    Ok(prbs(o.length, o.amplitude, o.hold, rng))
+    Ok(if o.levels <= 2 {
+        prbs(o.length, o.amplitude, o.hold, rng)
+    } else {
+        crate::signals::multilevel(o.length, o.amplitude, o.hold, o.levels / 2, rng)
+    })
 }

@@ -11,11 +11,22 @@ pub const REL_PAD: f64 = 1e-12;
 /// Absolute widening applied next to [`REL_PAD`].
 pub const ABS_PAD: f64 = 1e-15;
 
-/// A closed interval `[lo, hi]`.
+/// A closed interval `[lo, hi]`. In JSON an infinite end is written `null` (JSON has no
+/// infinity) and read back as `-inf` for `lo`, `+inf` for `hi`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Interval {
+    #[serde(deserialize_with = "lo_or_minus_inf")]
     pub lo: f64,
+    #[serde(deserialize_with = "hi_or_plus_inf")]
     pub hi: f64,
+}
+
+fn lo_or_minus_inf<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NEG_INFINITY))
+}
+
+fn hi_or_plus_inf<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::INFINITY))
 }
 
 impl Interval {
@@ -92,5 +103,14 @@ mod tests {
         assert!(Interval::new(0.0, 1.0)
             .intersect(&Interval::new(2.0, 3.0))
             .is_none());
+    }
+
+    #[test]
+    fn infinite_ends_round_trip_through_json() {
+        let i = Interval::new(f64::NEG_INFINITY, 2.0);
+        let j: Interval = serde_json::from_str(&serde_json::to_string(&i).unwrap()).unwrap();
+        assert_eq!(i, j);
+        let e: Interval = serde_json::from_str(r#"{"lo":null,"hi":null}"#).unwrap();
+        assert_eq!(e, Interval::entire());
     }
 }

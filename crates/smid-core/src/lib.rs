@@ -10,13 +10,18 @@
 //! system with output backlash" (`../shared/paper/output-backlash-paper.md`).
 #![forbid(unsafe_code)]
 
+pub mod baseline;
+pub mod cells;
 pub mod data;
+pub mod diagnose;
+pub mod effect;
 pub mod error;
 pub mod experiment;
 pub mod interval;
 pub mod inversion;
 pub mod linear;
 pub mod lp;
+pub mod model;
 pub mod noise;
 pub mod nonlinearity;
 pub mod pipeline;
@@ -29,6 +34,7 @@ pub mod signals;
 pub mod sparse_lp;
 pub mod spec;
 pub mod stage3;
+pub mod validate;
 
 pub use error::{Result, SmidError, Stage};
 

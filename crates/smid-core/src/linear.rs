@@ -85,6 +85,53 @@ impl LinearModel {
         let mut s = self.simulator();
         u.iter().map(|&ut| s.step(ut)).collect()
     }
+
+    /// Simulate from rest with an additive term in the equation:
+    /// `x_t = -sum a_i x_{t-i} + sum b_j u_{t-j} + d_t`.
+    pub fn simulate_with(&self, u: &[f64], d: &[f64]) -> Vec<f64> {
+        let mut past = vec![0.0; self.a.len()];
+        let mut x = Vec::with_capacity(u.len());
+        for t in 0..u.len() {
+            let mut v = d.get(t).copied().unwrap_or(0.0);
+            for (j, b) in self.b.iter().enumerate() {
+                if t >= j {
+                    v += b * u[t - j];
+                }
+            }
+            for (a, xi) in self.a.iter().zip(&past) {
+                v -= a * xi;
+            }
+            if !past.is_empty() {
+                past.rotate_right(1);
+                past[0] = v;
+            }
+            x.push(v);
+        }
+        x
+    }
+
+    /// The series connection `self · other` (polynomial products of `A` and of `B`).
+    pub fn series(&self, other: &LinearModel) -> LinearModel {
+        let conv = |p: &[f64], q: &[f64]| {
+            let mut r = vec![0.0; p.len() + q.len() - 1];
+            for (i, a) in p.iter().enumerate() {
+                for (j, b) in q.iter().enumerate() {
+                    r[i + j] += a * b;
+                }
+            }
+            r
+        };
+        let one = |a: &[f64]| {
+            std::iter::once(1.0)
+                .chain(a.iter().copied())
+                .collect::<Vec<_>>()
+        };
+        let a = conv(&one(&self.a), &one(&other.a));
+        LinearModel {
+            a: a[1..].to_vec(),
+            b: conv(&self.b, &other.b),
+        }
+    }
 }
 
 /// Direct-form simulator of a [`LinearModel`] (state: past inputs and outputs).
@@ -134,6 +181,31 @@ mod tests {
         assert_eq!(x[0], 0.0);
         assert!((x[1] - 1.4).abs() < 1e-15);
     }
+    #[test]
+    fn series_connection_matches_cascaded_simulation() {
+        let lag = LinearModel {
+            a: vec![-0.3],
+            b: vec![0.7],
+        };
+        let u: Vec<f64> = (0..40).map(|t| ((t * 7) % 5) as f64 - 2.0).collect();
+        let two = paper().simulate(&lag.simulate(&u));
+        let one = paper().series(&lag).simulate(&u);
+        for (a, b) in two.iter().zip(&one) {
+            assert!((a - b).abs() < 1e-12);
+        }
+        let d: Vec<f64> = (0..40).map(|t| (t % 3) as f64).collect();
+        let x = paper().simulate_with(&u, &d);
+        let x0 = paper().simulate(&u);
+        let xd = LinearModel {
+            a: vec![0.5, 0.7],
+            b: vec![1.0],
+        }
+        .simulate(&d);
+        for t in 0..40 {
+            assert!((x[t] - x0[t] - xd[t]).abs() < 1e-12);
+        }
+    }
+
     #[test]
     fn unstable_is_rejected_with_field() {
         let m = LinearModel {

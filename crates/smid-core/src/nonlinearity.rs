@@ -85,6 +85,20 @@ pub struct SteadyPoint {
     pub rising: bool,
     /// Index of the sample in the steady-state record (for error messages).
     pub index: usize,
+    /// Sample time of `ȳ` in the steady-state record, when known (sensor drift needs it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time: Option<usize>,
+    /// Height of the square-wave step that led to `ū`, when known (`None`: `2|ū|`, the
+    /// paper's ascending order). Scales the overshoot allowance α.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub step: Option<f64>,
+}
+
+impl SteadyPoint {
+    /// The step height that led to this sample (`2|ū|` when not recorded).
+    pub fn step_height(&self) -> f64 {
+        self.step.unwrap_or(2.0 * self.u.abs())
+    }
 }
 
 /// Steady-state data for stage 1.
@@ -174,8 +188,9 @@ pub struct Region {
 /// /// Identify `w = k x` from steady-state data: `k` in the hull of `(ȳ ± Δη)/ū`.
 /// #[derive(Debug, Serialize, Deserialize)]
 /// struct GainModel;
-/// #[derive(Debug)]
+/// #[derive(Debug, Serialize, Deserialize)]
 /// struct GainSet(Interval);
+/// #[typetag::serde(name = "doc_gain_model_set")]
 /// impl NonlinearitySet for GainSet {
 ///     fn parameters(&self) -> Vec<ParameterBound> {
 ///         vec![ParameterBound { name: "k".into(), interval: self.0 }]
@@ -193,7 +208,7 @@ pub struct Region {
 ///         Ok(Box::new(GainSet(k.outward())))
 ///     }
 /// }
-/// let pts = vec![SteadyPoint { u: 2.0, y: 4.0, dy: 0.1, alpha: 0.0, rising: true, index: 0 }];
+/// let pts = vec![SteadyPoint { u: 2.0, y: 4.0, dy: 0.1, alpha: 0.0, rising: true, index: 0, time: None, step: None }];
 /// let set = GainModel.bound_steady_state(&SteadyStateData { points: pts }).unwrap();
 /// assert!(set.parameters()[0].interval.contains(2.0));
 /// ```
@@ -209,13 +224,17 @@ pub trait NonlinearityModel: Debug + Send + Sync {
 
 /// The uncertain nonlinearity left after stage 1: parameter bounds, and the inner-signal bounds
 /// it implies (inversion of the output for Wiener, propagation of the input for Hammerstein).
+/// Sets serialise (typetag, `type` = the plugin's tag), so an identified model set is written
+/// to `result.json` whole and read back by `smid validate` and `smid diagnose`.
 ///
 /// ```
 /// use smid_core::prelude::*;
+/// use serde::{Deserialize, Serialize};
 ///
 /// /// `w = k x` with `k` in an interval `[k0, k1]`, `k0 > 0`.
-/// #[derive(Debug)]
+/// #[derive(Debug, Serialize, Deserialize)]
 /// struct GainSet(Interval);
+/// #[typetag::serde(name = "doc_gain_set")]
 /// impl NonlinearitySet for GainSet {
 ///     fn parameters(&self) -> Vec<ParameterBound> {
 ///         vec![ParameterBound { name: "k".into(), interval: self.0 }]
@@ -234,6 +253,7 @@ pub trait NonlinearityModel: Debug + Send + Sync {
 /// assert!(x[0].interval.contains(2.0) && x[0].interval.contains(3.9 / 2.1));
 /// assert!(set.contains(&[2.0]) && !set.contains(&[2.5]));
 /// ```
+#[typetag::serde(tag = "type")]
 pub trait NonlinearitySet: Debug + Send + Sync {
     /// Guaranteed parameter intervals, in report order. Required.
     fn parameters(&self) -> Vec<ParameterBound>;

@@ -1,88 +1,78 @@
-//! The three-stage identification pipeline of the paper, for any nonlinearity plugin and
-//! structure: acquire data (run the experiments on a [`Plant`] or load CSV files), stage 1
+//! The identification pipeline of the paper, for any nonlinearity plugin, structure and
+//! effects: acquire data (run the experiments on a [`Plant`], or take measured records), then
+//! for each cell of the bisected parameters (one cell when there are none) stage 1
 //! (nonlinearity parameter set from steady-state data, Section 3), stage 2 (inner-signal bounds,
-//! Section 4: inversion for Wiener, propagation for Hammerstein), stage 3 (linear parameters,
-//! Section 5, [`crate::stage3`]).
+//! Section 4: inversion for Wiener, propagation for Hammerstein, of outputs corrected by the
+//! sensor terms), stage 3 (linear parameters and equation terms, Section 5,
+//! [`crate::stage3`]). The cells are searched by [`crate::cells`]; the result is a
+//! [`ModelSet`] with the run's artifacts for reports.
+//!
+//! The stage functions ([`stage1`], [`stage2`], [`stage3`]) are public: validation runs the same
+//! stages on fresh records with the identified sets as constraints.
+use crate::cells::{self, Budget, Verdict};
+use crate::effect::{self, DataScale, Signals};
 use crate::error::{Result, SmidError};
 use crate::experiment::{self, FilterDesign, SteadyRecord};
 use crate::interval::Interval;
 use crate::inversion::{InnerBound, InnerKind};
+use crate::model::{BoundSource, CellSet, Layout, ModelSet, SearchSummary, Training};
 use crate::noise;
 use crate::nonlinearity::{NonlinearitySet, SteadyStateData, Structure};
 use crate::plant::{Plant, SimulatedPlant};
-use crate::spec::{AlphaSpec, Spec};
-use crate::stage3::EivProblem;
+use crate::spec::{AlphaSpec, MethodSpec, ModelSpec, Spec};
+use crate::stage3::{EivProblem, EivResult, Regressor};
 use rand::SeedableRng;
-use serde::Serialize;
 use std::path::Path;
 
+pub use crate::model::{ParamResult, Record};
+
 /// Everything measured (or simulated) for one identification.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default)]
 pub struct ExperimentData {
-    pub steady: SteadyStateData,
+    /// Steady-state points (absent for records without a designed experiment).
+    pub steady: Option<SteadyStateData>,
     /// The whole noise-free square-wave record, when simulated.
-    #[serde(skip)]
     pub steady_record: Option<SteadyRecord>,
-    /// Dynamic experiment: input, measured output and per-sample noise bound.
-    pub u: Vec<f64>,
-    pub y: Vec<f64>,
-    pub dy: Vec<f64>,
-    /// Noise-free output, inner signal and noise, when simulated.
-    pub w: Option<Vec<f64>>,
-    pub x: Option<Vec<f64>>,
-    pub noise: Option<Vec<f64>>,
+    /// Dynamic records (the training records).
+    pub records: Vec<Record>,
     pub filter: Option<FilterDesign>,
 }
 
-/// One parameter's guaranteed interval with its truth when known.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ParamResult {
-    pub name: String,
-    pub lower: f64,
-    pub upper: f64,
-    pub center: f64,
-    pub radius: f64,
-    pub truth: Option<f64>,
-    pub contains: Option<bool>,
-}
-
-impl ParamResult {
-    fn new(name: &str, i: Interval, truth: Option<f64>) -> Self {
-        ParamResult {
-            name: name.to_string(),
-            lower: i.lo,
-            upper: i.hi,
-            center: i.center(),
-            radius: i.radius(),
-            truth,
-            contains: truth.map(|t| i.contains(t)),
-        }
-    }
-}
-
-/// Result of a whole identification.
+/// Result of a whole identification: the model set and the run's artifacts.
 #[derive(Debug)]
 pub struct Identification {
     pub name: String,
     pub delta_eta: f64,
     pub snr_db: f64,
-    /// Nonlinearity parameters (stage 1) then linear parameters (stage 3).
-    pub parameters: Vec<ParamResult>,
-    pub set: Box<dyn NonlinearitySet>,
+    /// The identified model set (what `result.json` carries as `model`).
+    pub model: ModelSet,
+    /// The cell whose artifacts are reported (the one holding the truth when known).
+    pub representative: usize,
+    /// Stage-2 bounds of the representative cell, first record.
     pub inner: Vec<InnerBound>,
-    /// Time indices of the stage-3 equations.
+    /// Time indices (in the concatenated records) of the stage-3 equations of that cell.
     pub equations: Vec<usize>,
     pub data: ExperimentData,
-    /// Whether the truth lies in the exact stage-1 set (polygons), when known.
+    /// Whether the truth lies in the exact stage-1 set of some cell holding the true `ψ`.
     pub truth_in_nonlinearity_set: Option<bool>,
     /// Inner samples whose true value falls outside its bound (must be 0), when known.
     pub inner_violations: Option<usize>,
 }
 
 impl Identification {
+    /// Nonlinearity parameters (stage 1), linear parameters and equation terms (stage 3),
+    /// bisected parameters: the hull over the surviving cells.
+    pub fn parameters(&self) -> &[ParamResult] {
+        &self.model.parameters
+    }
     /// Whether every parameter with a known truth is inside its bounds.
     pub fn all_contain_truth(&self) -> Option<bool> {
-        let c: Vec<bool> = self.parameters.iter().filter_map(|p| p.contains).collect();
+        let c: Vec<bool> = self
+            .model
+            .parameters
+            .iter()
+            .filter_map(|p| p.contains)
+            .collect();
         (!c.is_empty()).then(|| {
             c.iter().all(|b| *b)
                 && self.truth_in_nonlinearity_set != Some(false)
@@ -91,7 +81,11 @@ impl Identification {
     }
     /// A parameter by name.
     pub fn parameter(&self, name: &str) -> Option<&ParamResult> {
-        self.parameters.iter().find(|p| p.name == name)
+        self.model.parameter(name)
+    }
+    /// The nonlinearity set of the representative cell.
+    pub fn set(&self) -> &dyn NonlinearitySet {
+        self.model.cells[self.representative].nonlinearity.as_ref()
     }
 }
 
@@ -101,6 +95,8 @@ pub fn builtin_plant(spec: &Spec) -> Option<SimulatedPlant<'_>> {
         linear: s.linear(),
         nonlinearity: s.nonlinearity.as_ref(),
         structure: s.structure,
+        effects: &s.effects,
+        dt: 1.0,
     })
 }
 
@@ -123,6 +119,44 @@ pub fn run_checked(plant: &mut dyn Plant, u: &[f64]) -> Result<Vec<f64>> {
     Ok(w)
 }
 
+/// One dynamic record from `plant`: the spec's PRBS (length `n`) drawn with `rng`, the plant's
+/// noise-free output, bounded noise of the spec's amplitude.
+pub fn dynamic_record(
+    spec: &Spec,
+    plant: &mut dyn Plant,
+    rng: &mut rand_chacha::ChaCha8Rng,
+    n: usize,
+    name: String,
+) -> Result<Record> {
+    let delta = spec.noise.delta()?;
+    let added = spec.noise.simulated()?;
+    let mut o = spec.experiment.dynamic_options();
+    o.length = n;
+    let u = experiment::dynamic_input(&o, rng)?;
+    let w = run_checked(plant, &u)?;
+    let eta = noise::uniform(u.len(), added, rng);
+    let y = w.iter().zip(&eta).map(|(a, b)| a + b).collect();
+    let x = plant.inner(&u);
+    Ok(Record {
+        name,
+        dy: vec![delta; u.len()],
+        u,
+        y,
+        dt: 1.0,
+        w: Some(w),
+        x,
+        noise: Some(eta),
+    })
+}
+
+/// A fresh dynamic record of the spec's plant with another seed (for validation): the spec's
+/// PRBS and noise, drawn from `seed`.
+pub fn fresh_record(spec: &Spec, plant: &mut dyn Plant, seed: u64, n: usize) -> Result<Record> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let name = format!("{} (seed {seed})", plant.name());
+    dynamic_record(spec, plant, &mut rng, n, name)
+}
+
 /// Run the spec's experiments on `plant` (noise-free plant output, bounded noise added here).
 pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<ExperimentData> {
     let delta = spec.noise.delta()?;
@@ -135,22 +169,311 @@ pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<Experi
     };
     let rec = experiment::steady_state_experiment(plant, filter.pole, &ex.steady_options())?;
     let steady = experiment::noisy_steady_state(&rec, delta, added, &mut rng);
-    let u = experiment::dynamic_input(&ex.dynamic_options(), &mut rng)?;
-    let w = run_checked(plant, &u)?;
-    let eta = noise::uniform(u.len(), added, &mut rng);
-    let y = w.iter().zip(&eta).map(|(a, b)| a + b).collect();
-    let x = plant.inner(&u);
+    let name = format!("{} (seed {})", plant.name(), ex.seed);
+    let record = dynamic_record(spec, plant, &mut rng, ex.dynamic.length, name)?;
     Ok(ExperimentData {
-        steady,
+        steady: Some(steady),
         steady_record: Some(rec),
-        dy: vec![delta; u.len()],
-        u,
-        y,
-        w: Some(w),
-        x,
-        noise: Some(eta),
+        records: vec![record],
         filter: Some(filter),
     })
+}
+
+/// The scale of the training data: largest `|y|`, longest record (steady-state record
+/// included), for default priors and the resolution of bisected parameters.
+pub fn data_scale(data: &ExperimentData) -> DataScale {
+    let mut y_max = 0.0f64;
+    let mut length = 0usize;
+    for r in &data.records {
+        y_max = y_max.max(r.y.iter().fold(0.0, |m, v| m.max(v.abs())));
+        length = length.max(r.y.len());
+    }
+    if let Some(s) = &data.steady {
+        y_max = y_max.max(s.points.iter().fold(0.0, |m, p| m.max(p.y.abs())));
+        length = length.max(
+            s.points
+                .iter()
+                .filter_map(|p| p.time)
+                .max()
+                .map_or(0, |t| t + 1),
+        );
+    }
+    DataScale {
+        y_max: if y_max > 0.0 { y_max } else { 1.0 },
+        length: length.max(1),
+    }
+}
+
+/// Stage 1 for one cell: the nonlinearity's feasible set from the steady-state points with the
+/// outputs corrected by the sensor terms over the cell (`ȳ - s`, `s` an interval: its centre
+/// moves `ȳ`, its radius widens `Δη̄`).
+pub fn stage1(
+    model: &ModelSpec,
+    layout: &Layout,
+    steady: Option<&SteadyStateData>,
+    cell: &[Interval],
+) -> Result<Box<dyn NonlinearitySet>> {
+    let steady = steady.ok_or_else(|| {
+        SmidError::invalid(
+            "plant",
+            "stage 1 needs steady-state data (the designed experiment of Section 3); without it, bound the nonlinearity from a prior box",
+        )
+    })?;
+    if model.effects.is_empty() {
+        return model.nonlinearity.bound_steady_state(steady);
+    }
+    let slices = layout.effect_slices(cell);
+    let mut data = steady.clone();
+    for p in &mut data.points {
+        let s = effect::sensor_sum(&model.effects, &slices, p.time)?;
+        p.y -= s.center();
+        p.dy += s.radius();
+    }
+    model.nonlinearity.bound_steady_state(&data)
+}
+
+/// The signals stage 3 sees: records concatenated, separated by gaps of unknown samples so no
+/// equation spans two records.
+#[derive(Debug, Clone)]
+pub struct StageSignals {
+    pub output: Vec<InnerBound>,
+    pub input: Vec<Interval>,
+    pub extra: Vec<Regressor>,
+    /// Index of each record's first sample in the concatenation.
+    pub starts: Vec<usize>,
+}
+
+impl StageSignals {
+    /// `(record, sample)` of a concatenated index.
+    pub fn locate(&self, i: usize) -> (usize, usize) {
+        let r = self.starts.iter().rposition(|&s| s <= i).unwrap_or(0);
+        (r, i - self.starts[r])
+    }
+}
+
+/// Stage 2 for one cell over records: the outputs corrected by the sensor terms (`y - s`, the
+/// interval `s` widening the noise bound), inverted (Wiener) or taken as the linear block's
+/// output (Hammerstein); the input as is (Wiener) or propagated through the nonlinearity
+/// (Hammerstein); delayed by `nk`; the equation terms' regressors.
+pub fn stage2(
+    model: &ModelSpec,
+    layout: &Layout,
+    set: &dyn NonlinearitySet,
+    cell: &[Interval],
+    records: &[Record],
+) -> Result<StageSignals> {
+    let o = layout.orders;
+    let gap = o.na + o.nb + o.nk + 1;
+    let slices = layout.effect_slices(cell);
+    let mut out = StageSignals {
+        output: Vec::new(),
+        input: Vec::new(),
+        extra: layout
+            .extra_names
+            .iter()
+            .map(|n| Regressor {
+                name: n.clone(),
+                values: Vec::new(),
+            })
+            .collect(),
+        starts: Vec::new(),
+    };
+    for (r, rec) in records.iter().enumerate() {
+        rec.validate()?;
+        if r > 0 {
+            out.output
+                .extend(std::iter::repeat(InnerBound::unknown()).take(gap));
+            out.input
+                .extend(std::iter::repeat(Interval::entire()).take(gap));
+            for e in &mut out.extra {
+                e.values
+                    .extend(std::iter::repeat(Interval::entire()).take(gap));
+            }
+        }
+        out.starts.push(out.output.len());
+        let n = rec.y.len();
+        let mut yc = rec.y.clone();
+        let mut dy = rec.dy.clone();
+        if !model.effects.is_empty() {
+            for t in 0..n {
+                let s = effect::sensor_sum(&model.effects, &slices, Some(t))?;
+                yc[t] -= s.center();
+                dy[t] += s.radius();
+            }
+        }
+        let (output, input): (Vec<InnerBound>, Vec<Interval>) = match model.structure {
+            Structure::Wiener => (
+                set.invert(&yc, &dy)?,
+                rec.u.iter().map(|&v| Interval::new(v, v)).collect(),
+            ),
+            Structure::Hammerstein => (
+                yc.iter()
+                    .zip(&dy)
+                    .map(|(&y, &d)| InnerBound {
+                        interval: Interval::new(y - d, y + d).outward(),
+                        kind: InnerKind::Inverted,
+                    })
+                    .collect(),
+                set.propagate(&rec.u)?.iter().map(|b| b.interval).collect(),
+            ),
+        };
+        out.output.extend(output);
+        out.input.extend((0..n).map(|t| {
+            if t >= o.nk {
+                input[t - o.nk]
+            } else {
+                Interval::entire()
+            }
+        }));
+        let cols = effect::regressors(
+            &model.effects,
+            &Signals {
+                u: &rec.u,
+                dt: rec.dt,
+            },
+        );
+        for (e, c) in out.extra.iter_mut().zip(cols) {
+            e.values
+                .extend(c.values.iter().map(|&v| Interval::new(v, v)));
+        }
+    }
+    Ok(out)
+}
+
+/// Stage 3 on stage-2 signals, with an optional prior box on `θ`. An inconsistency names the
+/// sample in the concatenation (see [`relabel`]).
+pub fn stage3(
+    model: &ModelSpec,
+    layout: &Layout,
+    method: &MethodSpec,
+    sig: &StageSignals,
+    prior: Option<&[Interval]>,
+) -> Result<EivResult> {
+    let problem = EivProblem {
+        na: layout.orders.na,
+        nb: layout.orders.nb,
+        fixed: layout.fixed.clone(),
+        unit_gain: model.unit_gain,
+        output: &sig.output,
+        input: &sig.input,
+        extra: &sig.extra,
+        prior,
+        use_band_samples: method.use_band_samples(),
+    };
+    match crate::stage3::solve(method.eiv, &problem) {
+        // Solver trouble: another method's outer bound is as guaranteed.
+        Err(SmidError::Solver(first)) => {
+            let other = if method.eiv == crate::stage3::EivMethod::Shared {
+                crate::stage3::EivMethod::Classical
+            } else {
+                crate::stage3::EivMethod::Shared
+            };
+            crate::stage3::solve(other, &problem).map_err(|e| match e {
+                SmidError::Solver(second) => SmidError::Solver(format!(
+                    "{first}; with the {} method too: {second}",
+                    other.name()
+                )),
+                e => e,
+            })
+        }
+        r => r,
+    }
+}
+
+/// A stage-3 inconsistency with its sample as the index within its record (the record named
+/// in the detail when there are several).
+pub fn relabel(e: SmidError, sig: &StageSignals) -> SmidError {
+    match e {
+        SmidError::Inconsistent {
+            stage,
+            sample,
+            detail,
+        } => {
+            let (r, t) = sig.locate(sample);
+            SmidError::Inconsistent {
+                stage,
+                sample: t,
+                detail: if sig.starts.len() > 1 {
+                    format!("training record {r}: {detail}")
+                } else {
+                    detail
+                },
+            }
+        }
+        other => other,
+    }
+}
+
+/// Stages 1-3 over one cell: `Infeasible` when a stage proves the cell inconsistent,
+/// `Undecided` when stage 3 leaves a parameter unbounded over a bisected cell. Without bisected
+/// parameters every error is returned as is (the paper's three stages).
+pub fn evaluate_cell(
+    model: &ModelSpec,
+    layout: &Layout,
+    method: &MethodSpec,
+    training: &Training,
+    cell: &[Interval],
+) -> Result<Verdict<CellSet>> {
+    let bisected = !layout.dims.is_empty();
+    let outcome = (|| {
+        let set = stage1(model, layout, training.steady.as_ref(), cell)?;
+        let sig = stage2(model, layout, set.as_ref(), cell, &training.records)?;
+        let r = stage3(model, layout, method, &sig, None).map_err(|e| relabel(e, &sig))?;
+        Ok(CellSet {
+            cell: cell.to_vec(),
+            nonlinearity: set,
+            theta: r.bounds,
+        })
+    })();
+    match outcome {
+        Ok(c) => Ok(Verdict::Feasible(c)),
+        Err(e @ SmidError::Inconsistent { .. }) if bisected => Ok(Verdict::Infeasible(e)),
+        Err(SmidError::Unbounded { .. }) if bisected => Ok(Verdict::Undecided),
+        Err(e) => Err(e),
+    }
+}
+
+/// The branch and bound's cheap test of a cell: stages 1 and 2, then whether the classical
+/// outer set of stage 3 is empty (a proof of inconsistency) — no bounds computed.
+pub fn test_cell(
+    model: &ModelSpec,
+    layout: &Layout,
+    method: &MethodSpec,
+    training: &Training,
+    cell: &[Interval],
+) -> Result<Verdict<()>> {
+    let outcome = (|| {
+        let set = stage1(model, layout, training.steady.as_ref(), cell)?;
+        let sig = stage2(model, layout, set.as_ref(), cell, &training.records)?;
+        let o = layout.orders;
+        let problem = EivProblem {
+            na: o.na,
+            nb: o.nb,
+            fixed: layout.fixed.clone(),
+            unit_gain: model.unit_gain,
+            output: &sig.output,
+            input: &sig.input,
+            extra: &sig.extra,
+            prior: None,
+            use_band_samples: method.use_band_samples(),
+        };
+        if crate::stage3::feasible(&problem)? {
+            Ok(())
+        } else {
+            Err(SmidError::Inconsistent {
+                stage: crate::error::Stage::Linear,
+                sample: sig.output.len(),
+                detail: "no θ fits the equations of this cell (classical outer set empty)".into(),
+            })
+        }
+    })();
+    match outcome {
+        Ok(()) => Ok(Verdict::Feasible(())),
+        Err(e @ SmidError::Inconsistent { .. }) => Ok(Verdict::Infeasible(e)),
+        // Nothing proven: the cell is kept (a solver failure never discards one).
+        Err(SmidError::Unbounded { .. }) | Err(SmidError::Solver(_)) => Ok(Verdict::Undecided),
+        Err(e) => Err(e),
+    }
 }
 
 /// Load measured data named by the spec (`plant.data`), paths relative to `base`.
@@ -160,171 +483,327 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
             SmidError::invalid("plant.data", "the spec's plant is not measured data")
         })?;
     let delta = spec.noise.delta()?;
-    let ss = &d.steady_state;
-    let (us, ys) =
-        crate::data::read_columns(&base.join(&ss.file), &ss.u, &ss.y, ss.part.as_deref())?;
-    if us.len() < 4 {
-        return Err(SmidError::Data {
-            file: base.join(&ss.file),
-            location: format!("column `{}`", ss.u),
-            message: format!(
-                "too short: {} steady-state samples, need at least 4 (two amplitudes per branch)",
-                us.len()
-            ),
-        });
-    }
-    let dynm = &d.dynamic;
-    let (u, y) = crate::data::read_columns(
-        &base.join(&dynm.file),
-        &dynm.u,
-        &dynm.y,
-        dynm.part.as_deref(),
-    )?;
-    let need = 2 * (spec.model.na + spec.model.nb + 2);
-    if u.len() < need {
-        return Err(SmidError::Data {
-            file: base.join(&dynm.file),
-            location: format!("column `{}`", dynm.u),
-            message: format!(
-                "too short: {} dynamic samples, need at least {need} for na = {}, nb = {}",
-                u.len(),
-                spec.model.na,
-                spec.model.nb
-            ),
-        });
-    }
-    let steady = SteadyStateData {
-        points: us
-            .iter()
-            .zip(&ys)
-            .enumerate()
-            .map(|(i, (&u, &y))| crate::nonlinearity::SteadyPoint {
-                u,
-                y,
-                dy: delta,
-                alpha: 0.0,
-                rising: u > 0.0,
-                index: i,
+    let steady = match &d.steady_state {
+        None => None,
+        Some(ss) => {
+            let (us, ys) =
+                crate::data::read_columns(&base.join(&ss.file), &ss.u, &ss.y, ss.part.as_deref())?;
+            if us.len() < 4 {
+                return Err(SmidError::Data {
+                    file: base.join(&ss.file),
+                    location: format!("column `{}`", ss.u),
+                    message: format!(
+                        "too short: {} steady-state samples, need at least 4 (two amplitudes per branch)",
+                        us.len()
+                    ),
+                });
+            }
+            Some(SteadyStateData {
+                points: us
+                    .iter()
+                    .zip(&ys)
+                    .enumerate()
+                    .map(|(i, (&u, &y))| crate::nonlinearity::SteadyPoint {
+                        u,
+                        y,
+                        dy: delta,
+                        alpha: 0.0,
+                        rising: u > 0.0,
+                        index: i,
+                        time: None,
+                        step: None,
+                    })
+                    .collect(),
             })
-            .collect(),
+        }
     };
-    let filter = spec.experiment.filter.pole.map(|a| FilterDesign::given(a));
+    let dt = d.dt.unwrap_or(1.0);
+    let mut records = Vec::new();
+    for c in d.dynamic.items() {
+        records.push(crate::data::read_record(base, c, delta, dt)?);
+    }
+    let o = spec.model.layout()?.orders;
+    let need = 2 * (o.na + o.nb + o.nk + 2);
+    for (rec, c) in records.iter().zip(d.dynamic.items()) {
+        if rec.u.len() < need {
+            return Err(SmidError::Data {
+                file: base.join(&c.file),
+                location: format!("column `{}`", c.u),
+                message: format!(
+                    "too short: {} dynamic samples, need at least {need} for na = {}, nb = {}, nk = {}",
+                    rec.u.len(),
+                    o.na,
+                    o.nb,
+                    o.nk
+                ),
+            });
+        }
+    }
+    let filter = spec.experiment.filter.pole.map(FilterDesign::given);
     Ok(ExperimentData {
         steady,
-        dy: vec![delta; u.len()],
-        u,
-        y,
+        steady_record: None,
+        records,
         filter,
-        ..Default::default()
     })
+}
+
+/// The true values of `θ` under the model's orders from a true linear block: `a_i`, and
+/// `b_j = B[nk + j]` (None when the model cannot represent it: a true coefficient before the
+/// delay or beyond the orders).
+fn theta_truth(layout: &Layout, lin: &crate::linear::LinearModel) -> Vec<(String, f64)> {
+    let o = layout.orders;
+    let tiny = |v: f64| v.abs() <= 1e-12;
+    if lin.a.len() > o.na && !lin.a[o.na..].iter().all(|&v| tiny(v)) {
+        return Vec::new();
+    }
+    if lin.b.len() > o.nk + o.nb + 1 && !lin.b[o.nk + o.nb + 1..].iter().all(|&v| tiny(v)) {
+        return Vec::new();
+    }
+    if lin.b.iter().take(o.nk).any(|&v| !tiny(v)) {
+        return Vec::new();
+    }
+    let mut t = Vec::new();
+    for i in 1..=o.na {
+        t.push((format!("a{i}"), lin.a.get(i - 1).copied().unwrap_or(0.0)));
+    }
+    for j in 0..=o.nb {
+        t.push((format!("b{j}"), lin.b.get(o.nk + j).copied().unwrap_or(0.0)));
+    }
+    t
 }
 
 /// Stages 1-3 on acquired data. `truth` holds known true values by parameter name.
 pub fn identify(
     spec: &Spec,
-    mut data: ExperimentData,
+    data: ExperimentData,
     truth: &[(String, f64)],
 ) -> Result<Identification> {
+    identify_with(spec, data, truth, &|_| {})
+}
+
+/// [`identify`] with a progress callback for the branch and bound over the bisected
+/// parameters.
+pub fn identify_with(
+    spec: &Spec,
+    mut data: ExperimentData,
+    truth: &[(String, f64)],
+    progress: &(dyn Fn(&cells::Progress) + Sync),
+) -> Result<Identification> {
     let delta = spec.noise.delta()?;
-    let step = data
-        .filter
-        .as_ref()
-        .and_then(|f| f.step)
-        .unwrap_or(spec.experiment.filter.step);
-    match spec.method.alpha {
-        AlphaSpec::Bias => experiment::apply_alpha(&mut data.steady, step),
-        AlphaSpec::Design => match data.filter.as_ref().and_then(|f| f.overshoot) {
-            Some(d) => experiment::apply_design_alpha(&mut data.steady, d, step),
-            None => {
-                return Err(SmidError::invalid(
-                    "method.alpha",
-                    "`design` needs the filter pole from the Appendix search on the plant; with a given pole or measured data choose `bias` or `zero`",
-                ))
-            }
+    let layout = spec.model.layout()?;
+    if let Some(steady) = data.steady.as_mut() {
+        let step = data
+            .filter
+            .as_ref()
+            .and_then(|f| f.step)
+            .unwrap_or(spec.experiment.filter.step);
+        match spec.method.alpha {
+            AlphaSpec::Bias => experiment::apply_alpha(steady, step),
+            AlphaSpec::Design => match data.filter.as_ref().and_then(|f| f.overshoot) {
+                Some(d) => experiment::apply_design_alpha(steady, d, step),
+                None => {
+                    return Err(SmidError::invalid(
+                        "method.alpha",
+                        "`design` needs the filter pole from the Appendix search on the plant; with a given pole or measured data choose `bias` or `zero`",
+                    ))
+                }
+            },
+            AlphaSpec::Zero => {}
+        }
+        steady.validate()?;
+    }
+    for r in &data.records {
+        r.validate()?;
+    }
+    if data.records.is_empty() {
+        return Err(SmidError::invalid(
+            "plant",
+            "no dynamic record to identify from",
+        ));
+    }
+    let training = Training {
+        steady: data.steady.clone(),
+        records: data.records.clone(),
+    };
+    let model = &spec.model;
+    let method = &spec.method;
+    let prior: Vec<Interval> = layout.dims.iter().map(|d| d.prior).collect();
+    let scale = data_scale(&data);
+    let resolution: Vec<f64> = model
+        .effects
+        .iter()
+        .flat_map(|e| e.resolution(delta, &scale))
+        .collect();
+    let test = |cell: &[Interval]| test_cell(model, &layout, method, &training, cell);
+    let eval = |cell: &[Interval]| evaluate_cell(model, &layout, method, &training, cell);
+    let search = cells::search(
+        &prior,
+        Budget {
+            resolution,
+            depth: method.cells.depth,
+            max_cells: method.cells.max_cells,
         },
-        AlphaSpec::Zero => {}
+        &test,
+        &eval,
+        progress,
+    )?;
+    let summary = SearchSummary {
+        evaluated: search.evaluated,
+        discarded: search.discarded,
+        budget_stopped: search.budget_stopped,
+    };
+    let mut kept = Vec::new();
+    for leaf in search.leaves {
+        match leaf.value {
+            Some(c) => kept.push(c),
+            None => return Err(SmidError::Unbounded {
+                parameter: "θ".into(),
+                message: format!(
+                    "over the cell {} of the bisected parameters stage 3 found no finite bound{}",
+                    fmt_cell(&layout, &leaf.cell),
+                    if summary.budget_stopped {
+                        " (the cell budget stopped the bisection: raise method.cells.max_cells)"
+                    } else {
+                        ""
+                    }
+                ),
+            }),
+        }
     }
     let truth_of = |n: &str| truth.iter().find(|(k, _)| k == n).map(|(_, v)| *v);
 
-    data.steady.validate()?;
-    crate::inversion::check_outputs(&data.y, &data.dy)?;
+    // Hulls over the cells, in report order: nonlinearity, θ, ψ.
+    let mut parameters: Vec<ParamResult> = Vec::new();
+    let gnames: Vec<String> = kept[0]
+        .nonlinearity
+        .parameters()
+        .iter()
+        .map(|b| b.name.clone())
+        .collect();
+    for (k, name) in gnames.iter().enumerate() {
+        let h = hull(kept.iter().map(|c| c.nonlinearity.parameters()[k].interval));
+        parameters.push(ParamResult::new(name, h, truth_of(name)));
+    }
+    for (k, name) in layout.theta_names.iter().enumerate() {
+        let h = hull(kept.iter().map(|c| c.theta[k]));
+        parameters.push(ParamResult::new(name, h, truth_of(name)));
+    }
+    for (k, d) in layout.dims.iter().enumerate() {
+        let h = hull(kept.iter().map(|c| c.cell[k]));
+        parameters.push(ParamResult::new(&d.name, h, truth_of(&d.name)));
+    }
 
-    // Stage 1.
-    let set = spec.model.nonlinearity.bound_steady_state(&data.steady)?;
-    let gamma = set.parameters();
-    let gamma_truth: Option<Vec<f64>> = gamma.iter().map(|b| truth_of(&b.name)).collect();
-    let truth_in_set = gamma_truth.as_ref().map(|t| set.contains(t));
-
-    // Stage 2.
-    let exact = |v: &[f64]| v.iter().map(|&a| Interval::new(a, a)).collect::<Vec<_>>();
-    let (output, input, inner) = match spec.model.structure {
-        Structure::Wiener => {
-            let inner = set.invert(&data.y, &data.dy)?;
-            (inner.clone(), exact(&data.u), inner)
-        }
-        Structure::Hammerstein => {
-            let prop = set.propagate(&data.u)?;
-            let out = data
-                .y
-                .iter()
-                .zip(&data.dy)
-                .map(|(&y, &d)| InnerBound {
-                    interval: Interval::new(y - d, y + d).outward(),
-                    kind: InnerKind::Inverted,
-                })
-                .collect();
-            (out, prop.iter().map(|b| b.interval).collect(), prop)
-        }
+    // The cell holding the true ψ (when known) is the representative.
+    let psi_truth: Option<Vec<f64>> = layout.dims.iter().map(|d| truth_of(&d.name)).collect();
+    let gamma_truth: Option<Vec<f64>> = gnames.iter().map(|n| truth_of(n)).collect();
+    let holds_psi = |c: &CellSet| {
+        psi_truth
+            .as_ref()
+            .map(|t| c.cell.iter().zip(t).all(|(i, v)| i.contains(*v)))
+            .unwrap_or(true)
     };
-    let inner_violations = data.x.as_ref().map(|x| {
+    let representative = kept.iter().position(|c| holds_psi(c)).unwrap_or(0);
+    let truth_in_set = match (&gamma_truth, &psi_truth) {
+        (Some(g), _) => Some(
+            kept.iter()
+                .any(|c| holds_psi(c) && c.nonlinearity.contains(g)),
+        ),
+        _ => None,
+    };
+    let rep = &kept[representative];
+    let sig = stage2(
+        model,
+        &layout,
+        rep.nonlinearity.as_ref(),
+        &rep.cell,
+        &training.records,
+    )?;
+    let equations = stage3(model, &layout, method, &sig, None)
+        .map(|r| r.equations)
+        .unwrap_or_default();
+    let first_len = training.records[0].y.len();
+    // The inner signal: the nonlinearity's input (Wiener) or output (Hammerstein).
+    let inner: Vec<InnerBound> = match model.structure {
+        Structure::Wiener => sig.output[..first_len].to_vec(),
+        Structure::Hammerstein => rep.nonlinearity.propagate(&training.records[0].u)?,
+    };
+    let inner_violations = training.records[0].x.as_ref().map(|x| {
         x.iter()
             .zip(&inner)
             .filter(|(v, b)| b.interval.is_finite() && !b.interval.contains(**v))
             .count()
     });
-
-    // Stage 3.
-    let fixed = spec.fixed_theta()?;
-    let problem = EivProblem {
-        na: spec.model.na,
-        nb: spec.model.nb,
-        fixed,
-        unit_gain: spec.model.unit_gain,
-        output: &output,
-        input: &input,
-        use_band_samples: spec.method.use_band_samples(),
-        extra: &[],
-        prior: None,
+    let set = ModelSet {
+        name: spec.name.clone().unwrap_or_else(|| "smid".into()),
+        model: model.duplicate(),
+        method: method.clone(),
+        delta,
+        bound_source: BoundSource::Given,
+        dims: layout.dims.clone(),
+        cells: kept,
+        parameters,
+        search: summary,
+        training,
     };
-    let eiv = crate::stage3::solve(spec.method.eiv, &problem)?;
-
-    let mut parameters: Vec<ParamResult> = gamma
-        .iter()
-        .map(|b| ParamResult::new(&b.name, b.interval, truth_of(&b.name)))
-        .collect();
-    for (name, b) in problem.names().iter().zip(&eiv.bounds) {
-        parameters.push(ParamResult::new(name, *b, truth_of(name)));
-    }
-    let snr_db = match (&data.w, &data.noise) {
-        (Some(w), Some(n)) => noise::snr_db(w, n),
-        // Measured data: signal power against the power of uniform noise in [-Δη, Δη].
-        _ => {
-            let ps: f64 = data.y.iter().map(|v| v * v).sum();
-            10.0 * (ps / (data.y.len() as f64 * delta * delta / 3.0)).log10()
+    let snr_db = match data.records.first() {
+        Some(Record {
+            w: Some(w),
+            noise: Some(n),
+            ..
+        }) => noise::snr_db(w, n),
+        Some(r) => {
+            // Measured data: signal power against the power of uniform noise in [-Δη, Δη].
+            let ps: f64 = r.y.iter().map(|v| v * v).sum();
+            10.0 * (ps / (r.y.len() as f64 * delta * delta / 3.0)).log10()
         }
+        None => f64::NAN,
     };
     Ok(Identification {
-        name: spec.name.clone().unwrap_or_else(|| "smid".into()),
+        name: set.name.clone(),
         delta_eta: delta,
         snr_db,
-        parameters,
-        set,
+        model: set,
+        representative,
         inner,
-        equations: eiv.equations,
+        equations,
         data,
         truth_in_nonlinearity_set: truth_in_set,
         inner_violations,
     })
+}
+
+fn hull(it: impl IntoIterator<Item = Interval>) -> Interval {
+    it.into_iter()
+        .reduce(|a, b| Interval::new(a.lo.min(b.lo), a.hi.max(b.hi)))
+        .unwrap_or(Interval::new(f64::NAN, f64::NAN))
+}
+
+/// `name ∈ [lo, hi], ...` of a cell.
+pub fn fmt_cell(layout: &Layout, cell: &[Interval]) -> String {
+    layout
+        .dims
+        .iter()
+        .zip(cell)
+        .map(|(d, i)| format!("{} ∈ [{:.4e}, {:.4e}]", d.name, i.lo, i.hi))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The truth of a plant in the model's names: the nonlinearity's and effects' own, and `θ`
+/// from the plant's total linear block under the model's orders; `plant.truth` of the spec
+/// overrides.
+pub fn plant_truth(spec: &Spec, plant: &dyn Plant) -> Result<Vec<(String, f64)>> {
+    let layout = spec.model.layout()?;
+    let mut truth = plant.truth();
+    if let Some(lin) = plant.linear_truth() {
+        truth.extend(theta_truth(&layout, &lin));
+    }
+    for (k, v) in &spec.plant.truth {
+        truth.retain(|(n, _)| n != k);
+        truth.push((k.clone(), *v));
+    }
+    Ok(truth)
 }
 
 /// Acquire data for a spec whose plant is the built-in simulator or CSV data, then identify.
@@ -349,14 +828,9 @@ pub fn run(spec: &Spec, base: &Path) -> Result<Identification> {
     ))
 }
 
-/// Run the experiments on `plant` and identify. The truth is the plant's own, overridden by
-/// `plant.truth` of the spec.
+/// Run the experiments on `plant` and identify.
 pub fn run_with_plant(spec: &Spec, plant: &mut dyn Plant) -> Result<Identification> {
     let data = simulate_experiments(spec, plant)?;
-    let mut truth = plant.truth();
-    for (k, v) in &spec.plant.truth {
-        truth.retain(|(n, _)| n != k);
-        truth.push((k.clone(), *v));
-    }
+    let truth = plant_truth(spec, plant)?;
     identify(spec, data, &truth)
 }

@@ -2,7 +2,9 @@
 //! noise-free output `w` (noise is added by the experiment, eq 4, so every plant is treated
 //! alike). [`SimulatedPlant`] is the built-in discrete-time simulator: `A(q^-1)`, `B(q^-1)` and
 //! a nonlinearity plugin in a Wiener (`w = N(G u)`, eqs 1-2) or Hammerstein (`w = G(N(u))`)
-//! arrangement.
+//! arrangement, plus any effects with their true values (see [`crate::effect`]): unit-gain
+//! linear factors in series with `G` (delay, actuator lag), equation terms, sensor terms.
+use crate::effect::{Effect, Signals};
 use crate::error::Result;
 use crate::linear::LinearModel;
 use crate::nonlinearity::{Nonlinearity, Structure};
@@ -31,9 +33,14 @@ pub trait Plant {
     fn inner(&mut self, _u: &[f64]) -> Option<Vec<f64>> {
         None
     }
-    /// True parameters `(name, value)` when known.
+    /// True parameters `(name, value)` when known: the nonlinearity's and the effects'.
     fn truth(&self) -> Vec<(String, f64)> {
         Vec::new()
+    }
+    /// The true linear block from the input of `G` to the inner signal, every series factor
+    /// (delay, lag) included, when known.
+    fn linear_truth(&self) -> Option<LinearModel> {
+        None
     }
 }
 
@@ -43,40 +50,74 @@ pub struct SimulatedPlant<'a> {
     pub linear: LinearModel,
     pub nonlinearity: &'a dyn Nonlinearity,
     pub structure: Structure,
+    /// Effects with their true values.
+    pub effects: &'a [Box<dyn Effect>],
+    /// Sample time (for equation terms that use it).
+    pub dt: f64,
+}
+
+impl SimulatedPlant<'_> {
+    /// The linear block with every effect's series factor.
+    fn total_linear(&self) -> LinearModel {
+        self.effects
+            .iter()
+            .filter_map(|e| e.plant_factor())
+            .fold(self.linear.clone(), |acc, (a, b)| {
+                acc.series(&LinearModel { a, b })
+            })
+    }
+
+    fn inner_signal(&self, u: &[f64]) -> Vec<f64> {
+        let v = match self.structure {
+            Structure::Wiener => u.to_vec(),
+            Structure::Hammerstein => self.nonlinearity.simulate(u),
+        };
+        if self.effects.is_empty() {
+            // The exact operation order of the plant FMUs (bit-for-bit agreement).
+            return self.linear.simulate(&v);
+        }
+        let signals = Signals { u, dt: self.dt };
+        let mut d = vec![0.0; u.len()];
+        for e in self.effects {
+            if let Some(term) = e.plant_equation(&signals) {
+                for (dv, tv) in d.iter_mut().zip(term) {
+                    *dv += tv;
+                }
+            }
+        }
+        self.total_linear().simulate_with(&v, &d)
+    }
 }
 
 impl Plant for SimulatedPlant<'_> {
     fn run(&mut self, u: &[f64]) -> Result<Vec<f64>> {
-        Ok(match self.structure {
-            Structure::Wiener => self.nonlinearity.simulate(&self.linear.simulate(u)),
-            Structure::Hammerstein => self.linear.simulate(&self.nonlinearity.simulate(u)),
-        })
+        let x = self.inner_signal(u);
+        let w = match self.structure {
+            Structure::Wiener => self.nonlinearity.simulate(&x),
+            Structure::Hammerstein => x,
+        };
+        Ok(w.into_iter()
+            .enumerate()
+            .map(|(t, w)| self.effects.iter().fold(w, |w, e| e.plant_output(t, w)))
+            .collect())
     }
     fn name(&self) -> String {
         "built-in simulator".into()
     }
     fn inner(&mut self, u: &[f64]) -> Option<Vec<f64>> {
         Some(match self.structure {
-            Structure::Wiener => self.linear.simulate(u),
+            Structure::Wiener => self.inner_signal(u),
             Structure::Hammerstein => self.nonlinearity.simulate(u),
         })
     }
     fn truth(&self) -> Vec<(String, f64)> {
         let mut t = self.nonlinearity.parameters();
-        t.extend(
-            self.linear
-                .a
-                .iter()
-                .enumerate()
-                .map(|(i, v)| (format!("a{}", i + 1), *v)),
-        );
-        t.extend(
-            self.linear
-                .b
-                .iter()
-                .enumerate()
-                .map(|(j, v)| (format!("b{j}"), *v)),
-        );
+        for e in self.effects {
+            t.extend(e.truth());
+        }
         t
+    }
+    fn linear_truth(&self) -> Option<LinearModel> {
+        Some(self.total_linear())
     }
 }

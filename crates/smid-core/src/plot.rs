@@ -243,3 +243,170 @@ pub fn inner_svg(inner: &[InnerBound], truth: Option<&[f64]>, path: &Path) -> Re
     root.present().map_err(|e| plot_err(path, e))?;
     Ok(())
 }
+
+/// One line of a time-series plot.
+pub struct Line<'a> {
+    pub label: &'a str,
+    pub values: &'a [f64],
+    /// RGB colour.
+    pub color: (u8, u8, u8),
+}
+
+/// Measured output against model outputs over time, with an optional shaded envelope
+/// `(lower, upper)`: the validation and before/after plots.
+pub fn series_svg(
+    title: &str,
+    lines: &[Line],
+    envelope: Option<(&[f64], &[f64], &str)>,
+    path: &Path,
+) -> Result<()> {
+    ensure_font();
+    let n = lines
+        .iter()
+        .map(|l| l.values.len())
+        .max()
+        .unwrap_or(0)
+        .max(2);
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    for l in lines {
+        for v in l.values.iter().filter(|v| v.is_finite()) {
+            lo = lo.min(*v);
+            hi = hi.max(*v);
+        }
+    }
+    // The measured output sets the scale: a diverging model is clipped, not the data.
+    if let Some(first) = lines.first() {
+        let (a, b) = first
+            .values
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(*v), b.max(*v))
+            });
+        if a.is_finite() && b.is_finite() {
+            let w = (b - a).max(1e-12);
+            lo = lo.max(a - 2.0 * w);
+            hi = hi.min(b + 2.0 * w);
+        }
+    }
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        lo = -1.0;
+        hi = 1.0;
+    }
+    let (y0, y1) = padded(lo, hi);
+    let clip = |v: f64| v.clamp(y0, y1);
+    let root = SVGBackend::new(path, (1100, 520)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..(n as f64 - 1.0), y0..y1)
+        .map_err(|e| plot_err(path, e))?;
+    let d = digits(y1 - y0);
+    chart
+        .configure_mesh()
+        .x_desc("sample")
+        .y_label_formatter(&|v| format!("{v:.d$}"))
+        .draw()
+        .map_err(|e| plot_err(path, e))?;
+    if let Some((l, u, label)) = envelope {
+        let color = RGBColor(250, 200, 120).mix(0.6);
+        let poly: Vec<(f64, f64)> = l
+            .iter()
+            .enumerate()
+            .map(|(t, v)| (t as f64, clip(*v)))
+            .chain(
+                u.iter()
+                    .enumerate()
+                    .rev()
+                    .map(|(t, v)| (t as f64, clip(*v))),
+            )
+            .collect();
+        chart
+            .draw_series(std::iter::once(Polygon::new(poly, color.filled())))
+            .map_err(|e| plot_err(path, e))?
+            .label(label)
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 15, y + 5)], color.filled()));
+    }
+    for l in lines {
+        let color = RGBColor(l.color.0, l.color.1, l.color.2);
+        chart
+            .draw_series(LineSeries::new(
+                l.values
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, v)| v.is_finite())
+                    .map(|(t, v)| (t as f64, clip(*v))),
+                color.stroke_width(1),
+            ))
+            .map_err(|e| plot_err(path, e))?
+            .label(l.label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], color));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()
+        .map_err(|e| plot_err(path, e))?;
+    root.present().map_err(|e| plot_err(path, e))?;
+    Ok(())
+}
+
+/// Residual auto-correlation (lags 0..) and input cross-correlation (lags -L..L) as stems, with
+/// the 99 % band.
+pub fn correlation_svg(auto: &[f64], cross: &[f64], band: f64, path: &Path) -> Result<()> {
+    ensure_font();
+    let root = SVGBackend::new(path, (960, 640)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
+    let (top, bottom) = root.split_vertically(320);
+    let lag = (cross.len() / 2) as i64;
+    for (area, values, first, title) in [
+        (
+            &top,
+            auto,
+            0i64,
+            "residual auto-correlation r_ee(τ) with the 99 % band",
+        ),
+        (
+            &bottom,
+            cross,
+            -lag,
+            "input cross-correlation r_eu(τ) with the 99 % band",
+        ),
+    ] {
+        let last = first + values.len() as i64 - 1;
+        let mut chart = ChartBuilder::on(area)
+            .caption(title, ("sans-serif", 16))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(50)
+            .build_cartesian_2d((first as f64 - 0.5)..(last as f64 + 0.5), -1.05..1.05)
+            .map_err(|e| plot_err(path, e))?;
+        chart
+            .configure_mesh()
+            .x_desc("τ")
+            .draw()
+            .map_err(|e| plot_err(path, e))?;
+        for b in [band, -band] {
+            chart
+                .draw_series(LineSeries::new(
+                    [(first as f64 - 0.5, b), (last as f64 + 0.5, b)],
+                    RED.stroke_width(1),
+                ))
+                .map_err(|e| plot_err(path, e))?;
+        }
+        chart
+            .draw_series(values.iter().enumerate().map(|(i, v)| {
+                let x = (first + i as i64) as f64;
+                PathElement::new(vec![(x, 0.0), (x, *v)], BLUE.stroke_width(2))
+            }))
+            .map_err(|e| plot_err(path, e))?;
+    }
+    root.present().map_err(|e| plot_err(path, e))?;
+    Ok(())
+}

@@ -20,7 +20,7 @@ pub struct Strip {
 }
 
 /// A convex polygon given by its vertices in counter-clockwise order.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Polygon {
     pub vertices: Vec<[f64; 2]>,
 }

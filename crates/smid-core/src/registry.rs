@@ -57,6 +57,21 @@ pub fn model_types() -> Vec<&'static str> {
     models().iter().map(|e| e.tag).collect()
 }
 
+/// A simulation nonlinearity of the registered `type` with the given parameter values (by
+/// name, as [`Nonlinearity::parameters`] reports them), built through its serialised form, so
+/// a plugin needs no extra code for its members to be simulated.
+pub fn instantiate(tag: &str, values: &[(String, f64)]) -> crate::Result<Box<dyn Nonlinearity>> {
+    let mut obj = Map::new();
+    obj.insert("type".into(), json!(tag));
+    for (k, v) in values {
+        obj.insert(k.clone(), json!(v));
+    }
+    serde_json::from_value(Value::Object(obj)).map_err(|e| crate::SmidError::Unsupported {
+        plugin: tag.to_string(),
+        what: format!("simulation from its identified parameters ({e})"),
+    })
+}
+
 /// Register a simulation nonlinearity: `register_nonlinearity!("tag", Type, example_expr)`.
 /// `Type` must implement `schemars::JsonSchema` and `Nonlinearity` (with the same tag).
 #[macro_export]
@@ -152,6 +167,25 @@ impl JsonSchema for dyn NonlinearityModel {
         one_of(
             branches,
             "The model structure's nonlinearity (a type and its options)",
+            &tags,
+        )
+    }
+}
+
+impl JsonSchema for dyn crate::effect::Effect {
+    fn schema_name() -> Cow<'static, str> {
+        "Effect".into()
+    }
+    fn json_schema(g: &mut SchemaGenerator) -> Schema {
+        let entries = crate::effect::effects();
+        let tags: Vec<&str> = entries.iter().map(|e| e.tag).collect();
+        let branches = entries
+            .iter()
+            .map(|e| tagged(e.tag, (e.schema)(g)))
+            .collect();
+        one_of(
+            branches,
+            "An effect: one more term of the model (true values in a simulator, open in a model)",
             &tags,
         )
     }

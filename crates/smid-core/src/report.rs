@@ -36,7 +36,7 @@ pub fn table(id: &Identification) -> String {
         "{:<6} {:>10} {:>10} {:>10} {:>10} {:>10} {:>6}",
         "param", "true", "center", "radius", "lower", "upper", "inside"
     );
-    for p in &id.parameters {
+    for p in id.parameters() {
         let _ = writeln!(
             s,
             "{:<6} {:>10} {:>10.6} {:>10.2e} {:>10.6} {:>10.6} {:>6}",
@@ -64,6 +64,26 @@ pub fn table(id: &Identification) -> String {
         id.inner.len(),
         id.equations.len()
     );
+    if !id.model.dims.is_empty() {
+        let m = &id.model;
+        let _ = writeln!(
+            s,
+            "branch and bound over {}: {} cells evaluated, {} discarded, {} kept{}",
+            m.dims
+                .iter()
+                .map(|d| format!("{} ∈ [{:.3e}, {:.3e}]", d.name, d.prior.lo, d.prior.hi))
+                .collect::<Vec<_>>()
+                .join(", "),
+            m.search.evaluated,
+            m.search.discarded,
+            m.cells.len(),
+            if m.search.budget_stopped {
+                " (the cell budget stopped the bisection: the hull holds, looser)"
+            } else {
+                ""
+            }
+        );
+    }
     if let Some(all) = id.all_contain_truth() {
         let _ = writeln!(
             s,
@@ -82,7 +102,7 @@ pub fn result_json(id: &Identification) -> serde_json::Value {
         "delta_eta": id.delta_eta,
         "snr_db": id.snr_db,
         "filter": id.data.filter,
-        "parameters": id.parameters,
+        "parameters": id.parameters(),
         "truth_in_nonlinearity_set": id.truth_in_nonlinearity_set,
         "inner_signal": {
             "samples": id.inner.len(),
@@ -91,7 +111,8 @@ pub fn result_json(id: &Identification) -> serde_json::Value {
             "bounds": id.inner,
         },
         "equations": id.equations,
-        "regions": id.set.regions(None),
+        "regions": id.set().regions(None),
+        "model": id.model,
     })
 }
 
@@ -100,12 +121,13 @@ fn cell(v: Option<f64>) -> String {
 }
 
 /// `data.csv`: rows `part,index,t,u,y,w,x` for the steady-state samples (`part = steady`,
-/// `u = ū`, `y = ȳ`) and the dynamic record (`part = dynamic`). Rerun with a `plant.data` spec
-/// selecting `part: steady` and `part: dynamic`.
+/// `u = ū`, `y = ȳ`) and the dynamic records (`part = dynamic` for the first, `dynamic_k` for
+/// record `k > 0`). Rerun with a `plant.data` spec selecting `part: steady` and `part: dynamic`.
 pub fn data_csv(id: &Identification) -> String {
     let mut s = String::from("part,index,t,u,y,w,x\n");
     let d = &id.data;
-    for p in &d.steady.points {
+    let none = crate::nonlinearity::SteadyStateData::default();
+    for p in &d.steady.as_ref().unwrap_or(&none).points {
         let (t, w) = match &d.steady_record {
             Some(r) => {
                 let t = r.samples[p.index].0;
@@ -123,17 +145,24 @@ pub fn data_csv(id: &Identification) -> String {
             cell(w)
         );
     }
-    for t in 0..d.u.len() {
-        let w = d.w.as_ref().map(|w| w[t]);
-        let x = d.x.as_ref().map(|x| x[t]);
-        let _ = writeln!(
-            s,
-            "dynamic,{t},{t},{:.17e},{:.17e},{},{}",
-            d.u[t],
-            d.y[t],
-            cell(w),
-            cell(x)
-        );
+    for (k, r) in d.records.iter().enumerate() {
+        let part = if k == 0 {
+            "dynamic".to_string()
+        } else {
+            format!("dynamic_{k}")
+        };
+        for t in 0..r.u.len() {
+            let w = r.w.as_ref().map(|w| w[t]);
+            let x = r.x.as_ref().map(|x| x[t]);
+            let _ = writeln!(
+                s,
+                "{part},{t},{t},{:.17e},{:.17e},{},{}",
+                r.u[t],
+                r.y[t],
+                cell(w),
+                cell(x)
+            );
+        }
     }
     s
 }
@@ -160,18 +189,19 @@ pub fn write_all(id: &Identification, dir: &Path) -> Result<Vec<PathBuf>> {
         write(&dir.join("data.csv"), &data_csv(id))?,
     ];
     let truth: Option<Vec<f64>> = id
-        .set
+        .set()
         .parameters()
         .iter()
         .map(|b| id.parameter(&b.name).and_then(|p| p.truth))
         .collect();
-    for region in id.set.regions(truth.as_deref()) {
+    for region in id.set().regions(truth.as_deref()) {
         let path = dir.join(format!("region_{}.svg", region.name));
         crate::plot::region_svg(&region, &path)?;
         out.push(path);
     }
     let path = dir.join("inner_signal.svg");
-    crate::plot::inner_svg(&id.inner, id.data.x.as_deref(), &path)?;
+    let x = id.data.records.first().and_then(|r| r.x.as_deref());
+    crate::plot::inner_svg(&id.inner, x, &path)?;
     out.push(path);
     Ok(out)
 }

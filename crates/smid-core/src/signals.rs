@@ -71,6 +71,30 @@ pub fn prbs(n: usize, amplitude: f64, hold: usize, rng: &mut impl Rng) -> Vec<f6
     out
 }
 
+/// A multilevel pseudo-random sequence: the PRBS's signs times a magnitude drawn uniformly
+/// from `levels` equally spaced values in `(0, amplitude]`, held `hold` samples. Steps of
+/// several sizes tell apart effects that a binary PRBS cannot (a Coulomb and a viscous term
+/// are proportional on `±A`).
+pub fn multilevel(
+    n: usize,
+    amplitude: f64,
+    hold: usize,
+    levels: usize,
+    rng: &mut impl Rng,
+) -> Vec<f64> {
+    let signs = prbs(n, 1.0, hold, rng);
+    let levels = levels.max(1);
+    let mut out = Vec::with_capacity(n);
+    let mut mag = amplitude;
+    for (t, s) in signs.iter().enumerate() {
+        if t % hold.max(1) == 0 {
+            mag = amplitude * rng.gen_range(1..=levels) as f64 / levels as f64;
+        }
+        out.push(s * mag);
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

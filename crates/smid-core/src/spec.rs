@@ -2,6 +2,7 @@
 //! added by the crates that provide them), noise bound (eqs 4-5), experiment (Sections 3.2, 4,
 //! Appendix), model structure and orders (eqs 1, 6-8) and method options. Unknown fields are
 //! rejected; every error names the file, the line where the parser gives one, and the field.
+use crate::effect::Effect;
 use crate::error::{Result, SmidError};
 use crate::experiment::{BisectionOptions, DynamicOptions, SteadyStateOptions};
 use crate::linear::LinearModel;
@@ -71,6 +72,10 @@ pub struct SimulatorSpec {
     /// `[b_0..b_nb]`.
     pub b: Vec<f64>,
     pub nonlinearity: Box<dyn Nonlinearity>,
+    /// Effects the plant has, with their true values (an offset, a delay, an actuator lag...):
+    /// data with an effect a model may lack, without an FMU.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub effects: Vec<Box<dyn Effect>>,
 }
 
 impl SimulatorSpec {
@@ -83,7 +88,8 @@ impl SimulatorSpec {
     }
 }
 
-/// Columns of a CSV file (optionally only the rows whose `part` column equals a value).
+/// Columns of a CSV file (optionally only the rows whose `part` column equals a value, a row
+/// range, and block means of `decimate` samples).
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CsvColumns {
@@ -95,15 +101,43 @@ pub struct CsvColumns {
     /// Keep only rows whose `part` column equals this.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub part: Option<String>,
+    /// Keep the data rows `[start, end)` (0-based, after `part`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rows: Option<[usize; 2]>,
+    /// Replace each block of `decimate` samples by its mean (1: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decimate: Option<usize>,
 }
 
-/// Measured data: steady-state samples (`u` = steady input `ū`, signed; `y` = `ȳ`) and a
-/// dynamic record.
+/// One record or a list of records.
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(untagged)]
+pub enum OneOrMany<T> {
+    One(T),
+    Many(Vec<T>),
+}
+
+impl<T> OneOrMany<T> {
+    /// The items in order.
+    pub fn items(&self) -> Vec<&T> {
+        match self {
+            OneOrMany::One(t) => vec![t],
+            OneOrMany::Many(v) => v.iter().collect(),
+        }
+    }
+}
+
+/// Measured data: optional steady-state samples (`u` = steady input `ū`, signed; `y` = `ȳ`) and
+/// one or more dynamic records (the training records).
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DataSpec {
-    pub steady_state: CsvColumns,
-    pub dynamic: CsvColumns,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub steady_state: Option<CsvColumns>,
+    pub dynamic: OneOrMany<CsvColumns>,
+    /// Sample time of the raw data in seconds (default 1); decimation multiplies it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dt: Option<f64>,
 }
 
 fn d_seed() -> u64 {
@@ -226,6 +260,10 @@ pub struct SteadySpec {
     pub max: f64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub half_period: Option<usize>,
+    /// Play the amplitudes in a random order (drawn from the experiment's seed) instead of
+    /// ascending: time and amplitude decorrelate, so a sensor drift cannot pass for a slope.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub shuffle: bool,
 }
 impl Default for SteadySpec {
     fn default() -> Self {
@@ -234,6 +272,7 @@ impl Default for SteadySpec {
             min: 0.6,
             max: 3.0,
             half_period: None,
+            shuffle: false,
         }
     }
 }
@@ -248,6 +287,17 @@ pub struct DynamicSpec {
     pub amplitude: f64,
     #[serde(default = "d_hold")]
     pub hold: usize,
+    /// Number of input levels: 2 (default) is the binary PRBS `±amplitude`; more draws each
+    /// held value's magnitude from `levels/2` equally spaced values in `(0, amplitude]`, with
+    /// the PRBS's sign.
+    #[serde(default = "d_levels", skip_serializing_if = "is_two")]
+    pub levels: usize,
+}
+fn d_levels() -> usize {
+    2
+}
+fn is_two(n: &usize) -> bool {
+    *n == 2
 }
 impl Default for DynamicSpec {
     fn default() -> Self {
@@ -255,6 +305,7 @@ impl Default for DynamicSpec {
             length: 100,
             amplitude: 1.0,
             hold: 1,
+            levels: 2,
         }
     }
 }
@@ -267,6 +318,10 @@ impl ExperimentSpec {
             max: self.steady_state.max,
             half_period: self.steady_state.half_period,
             settle: self.filter.settle,
+            shuffle: self
+                .steady_state
+                .shuffle
+                .then_some(self.seed ^ 0x5eed_5eed_5eed_5eed),
         }
     }
     pub fn dynamic_options(&self) -> DynamicOptions {
@@ -274,6 +329,7 @@ impl ExperimentSpec {
             length: self.dynamic.length,
             amplitude: self.dynamic.amplitude,
             hold: self.dynamic.hold,
+            levels: self.dynamic.levels,
         }
     }
 }
@@ -289,12 +345,28 @@ pub struct ModelSpec {
     pub na: usize,
     /// Order of `B(q^-1)` (coefficients `b_0..b_nb`).
     pub nb: usize,
-    /// Coefficients known in advance, by name (`a1`.., `b0`..), e.g. `{b0: 0}`.
+    /// Input delay in samples: the equation reads `v_{t-nk-j}` (default 0).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub nk: usize,
+    /// Coefficients known in advance, by name (`a1`.., `b0`.., effect coefficients), e.g.
+    /// `{b0: 0}`.
     #[serde(default)]
     pub fixed: BTreeMap<String, f64>,
     /// Impose the unit steady-state gain of eq (8).
     #[serde(default = "d_true")]
     pub unit_gain: bool,
+    /// Effects: further terms of the model (delay, actuator lag, sensor offset or drift,
+    /// friction...), each a registered `type`; their values are identified, not given.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub effects: Vec<Box<dyn Effect>>,
+    /// Prior box `[lo, hi]` of every parameter the branch and bound bisects (sensor
+    /// parameters of effects), by name, e.g. `{offset: [-0.1, 0.1]}`.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub prior: BTreeMap<String, [f64; 2]>,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// The α allowance of eqs (14)-(15).
@@ -325,6 +397,39 @@ pub struct MethodSpec {
     /// (default: yes for every method but `classical`, which keeps the paper's choice).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub band_samples: Option<bool>,
+    /// Budget of the branch and bound over the bisected parameters (see [`CellSpec`]).
+    #[serde(default)]
+    pub cells: CellSpec,
+}
+
+fn d_depth() -> u32 {
+    30
+}
+fn d_max_cells() -> usize {
+    4000
+}
+
+/// Budget of the branch and bound ([`crate::cells`]): each bisected parameter is halved until
+/// its cell is narrower than the parameter's resolution (set by its effect from the noise
+/// bound: `Δη/2` for an offset) or `depth` times, and at most `max_cells` cells are evaluated;
+/// past the budget the hull of the cells kept so far is reported (still guaranteed, looser) and
+/// the report says the budget stopped it.
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CellSpec {
+    #[serde(default = "d_depth")]
+    pub depth: u32,
+    #[serde(default = "d_max_cells")]
+    pub max_cells: usize,
+}
+
+impl Default for CellSpec {
+    fn default() -> Self {
+        CellSpec {
+            depth: d_depth(),
+            max_cells: d_max_cells(),
+        }
+    }
 }
 
 impl MethodSpec {
@@ -391,31 +496,9 @@ impl Spec {
         Spec::parse(&text, path)
     }
 
-    /// Parameter count and the θ-index of each fixed coefficient.
+    /// The θ-index of each fixed coefficient (see [`ModelSpec::layout`]).
     pub fn fixed_theta(&self) -> Result<Vec<Option<f64>>> {
-        let names = crate::stage3::theta_names(self.model.na, self.model.nb);
-        let mut out = vec![None; names.len()];
-        for (k, v) in &self.model.fixed {
-            let Some(i) = names.iter().position(|n| n == k) else {
-                return Err(SmidError::invalid(
-                    format!("model.fixed.{k}"),
-                    format!(
-                        "no such coefficient for na = {}, nb = {}; expected one of {}",
-                        self.model.na,
-                        self.model.nb,
-                        names.join(", ")
-                    ),
-                ));
-            };
-            if !v.is_finite() {
-                return Err(SmidError::invalid(
-                    format!("model.fixed.{k}"),
-                    "expected a finite number",
-                ));
-            }
-            out[i] = Some(*v);
-        }
-        Ok(out)
+        Ok(self.model.layout()?.fixed)
     }
 
     /// Checks beyond the types; errors name the field.
@@ -439,12 +522,30 @@ impl Spec {
                 }
                 o => o,
             })?;
+            for (i, e) in sim.effects.iter().enumerate() {
+                e.validate_plant().map_err(|err| match err {
+                    SmidError::Invalid { field, message } => {
+                        SmidError::invalid(format!("plant.simulator.effects[{i}].{field}"), message)
+                    }
+                    o => o,
+                })?;
+            }
         }
         self.noise.delta()?;
-        if self.model.na > 8 || self.model.nb > 8 {
+        let layout = self.model.layout()?;
+        if layout.orders.na > 8 || layout.orders.nb > 8 {
             return Err(SmidError::invalid(
                 "model.na",
-                "orders above 8 are not supported by the orthant method (2^na LPs)",
+                "orders above 8 (effects included) are not supported by the orthant method (2^na LPs)",
+            ));
+        }
+        if layout.orders.nk > 1000 {
+            return Err(SmidError::invalid(
+                "model.nk",
+                format!(
+                    "expected a delay of at most 1000 samples, got {}",
+                    layout.orders.nk
+                ),
             ));
         }
         if !self.model.nonlinearity.supports(self.model.structure) {
@@ -456,7 +557,6 @@ impl Spec {
                 ),
             ));
         }
-        self.fixed_theta()?;
         let f = &self.experiment.filter;
         if let Some(a) = f.pole {
             if !(0.0..1.0).contains(&a) {

@@ -94,7 +94,7 @@ impl Nonlinearity for DeadZone {
 pub struct DeadZoneModel {}
 
 /// The two exact branch polygons in `(m, m·c)` coordinates.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct DeadZoneSet {
     /// Left branch `w = m_l x + m_l c_l` (for `x <= -c_l`), coordinates `(m_l, m_l c_l)`.
     pub left: Polygon,
@@ -248,6 +248,7 @@ impl DeadZoneSet {
     }
 }
 
+#[typetag::serde(name = "dead_zone")]
 impl NonlinearitySet for DeadZoneSet {
     fn parameters(&self) -> Vec<ParameterBound> {
         let b = |name: &str, i: Interval| ParameterBound {
@@ -319,6 +320,8 @@ mod tests {
                     alpha: 0.0,
                     rising: u > 0.0,
                     index: i,
+                    time: None,
+                    step: None,
                 });
             }
         }

@@ -1,551 +1,423 @@
 //! # smid-effects
 //!
-//! The bundled effect plugins of `smid diagnose` (see `smid_diagnose::effect` for the LIP
-//! equation they augment). Each computes its regressor columns (causal: column `t` reads
-//! `u[..=t]` and `y[..t]`) or changes the orders:
+//! The bundled effects: terms of the one model (see `smid_core::effect` for the model they
+//! extend), each usable in a model (`model.effects`, values open, bounded by identification) and
+//! in the built-in simulator (`plant.simulator.effects`, true values given):
 //!
-//! | tag | augments | signature in the residual |
-//! |---|---|---|
-//! | `delay` | `nk += 1` (input or output dead time: the same for a linear block) | `u_{t-nk-nb}` |
-//! | `extra_pole` | `na += 1` | `y_{t-na-1}` |
-//! | `extra_zero` | `nb += 1` | `u_{t-nk-nb}` |
-//! | `offset` | column `1` | constant |
-//! | `drift` | columns `1`, `t·dt` | time |
-//! | `coulomb_friction` | column `sign(v_t)` | sign of the velocity |
-//! | `viscous_friction` | column `v_t` | velocity |
-//! | `play` | maps the input: `bl_w(u)`, width `w` by 1-D search | `bl_w(u) - u` |
-//! | `dead_zone` | maps the input: `dz_w(u)`, width by 1-D search | `dz_w(u) - u` |
-//! | `saturation` | maps the input: `sat_L(u)`, level by 1-D search | `sat_L(u) - u` |
-//! | `quantization` | bound `+ q/2 (1+Σ|a_i|)`, step `q` from the output grid | none (grid test) |
+//! | tag | kind | model | plant (true values) |
+//! |---|---|---|---|
+//! | `delay` | order | `nk += samples` | input delayed by `samples` |
+//! | `actuator_lag` | order | `na += 1` (one more pole) | unit-gain lag `(1-p)/(1-p q^-1)` before the linear block |
+//! | `extra_zero` | order | `nb += 1` | unit-gain zero `(1 + z q^-1)/(1+z)` |
+//! | `offset` | sensor | `s_t = offset`, bisected | `y += offset` |
+//! | `drift` | sensor | `s_t = offset + drift·t` (t: sample of the record), bisected | `y += offset + drift·t` |
+//! | `quantization` | sensor | `|s_t| <= step/2`, `step` declared | `w` rounded to the step |
+//! | `coulomb_friction` | equation | `c · sign(u_t - u_{t-1})` (0 below 1e-3 of the largest move) | the same term with `value` |
+//! | `viscous_friction` | equation | `c · (u_t - u_{t-1})/dt` | the same term with `value` |
 //!
-//! The velocity `v_t` is of the input (`u_t - u_{t-1}`, e.g. an imposed displacement; of the mapped
-//! input when a play or other input map comes earlier in the list) or of the
-//! output (`y_{t-1} - y_{t-2}`, e.g. a measured position; one sample late, to stay causal).
+//! Equation terms use the input velocity: they vanish at steady state, so stage 1 holds.
 #![forbid(unsafe_code)]
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
-use smid_diagnose::effect::{lag, Column, Effect, Orders, Record};
-use smid_diagnose::register_effect;
+use smid_core::effect::{Column, DataScale, Effect, Orders, Signals};
+use smid_core::interval::Interval;
+use smid_core::register_effect;
+use smid_core::{Result, SmidError};
 
-fn ones(rec: &Record) -> Vec<f64> {
-    vec![1.0; rec.y.len()]
-}
-
-/// A constant output offset.
-#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct Offset {}
-
-#[typetag::serde(name = "offset")]
-impl Effect for Offset {
-    fn label(&self) -> String {
-        "constant offset".into()
-    }
-    fn boxed(&self) -> Box<dyn Effect> {
-        Box::new(self.clone())
-    }
-    fn columns(&self, rec: &Record, _o: &Orders) -> Vec<Column> {
-        vec![Column {
-            name: "offset".into(),
-            values: ones(rec),
-        }]
+/// A true value a simulator needs: present and finite, else an error naming the field.
+fn need(v: Option<f64>, field: &str) -> Result<f64> {
+    match v {
+        Some(x) if x.is_finite() => Ok(x),
+        Some(x) => Err(SmidError::invalid(
+            field,
+            format!("expected a finite number, got {x}"),
+        )),
+        None => Err(SmidError::invalid(
+            field,
+            "a simulator needs the true value of this effect",
+        )),
     }
 }
-register_effect!("offset", Offset, 10, Offset {}, [Offset {}]);
 
-/// A slow linear drift (with its own constant).
-#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct Drift {}
-
-#[typetag::serde(name = "drift")]
-impl Effect for Drift {
-    fn label(&self) -> String {
-        "linear drift".into()
-    }
-    fn boxed(&self) -> Box<dyn Effect> {
-        Box::new(self.clone())
-    }
-    fn columns(&self, rec: &Record, _o: &Orders) -> Vec<Column> {
-        vec![
-            Column {
-                name: "drift_time".into(),
-                values: (0..rec.y.len()).map(|t| t as f64 * rec.dt).collect(),
-            },
-            Column {
-                name: "offset".into(),
-                values: ones(rec),
-            },
-        ]
-    }
+fn opt(name: &str, v: Option<f64>) -> Vec<(String, f64)> {
+    v.map(|x| vec![(name.to_string(), x)]).unwrap_or_default()
 }
-register_effect!("drift", Drift, 20, Drift {}, [Drift {}]);
 
-/// One more sample of dead time.
-#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
+fn one() -> usize {
+    1
+}
+
+/// Dead time of the linear block: the equation reads the input `samples` later.
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
-pub struct Delay {}
+pub struct Delay {
+    /// Samples of delay (default 1).
+    #[serde(default = "one")]
+    pub samples: usize,
+}
 
 #[typetag::serde(name = "delay")]
 impl Effect for Delay {
     fn label(&self) -> String {
-        "one more sample of delay".into()
+        if self.samples == 1 {
+            "one more sample of delay".into()
+        } else {
+            format!("{} more samples of delay", self.samples)
+        }
     }
-    fn boxed(&self) -> Box<dyn Effect> {
-        Box::new(self.clone())
+    fn orders(&self, o: &mut Orders) {
+        o.nk += self.samples;
     }
-    fn augment_orders(&self, o: &mut Orders) {
-        o.nk += 1;
+    fn validate_plant(&self) -> Result<()> {
+        if self.samples == 0 || self.samples > 1000 {
+            return Err(SmidError::invalid("samples", "expected 1..=1000"));
+        }
+        Ok(())
+    }
+    fn plant_factor(&self) -> Option<(Vec<f64>, Vec<f64>)> {
+        let mut b = vec![0.0; self.samples + 1];
+        b[self.samples] = 1.0;
+        Some((Vec::new(), b))
     }
 }
-register_effect!("delay", Delay, 5, Delay {}, [Delay {}]);
+register_effect!(
+    "delay",
+    Delay,
+    5,
+    Delay { samples: 1 },
+    [Delay { samples: 1 }]
+);
 
-/// One more pole.
-#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
+/// One more pole: a first-order actuator lag of unit gain before the linear block.
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
-pub struct ExtraPole {}
+pub struct ActuatorLag {
+    /// The lag's pole `p` (`0 <= p < 1`; true value, simulator only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pole: Option<f64>,
+}
 
-#[typetag::serde(name = "extra_pole")]
-impl Effect for ExtraPole {
+#[typetag::serde(name = "actuator_lag")]
+impl Effect for ActuatorLag {
     fn label(&self) -> String {
-        "one more pole".into()
+        "one more pole (actuator lag)".into()
     }
-    fn boxed(&self) -> Box<dyn Effect> {
-        Box::new(self.clone())
-    }
-    fn augment_orders(&self, o: &mut Orders) {
+    fn orders(&self, o: &mut Orders) {
         o.na += 1;
     }
+    fn validate_plant(&self) -> Result<()> {
+        let p = need(self.pole, "pole")?;
+        if !(0.0..1.0).contains(&p) {
+            return Err(SmidError::invalid(
+                "pole",
+                format!("expected 0 <= p < 1, got {p}"),
+            ));
+        }
+        Ok(())
+    }
+    fn plant_factor(&self) -> Option<(Vec<f64>, Vec<f64>)> {
+        let p = self.pole.unwrap_or(0.0);
+        Some((vec![-p], vec![1.0 - p]))
+    }
+    fn truth(&self) -> Vec<(String, f64)> {
+        opt("actuator_pole", self.pole)
+    }
 }
-register_effect!("extra_pole", ExtraPole, 6, ExtraPole {}, [ExtraPole {}]);
+register_effect!(
+    "actuator_lag",
+    ActuatorLag,
+    6,
+    ActuatorLag { pole: Some(0.3) },
+    [ActuatorLag { pole: None }]
+);
 
-/// One more zero.
-#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
+/// One more zero, of unit gain: `(1 + z q^-1)/(1 + z)`.
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
-pub struct ExtraZero {}
+pub struct ExtraZero {
+    /// The zero's coefficient `z` (`|z| < 1`; true value, simulator only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub zero: Option<f64>,
+}
 
 #[typetag::serde(name = "extra_zero")]
 impl Effect for ExtraZero {
     fn label(&self) -> String {
         "one more zero".into()
     }
-    fn boxed(&self) -> Box<dyn Effect> {
-        Box::new(self.clone())
-    }
-    fn augment_orders(&self, o: &mut Orders) {
+    fn orders(&self, o: &mut Orders) {
         o.nb += 1;
     }
-}
-register_effect!("extra_zero", ExtraZero, 7, ExtraZero {}, [ExtraZero {}]);
-
-/// Which signal's velocity drives a friction term.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(rename_all = "lowercase")]
-pub enum Velocity {
-    /// `u_t - u_{t-1}`.
-    Input,
-    /// `y_{t-1} - y_{t-2}`.
-    Output,
-}
-
-fn velocity(rec: &Record, v: Velocity) -> Vec<f64> {
-    (0..rec.y.len())
-        .map(|t| match v {
-            Velocity::Input => {
-                if t >= 1 {
-                    rec.u[t] - rec.u[t - 1]
-                } else {
-                    0.0
-                }
-            }
-            Velocity::Output => lag(&rec.y, t, 1) - lag(&rec.y, t, 2),
-        })
-        .collect()
-}
-
-fn vname(v: Velocity) -> &'static str {
-    match v {
-        Velocity::Input => "input",
-        Velocity::Output => "output",
+    fn validate_plant(&self) -> Result<()> {
+        let z = need(self.zero, "zero")?;
+        if !(z.abs() < 1.0) {
+            return Err(SmidError::invalid(
+                "zero",
+                format!("expected |z| < 1, got {z}"),
+            ));
+        }
+        Ok(())
     }
-}
-
-/// Dry (Coulomb) friction: a force `F_c sign(v)`.
-#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct CoulombFriction {
-    pub velocity: Velocity,
-}
-
-#[typetag::serde(name = "coulomb_friction")]
-impl Effect for CoulombFriction {
-    fn label(&self) -> String {
-        format!("Coulomb friction ({} velocity)", vname(self.velocity))
-    }
-    fn boxed(&self) -> Box<dyn Effect> {
-        Box::new(self.clone())
-    }
-    fn columns(&self, rec: &Record, _o: &Orders) -> Vec<Column> {
-        let v = velocity(rec, self.velocity);
-        let scale = v.iter().fold(0.0f64, |m, x| m.max(x.abs())) * 1e-9;
-        vec![Column {
-            name: format!("coulomb_{}", vname(self.velocity)),
-            values: v
-                .iter()
-                .map(|x| if x.abs() <= scale { 0.0 } else { x.signum() })
-                .collect(),
-        }]
+    fn plant_factor(&self) -> Option<(Vec<f64>, Vec<f64>)> {
+        let z = self.zero.unwrap_or(0.0);
+        Some((Vec::new(), vec![1.0 / (1.0 + z), z / (1.0 + z)]))
     }
 }
 register_effect!(
-    "coulomb_friction",
-    CoulombFriction,
-    30,
-    CoulombFriction {
-        velocity: Velocity::Input
+    "extra_zero",
+    ExtraZero,
+    7,
+    ExtraZero { zero: Some(0.5) },
+    [ExtraZero { zero: None }]
+);
+
+/// A constant sensor offset: `y = w + offset + η`.
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Offset {
+    /// True offset (simulator only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value: Option<f64>,
+}
+
+#[typetag::serde(name = "offset")]
+impl Effect for Offset {
+    fn label(&self) -> String {
+        "sensor offset".into()
+    }
+    fn cell_parameters(&self) -> Vec<String> {
+        vec!["offset".into()]
+    }
+    fn sensor(&self, _t: Option<usize>, cell: &[Interval]) -> Result<Interval> {
+        Ok(cell[0])
+    }
+    fn validate_plant(&self) -> Result<()> {
+        need(self.value, "value").map(|_| ())
+    }
+    fn plant_output(&self, _t: usize, w: f64) -> f64 {
+        w + self.value.unwrap_or(0.0)
+    }
+    fn truth(&self) -> Vec<(String, f64)> {
+        opt("offset", self.value)
+    }
+}
+register_effect!(
+    "offset",
+    Offset,
+    10,
+    Offset { value: Some(0.01) },
+    [Offset { value: None }]
+);
+
+/// A drifting sensor offset: `y_t = w_t + offset + drift·t + η_t`, `t` the sample index in its
+/// record (the drift restarts with each record, as a sensor re-zeroed at each run).
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Drift {
+    /// True offset at `t = 0` (simulator only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset: Option<f64>,
+    /// True drift per sample (simulator only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rate: Option<f64>,
+}
+
+#[typetag::serde(name = "drift")]
+impl Effect for Drift {
+    fn label(&self) -> String {
+        "sensor drift".into()
+    }
+    fn cell_parameters(&self) -> Vec<String> {
+        vec!["offset".into(), "drift".into()]
+    }
+    fn default_prior(&self, s: &DataScale) -> Vec<Interval> {
+        let r = 2.0 * s.y_max / s.length.max(1) as f64;
+        vec![Interval::new(-s.y_max, s.y_max), Interval::new(-r, r)]
+    }
+    fn resolution(&self, delta: f64, s: &DataScale) -> Vec<f64> {
+        vec![0.5 * delta, 0.5 * delta / s.length.max(1) as f64]
+    }
+    fn sensor(&self, t: Option<usize>, cell: &[Interval]) -> Result<Interval> {
+        let t = t.ok_or_else(|| {
+            SmidError::invalid(
+                "model.effects: drift",
+                "a drift needs the sample time of every output (steady-state points without a time)",
+            )
+        })? as f64;
+        Ok(Interval::new(
+            cell[0].lo + cell[1].lo * t,
+            cell[0].hi + cell[1].hi * t,
+        ))
+    }
+    fn validate_plant(&self) -> Result<()> {
+        need(self.offset, "offset")?;
+        need(self.rate, "rate").map(|_| ())
+    }
+    fn plant_output(&self, t: usize, w: f64) -> f64 {
+        w + (self.offset.unwrap_or(0.0) + self.rate.unwrap_or(0.0) * t as f64)
+    }
+    fn truth(&self) -> Vec<(String, f64)> {
+        let mut v = opt("offset", self.offset);
+        v.extend(opt("drift", self.rate));
+        v
+    }
+}
+register_effect!(
+    "drift",
+    Drift,
+    20,
+    Drift {
+        offset: Some(0.01),
+        rate: Some(1e-5)
     },
-    [
-        CoulombFriction {
-            velocity: Velocity::Input
-        },
-        CoulombFriction {
-            velocity: Velocity::Output
-        }
-    ]
+    [Drift {
+        offset: None,
+        rate: None
+    }]
 );
 
-/// Viscous friction: a force `F_v v`.
-#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct ViscousFriction {
-    pub velocity: Velocity,
-}
-
-#[typetag::serde(name = "viscous_friction")]
-impl Effect for ViscousFriction {
-    fn label(&self) -> String {
-        format!("viscous friction ({} velocity)", vname(self.velocity))
-    }
-    fn boxed(&self) -> Box<dyn Effect> {
-        Box::new(self.clone())
-    }
-    fn columns(&self, rec: &Record, _o: &Orders) -> Vec<Column> {
-        vec![Column {
-            name: format!("viscous_{}", vname(self.velocity)),
-            values: velocity(rec, self.velocity),
-        }]
-    }
-}
-register_effect!(
-    "viscous_friction",
-    ViscousFriction,
-    31,
-    ViscousFriction {
-        velocity: Velocity::Input
-    },
-    [
-        ViscousFriction {
-            velocity: Velocity::Input
-        },
-        ViscousFriction {
-            velocity: Velocity::Output
-        }
-    ]
-);
-
-/// Scale of the input (max |u| over the training records).
-fn umax(train: &[Record]) -> f64 {
-    train
-        .iter()
-        .flat_map(|r| r.u.iter())
-        .fold(0.0f64, |m, x| m.max(x.abs()))
-}
-
-/// Pick the setting with the lowest score: the grid `lo + k·step` (`k = 0..n`), then two
-/// refinements of 9 points around the best; `make` builds the variant.
-/// Tune a one-setting input map: keep a given setting, else search it on the grid
-/// `umax · (lo + k·step)`, `k < n`, over the training input's range.
-fn tune_setting(
-    given: Option<f64>,
-    me: &dyn Effect,
-    train: &[Record],
-    (lo, step, n): (f64, f64, usize),
-    make: impl Fn(f64) -> Box<dyn Effect>,
-    score: &dyn Fn(&dyn Effect) -> f64,
-) -> Option<Box<dyn Effect>> {
-    if given.is_some() {
-        return Some(me.boxed());
-    }
-    let m = umax(train);
-    search(m * lo, m * step, n, make, score)
-}
-
-/// The report line of a one-setting effect.
-fn setting(name: &str, value: Option<f64>) -> Vec<(String, f64)> {
-    value.map(|v| vec![(name.into(), v)]).unwrap_or_default()
-}
-
-fn search(
-    lo: f64,
-    step: f64,
-    n: usize,
-    make: impl Fn(f64) -> Box<dyn Effect>,
-    score: &dyn Fn(&dyn Effect) -> f64,
-) -> Option<Box<dyn Effect>> {
-    if !(step > 0.0 && step.is_finite()) {
-        return None;
-    }
-    let mut best: Option<(f64, f64)> = None;
-    let try_at = |w: f64, best: &mut Option<(f64, f64)>| {
-        if w > 0.0 {
-            let s = score(make(w).as_ref());
-            if s.is_finite() && best.map(|b| s < b.1).unwrap_or(true) {
-                *best = Some((w, s));
-            }
-        }
-    };
-    for k in 0..n {
-        try_at(lo + step * k as f64, &mut best);
-    }
-    let mut h = step;
-    for _ in 0..2 {
-        let c = best?.0;
-        h /= 4.0;
-        for k in -4i32..=4 {
-            try_at(c + h * k as f64, &mut best);
-        }
-    }
-    best.map(|(w, _)| make(w))
-}
-
-/// A second play (backlash) of total width `width` on the input.
-#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct Play {
-    /// Total play width (input units); open (searched on the data) when absent.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub width: Option<f64>,
-}
-
-/// Backlash of total width `w` (starting centred on the first sample).
-pub fn backlash(u: &[f64], w: f64) -> Vec<f64> {
-    let h = w / 2.0;
-    let mut x = u.first().copied().unwrap_or(0.0);
-    u.iter()
-        .map(|&v| {
-            x = x.clamp(v - h, v + h);
-            x
-        })
-        .collect()
-}
-
-#[typetag::serde(name = "play")]
-impl Effect for Play {
-    fn label(&self) -> String {
-        "play (backlash) on the input".into()
-    }
-    fn boxed(&self) -> Box<dyn Effect> {
-        Box::new(self.clone())
-    }
-    fn map_input(&self, u: &[f64]) -> Option<Vec<f64>> {
-        Some(backlash(u, self.width.unwrap_or(0.0)))
-    }
-    fn tune(
-        &self,
-        train: &[Record],
-        _o: &Orders,
-        score: &dyn Fn(&dyn Effect) -> f64,
-    ) -> Option<Box<dyn Effect>> {
-        let make = |w| Box::new(Play { width: Some(w) }) as Box<dyn Effect>;
-        tune_setting(self.width, self, train, (0.04, 0.04, 24), make, score)
-    }
-    fn settings(&self) -> Vec<(String, f64)> {
-        setting("width", self.width)
-    }
-}
-register_effect!(
-    "play",
-    Play,
-    40,
-    Play { width: Some(0.6) },
-    [Play { width: None }]
-);
-
-/// A dead zone `|u| <= width` on the input.
-#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct DeadZone {
-    /// Half-width of the zone (input units); searched when absent.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub width: Option<f64>,
-}
-
-#[typetag::serde(name = "dead_zone")]
-impl Effect for DeadZone {
-    fn label(&self) -> String {
-        "dead zone on the input".into()
-    }
-    fn boxed(&self) -> Box<dyn Effect> {
-        Box::new(self.clone())
-    }
-    fn map_input(&self, u: &[f64]) -> Option<Vec<f64>> {
-        let w = self.width.unwrap_or(0.0);
-        Some(
-            u.iter()
-                .map(|&v| v.signum() * (v.abs() - w).max(0.0))
-                .collect(),
-        )
-    }
-    fn tune(
-        &self,
-        train: &[Record],
-        _o: &Orders,
-        score: &dyn Fn(&dyn Effect) -> f64,
-    ) -> Option<Box<dyn Effect>> {
-        let make = |w| Box::new(DeadZone { width: Some(w) }) as Box<dyn Effect>;
-        tune_setting(self.width, self, train, (0.04, 0.04, 18), make, score)
-    }
-    fn settings(&self) -> Vec<(String, f64)> {
-        setting("width", self.width)
-    }
-}
-register_effect!(
-    "dead_zone",
-    DeadZone,
-    41,
-    DeadZone { width: Some(0.4) },
-    [DeadZone { width: None }]
-);
-
-/// Input saturation at `±level`.
-#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct Saturation {
-    /// Saturation level (input units); searched when absent.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub level: Option<f64>,
-}
-
-#[typetag::serde(name = "saturation")]
-impl Effect for Saturation {
-    fn label(&self) -> String {
-        "saturation of the input".into()
-    }
-    fn boxed(&self) -> Box<dyn Effect> {
-        Box::new(self.clone())
-    }
-    fn map_input(&self, u: &[f64]) -> Option<Vec<f64>> {
-        let l = self.level.unwrap_or(f64::INFINITY);
-        Some(u.iter().map(|&v| v.clamp(-l, l)).collect())
-    }
-    fn tune(
-        &self,
-        train: &[Record],
-        _o: &Orders,
-        score: &dyn Fn(&dyn Effect) -> f64,
-    ) -> Option<Box<dyn Effect>> {
-        let make = |l| Box::new(Saturation { level: Some(l) }) as Box<dyn Effect>;
-        tune_setting(self.level, self, train, (0.16, 0.04, 21), make, score)
-    }
-    fn settings(&self) -> Vec<(String, f64)> {
-        setting("level", self.level)
-    }
-}
-register_effect!(
-    "saturation",
-    Saturation,
-    42,
-    Saturation { level: Some(0.5) },
-    [Saturation { level: None }]
-);
-
-/// Output (sensor) quantization with step `step`.
-#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
+/// A sensor coarser than the noise bound says: the output is rounded to a known step, an
+/// error of at most `step/2` beside the declared noise. The step is declared, not identified
+/// (a step inferred from data would only be the smallest consistent noise bound, which
+/// `smid validate` reports), so this effect is no diagnosis candidate.
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Quantization {
-    /// Quantizer step; estimated from the output grid when absent.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub step: Option<f64>,
-}
-
-/// The grid step of `y` if at least 99% of the samples lie on a grid `y_0 + k q` and the grid
-/// is coarse (fewer distinct levels than half the samples); otherwise `None`.
-pub fn grid_step(y: &[f64]) -> Option<f64> {
-    if y.len() < 20 {
-        return None;
-    }
-    let mut v: Vec<f64> = y.to_vec();
-    v.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
-    let span = v[v.len() - 1] - v[0];
-    if span <= 0.0 {
-        return None;
-    }
-    let tol = 1e-9 * span;
-    let mut levels = vec![v[0]];
-    for &x in &v[1..] {
-        if x - levels[levels.len() - 1] > tol {
-            levels.push(x);
-        }
-    }
-    if levels.len() * 2 > y.len() || levels.len() < 3 {
-        return None;
-    }
-    let q = levels
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .fold(f64::INFINITY, f64::min);
-    let y0 = v[0];
-    let on = y
-        .iter()
-        .filter(|x| {
-            let k = (*x - y0) / q;
-            (k - k.round()).abs() < 1e-3
-        })
-        .count();
-    (on as f64 >= 0.99 * y.len() as f64).then_some(q)
+    /// The quantiser's step (`> 0`).
+    pub step: f64,
 }
 
 #[typetag::serde(name = "quantization")]
 impl Effect for Quantization {
     fn label(&self) -> String {
-        "output quantization".into()
+        format!("output quantization (step {:.3e})", self.step)
     }
-    fn boxed(&self) -> Box<dyn Effect> {
-        Box::new(self.clone())
-    }
-    fn extra_bound(&self, one_plus_sum_abs_a: f64) -> f64 {
-        self.step.unwrap_or(0.0) / 2.0 * one_plus_sum_abs_a
-    }
-    fn tune(
-        &self,
-        train: &[Record],
-        _o: &Orders,
-        _score: &dyn Fn(&dyn Effect) -> f64,
-    ) -> Option<Box<dyn Effect>> {
-        if self.step.is_some() {
-            return Some(self.boxed());
+    fn sensor(&self, _t: Option<usize>, _cell: &[Interval]) -> Result<Interval> {
+        if !(self.step.is_finite() && self.step > 0.0) {
+            return Err(SmidError::invalid(
+                "model.effects: quantization.step",
+                format!("expected a step > 0, got {}", self.step),
+            ));
         }
-        let ys: Vec<f64> = train.iter().flat_map(|r| r.y.iter().copied()).collect();
-        grid_step(&ys).map(|q| Box::new(Quantization { step: Some(q) }) as Box<dyn Effect>)
+        let h = 0.5 * self.step;
+        Ok(Interval::new(-h, h))
     }
-    fn measure(&self, y: &[f64]) -> Vec<f64> {
-        match self.step {
-            Some(q) if q > 0.0 => y.iter().map(|v| q * (v / q).round()).collect(),
-            _ => y.to_vec(),
+    fn validate_plant(&self) -> Result<()> {
+        if !(self.step.is_finite() && self.step > 0.0) {
+            return Err(SmidError::invalid("step", "expected a step > 0"));
         }
+        Ok(())
+    }
+    fn plant_output(&self, _t: usize, w: f64) -> f64 {
+        self.step * (w / self.step).round()
     }
     fn settings(&self) -> Vec<(String, f64)> {
-        self.step
-            .map(|w| vec![("step".into(), w)])
-            .unwrap_or_default()
+        vec![("step".into(), self.step)]
     }
 }
 register_effect!(
     "quantization",
     Quantization,
     50,
-    Quantization { step: Some(0.08) },
-    [Quantization { step: None }]
+    Quantization { step: 0.005 },
+    []
+);
+
+/// `u_t - u_{t-1}` (0 at the first sample).
+fn input_difference(u: &[f64]) -> Vec<f64> {
+    (0..u.len())
+        .map(|t| if t == 0 { 0.0 } else { u[t] - u[t - 1] })
+        .collect()
+}
+
+/// `sign(u_t - u_{t-1})`, 0 while the input moves by less than 1e-3 of its largest move (the
+/// friction of a drive at rest, or creeping to a level: the term vanishes at steady state, as
+/// stage 1 assumes, even under the filtered square wave).
+fn coulomb_column(u: &[f64]) -> Vec<f64> {
+    let d = input_difference(u);
+    let scale = d.iter().fold(0.0f64, |m, x| m.max(x.abs())) * 1e-3;
+    d.iter()
+        .map(|x| if x.abs() <= scale { 0.0 } else { x.signum() })
+        .collect()
+}
+
+/// Dry (Coulomb) friction driven by the input velocity: the term `c · sign(u_t - u_{t-1})`.
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CoulombFriction {
+    /// True coefficient (simulator only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value: Option<f64>,
+}
+
+#[typetag::serde(name = "coulomb_friction")]
+impl Effect for CoulombFriction {
+    fn label(&self) -> String {
+        "Coulomb friction (input velocity)".into()
+    }
+    fn regressors(&self, s: &Signals) -> Vec<Column> {
+        vec![Column {
+            name: "coulomb".into(),
+            values: coulomb_column(s.u),
+        }]
+    }
+    fn validate_plant(&self) -> Result<()> {
+        need(self.value, "value").map(|_| ())
+    }
+    fn plant_equation(&self, s: &Signals) -> Option<Vec<f64>> {
+        let c = self.value.unwrap_or(0.0);
+        Some(coulomb_column(s.u).iter().map(|v| c * v).collect())
+    }
+    fn truth(&self) -> Vec<(String, f64)> {
+        opt("coulomb", self.value)
+    }
+}
+register_effect!(
+    "coulomb_friction",
+    CoulombFriction,
+    30,
+    CoulombFriction { value: Some(-0.05) },
+    [CoulombFriction { value: None }]
+);
+
+/// Viscous friction driven by the input velocity: the term `c · (u_t - u_{t-1})/dt`.
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ViscousFriction {
+    /// True coefficient (simulator only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value: Option<f64>,
+}
+
+#[typetag::serde(name = "viscous_friction")]
+impl Effect for ViscousFriction {
+    fn label(&self) -> String {
+        "viscous friction (input velocity)".into()
+    }
+    fn regressors(&self, s: &Signals) -> Vec<Column> {
+        vec![Column {
+            name: "viscous".into(),
+            values: input_difference(s.u).iter().map(|v| v / s.dt).collect(),
+        }]
+    }
+    fn validate_plant(&self) -> Result<()> {
+        need(self.value, "value").map(|_| ())
+    }
+    fn plant_equation(&self, s: &Signals) -> Option<Vec<f64>> {
+        let c = self.value.unwrap_or(0.0);
+        Some(input_difference(s.u).iter().map(|v| c * v / s.dt).collect())
+    }
+    fn truth(&self) -> Vec<(String, f64)> {
+        opt("viscous", self.value)
+    }
+}
+register_effect!(
+    "viscous_friction",
+    ViscousFriction,
+    31,
+    ViscousFriction { value: Some(-0.05) },
+    [ViscousFriction { value: None }]
 );
 
 /// Make this crate part of a binary (so its effects are registered).
@@ -554,18 +426,70 @@ pub fn link() {}
 #[cfg(test)]
 mod tests {
     use super::*;
+
     #[test]
-    fn backlash_holds_inside_the_play() {
-        let u = [0.0, 0.2, 0.4, 0.3, 0.0, -0.5];
-        let x = backlash(&u, 0.4);
-        assert_eq!(x, vec![0.0, 0.0, 0.2, 0.2, 0.2, -0.3]);
+    fn sensor_terms_contain_every_member_of_the_cell() {
+        let d = Drift {
+            offset: None,
+            rate: None,
+        };
+        let cell = [Interval::new(0.01, 0.02), Interval::new(-1e-4, 2e-4)];
+        let s = d.sensor(Some(100), &cell).unwrap();
+        for (o, r) in [(0.01, -1e-4), (0.02, 2e-4), (0.015, 0.0)] {
+            let v = o + r * 100.0;
+            assert!(s.contains(v), "{s:?} misses {v}");
+        }
+        assert!(d.sensor(None, &cell).is_err());
+        let q = Quantization { step: 0.2 };
+        let s = q.sensor(None, &[]).unwrap();
+        assert!(s.contains(0.1) && s.contains(-0.1) && !s.contains(0.11));
+        assert_eq!(q.plant_output(0, 0.29), 0.2);
     }
+
     #[test]
-    fn grid_is_found_only_on_quantized_data() {
-        let y: Vec<f64> = (0..200).map(|t| (t as f64 * 0.37).sin()).collect();
-        assert_eq!(grid_step(&y), None);
-        let q = Quantization { step: Some(0.1) }.measure(&y);
-        let s = grid_step(&q).unwrap();
-        assert!((s - 0.1).abs() < 1e-9, "{s}");
+    fn plant_factors_have_unit_gain_and_the_declared_order() {
+        for e in [
+            Box::new(Delay { samples: 2 }) as Box<dyn Effect>,
+            Box::new(ActuatorLag { pole: Some(0.4) }),
+            Box::new(ExtraZero { zero: Some(-0.3) }),
+        ] {
+            let (a, b) = e.plant_factor().unwrap();
+            let g = b.iter().sum::<f64>() / (1.0 + a.iter().sum::<f64>());
+            assert!((g - 1.0).abs() < 1e-12, "{e:?}: gain {g}");
+            let mut o = Orders {
+                na: 2,
+                nb: 2,
+                nk: 0,
+            };
+            e.orders(&mut o);
+            assert!(o.na >= 2 && o.nb >= 2);
+        }
+    }
+
+    #[test]
+    fn equation_terms_vanish_at_steady_state_and_match_the_plant() {
+        let u = [0.0, 1.0, 1.0, 1.0, -1.0, -1.0];
+        let s = Signals { u: &u, dt: 0.5 };
+        let c = CoulombFriction { value: Some(2.0) };
+        let col = &c.regressors(&s)[0].values;
+        assert_eq!(col, &vec![0.0, 1.0, 0.0, 0.0, -1.0, 0.0]);
+        let p = c.plant_equation(&s).unwrap();
+        assert_eq!(p, col.iter().map(|v| 2.0 * v).collect::<Vec<_>>());
+        let v = ViscousFriction { value: None };
+        assert_eq!(v.regressors(&s)[0].values[4], -4.0);
+    }
+
+    #[test]
+    fn simulator_values_are_required_and_named() {
+        let e = Offset { value: None }
+            .validate_plant()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("value"), "{e}");
+        let e = ActuatorLag { pole: Some(1.5) }
+            .validate_plant()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("pole"), "{e}");
     }
 }

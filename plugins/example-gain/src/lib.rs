@@ -51,7 +51,7 @@ impl Nonlinearity for Gain {
 pub struct GainModel {}
 
 /// The feasible interval of `k`.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
 pub struct GainSet {
     pub k: Interval,
 }
@@ -91,6 +91,7 @@ impl NonlinearityModel for GainModel {
     }
 }
 
+#[typetag::serde(name = "example_gain")]
 impl NonlinearitySet for GainSet {
     fn parameters(&self) -> Vec<ParameterBound> {
         vec![ParameterBound {

@@ -94,7 +94,7 @@ pub struct InputBacklashModel {
 }
 
 /// The feasible set: the two branch polygons, and how the propagation starts.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct InputBacklashSet {
     pub polygons: BacklashSet,
     pub at_rest: bool,
@@ -149,6 +149,7 @@ impl InputBacklashSet {
     }
 }
 
+#[typetag::serde(name = "input_backlash")]
 impl NonlinearitySet for InputBacklashSet {
     fn parameters(&self) -> Vec<ParameterBound> {
         self.polygons.parameters()
@@ -210,6 +211,8 @@ mod tests {
                     alpha: 0.0,
                     rising,
                     index: i,
+                    time: None,
+                    step: None,
                 });
             }
         }

@@ -99,7 +99,7 @@ smid_core::register_model!(
 );
 
 /// The two branch polygons in `(m, m·c)` coordinates.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct BacklashSet {
     /// Left branch: `w = m_l x + m_l c_l`, coordinates `(m_l, m_l c_l)`.
     pub left: Polygon,
@@ -174,6 +174,7 @@ impl BacklashSet {
     }
 }
 
+#[typetag::serde(name = "output_backlash")]
 impl NonlinearitySet for BacklashSet {
     fn parameters(&self) -> Vec<ParameterBound> {
         let b = |name: &str, i: Interval| ParameterBound {
@@ -260,6 +261,8 @@ mod tests {
                         alpha: 0.0,
                         rising: true,
                         index: 2 * k,
+                        time: None,
+                        step: None,
                     },
                     SteadyPoint {
                         u: -a,
@@ -268,6 +271,8 @@ mod tests {
                         alpha: 0.0,
                         rising: false,
                         index: 2 * k + 1,
+                        time: None,
+                        step: None,
                     },
                 ]
             })

@@ -120,7 +120,7 @@ fn up(v: f64) -> f64 {
 }
 
 /// The exact feasible set of one branch in `(m, s)`.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Staircase {
     /// Lower corner: `m >= lo_m`, `s >= lo_s` (rounded down).
     pub lo_m: f64,
@@ -203,7 +203,7 @@ impl Staircase {
 }
 
 /// The feasible sets of both branches.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SaturationSet {
     pub left: Staircase,
     pub right: Staircase,
@@ -291,6 +291,7 @@ impl SaturationSet {
     }
 }
 
+#[typetag::serde(name = "saturation")]
 impl NonlinearitySet for SaturationSet {
     fn parameters(&self) -> Vec<ParameterBound> {
         let b = |name: &str, i: Interval| ParameterBound {
@@ -342,6 +343,8 @@ mod tests {
                     alpha: 0.0,
                     rising: u > 0.0,
                     index: i,
+                    time: None,
+                    step: None,
                 });
             }
         }

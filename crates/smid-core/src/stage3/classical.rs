@@ -207,6 +207,16 @@ fn any_feasible(prob: &EivProblem, times: &[usize], unc: &[usize]) -> Result<boo
     Ok(false)
 }
 
+/// Whether the classical outer set is non-empty: one LP per sign orthant until one is feasible.
+/// `false` proves the data inconsistent (the outer set contains the exact one); `true` proves
+/// nothing. Far cheaper than the bounds (no objective), for pruning in a branch and bound.
+pub fn feasible(prob: &EivProblem) -> Result<bool> {
+    prob.validate()?;
+    let times = prob.equation_times();
+    let unc = uncertain_coefficients(prob, &times);
+    any_feasible(prob, &times, &unc)
+}
+
 /// Solve: per-parameter guaranteed bounds (union over orthants).
 pub fn solve(prob: &EivProblem) -> Result<EivResult> {
     let p = prob.p();

@@ -408,6 +408,12 @@ pub fn all() -> impl Iterator<Item = (EivMethod, &'static dyn Stage3Method)> {
     EivMethod::ALL.into_iter().map(|m| (m, method(m)))
 }
 
+/// A cheap necessary test of consistency: whether the classical outer set is non-empty
+/// (`false` proves that no θ fits; `true` proves nothing). See [`classical::feasible`].
+pub fn feasible(prob: &EivProblem) -> Result<bool> {
+    classical::feasible(prob)
+}
+
 /// Stage 3 by the chosen method (the pipeline's entry point).
 pub fn solve(m: EivMethod, prob: &EivProblem) -> Result<EivResult> {
     method(m).solve(prob)

@@ -1,0 +1,420 @@
+//! Branch and bound over a box of parameters that the three stages cannot bound in closed
+//! form (the sensor parameters of effects; see [`crate::effect`]), in the spirit of set
+//! inversion (SIVIA, Jaulin & Walter 1993): the prior box is cut into cells; for each cell the
+//! caller runs stages 1-3 with the cell's parameters as intervals, which either **proves** the
+//! cell inconsistent (an empty feasible set: the cell is discarded) or leaves it (feasible or
+//! undecided: it is bisected, down to a resolution per parameter, or at most `depth` halvings).
+//! A solver failure never discards a cell. The union of the surviving cells is an outer bound
+//! of the parameters; the hull of the stage results over them is an outer bound of the rest.
+//! When the cell budget runs out, the cells not yet evaluated keep their parent's result, so
+//! the hull stays guaranteed, only looser, and the result says so.
+//!
+//! Cells of one level are evaluated in parallel (rayon).
+use crate::error::{Result, SmidError, Stage};
+use crate::interval::Interval;
+use rayon::prelude::*;
+
+/// What evaluating one cell proved.
+#[derive(Debug)]
+pub enum Verdict<T> {
+    /// The cell is inconsistent with the data (the error says where): discarded.
+    Infeasible(SmidError),
+    /// The cell may hold consistent parameters; `T` holds guaranteed results over the cell.
+    Feasible(T),
+    /// The cell may hold consistent parameters but the results are not finite (e.g. stage 3
+    /// did not bound a parameter): kept.
+    Undecided,
+}
+
+/// Budget of the search.
+#[derive(Debug, Clone)]
+pub struct Budget {
+    /// Per parameter: a cell narrower than this is not halved further.
+    pub resolution: Vec<f64>,
+    /// Halvings per parameter at most.
+    pub depth: u32,
+    /// Cells tested at most (the final evaluation of the surviving cells comes on top).
+    pub max_cells: usize,
+}
+
+/// A surviving cell.
+#[derive(Debug, Clone)]
+pub struct Leaf<T> {
+    pub cell: Vec<Interval>,
+    /// The result over this cell (`None`: undecided).
+    pub value: Option<T>,
+}
+
+/// The outcome of the search.
+#[derive(Debug)]
+pub struct Search<T> {
+    pub leaves: Vec<Leaf<T>>,
+    /// Cells tested and finally evaluated.
+    pub evaluated: usize,
+    pub discarded: usize,
+    /// The budget stopped the bisection before the resolution was reached.
+    pub budget_stopped: bool,
+}
+
+impl<T> Search<T> {
+    /// Hull of the surviving cells.
+    pub fn hull(&self) -> Vec<Interval> {
+        hull_of_boxes(self.leaves.iter().map(|l| l.cell.as_slice()))
+    }
+}
+
+/// Component-wise hull of boxes (empty input: empty vector).
+pub fn hull_of_boxes<'a>(boxes: impl IntoIterator<Item = &'a [Interval]>) -> Vec<Interval> {
+    let mut out: Vec<Interval> = Vec::new();
+    for b in boxes {
+        if out.is_empty() {
+            out = b.to_vec();
+        } else {
+            for (o, i) in out.iter_mut().zip(b) {
+                *o = Interval::new(o.lo.min(i.lo), o.hi.max(i.hi));
+            }
+        }
+    }
+    out
+}
+
+/// Progress of the search, for a progress bar.
+#[derive(Debug, Clone)]
+pub struct Progress {
+    pub evaluated: usize,
+    /// Cells queued at the next level.
+    pub queued: usize,
+    pub kept: usize,
+    /// Hull of the cells kept so far at this level (empty before the first level is done).
+    pub hull: Vec<Interval>,
+}
+
+/// Halve `cell` along the parameter widest against its resolution, among those wider than it
+/// with halvings left; `None` when every parameter has reached its resolution.
+fn bisect(cell: &[Interval], depth: &[u32], b: &Budget) -> Option<[(Vec<Interval>, Vec<u32>); 2]> {
+    let ratio = |k: usize| (cell[k].hi - cell[k].lo) / b.resolution.get(k).copied().unwrap_or(0.0);
+    let k = (0..cell.len())
+        .filter(|&k| depth[k] < b.depth && cell[k].hi > cell[k].lo && ratio(k) > 1.0)
+        .max_by(|&i, &j| ratio(i).total_cmp(&ratio(j)).then(j.cmp(&i)))?;
+    let mid = cell[k].center();
+    let mut a = cell.to_vec();
+    let mut b = cell.to_vec();
+    a[k].hi = mid;
+    b[k].lo = mid;
+    let mut d = depth.to_vec();
+    d[k] += 1;
+    Some([(a, d.clone()), (b, d)])
+}
+
+/// Run the search from `prior`. Each level's cells are `test`ed in parallel (a cheap necessary
+/// condition: `Infeasible` must be a proof) and the survivors halved; the cells that reach
+/// their resolution (or are queued when the budget runs out) are then evaluated by `finish`,
+/// which gives the guaranteed results over each (and may still discard one). With no
+/// parameter to bisect, `finish` runs once on the empty cell and its errors are the result.
+/// When every cell is discarded the data falsify the model over the whole prior box: the
+/// result is the inconsistency with the latest first offending sample among the cells.
+pub fn search<T: Send + Sync>(
+    prior: &[Interval],
+    budget: Budget,
+    test: &(dyn Fn(&[Interval]) -> Result<Verdict<()>> + Sync),
+    finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
+    progress: &(dyn Fn(&Progress) + Sync),
+) -> Result<Search<T>> {
+    for (k, p) in prior.iter().enumerate() {
+        if !(p.lo.is_finite() && p.hi.is_finite() && p.lo <= p.hi) {
+            return Err(SmidError::invalid(
+                format!("model.prior[{k}]"),
+                format!("expected a finite box lo <= hi, got [{}, {}]", p.lo, p.hi),
+            ));
+        }
+    }
+    let mut evaluated = 0usize;
+    let mut discarded = 0usize;
+    let mut budget_stopped = false;
+    let mut worst: Option<SmidError> = None;
+    let note = |e: SmidError, worst: &mut Option<SmidError>| {
+        *worst = Some(match worst.take() {
+            Some(w) if later(&w, &e) => w,
+            _ => e,
+        });
+    };
+    // Cells to finish.
+    let mut finals: Vec<Vec<Interval>> = Vec::new();
+    if prior.is_empty() {
+        finals.push(Vec::new());
+    } else {
+        let mut level = vec![(prior.to_vec(), vec![0u32; prior.len()])];
+        while !level.is_empty() {
+            if evaluated + level.len() > budget.max_cells.max(1) {
+                budget_stopped = true;
+                finals.extend(level.into_iter().map(|(c, _)| c));
+                break;
+            }
+            let verdicts: Vec<Result<Verdict<()>>> =
+                level.par_iter().map(|(c, _)| test(c)).collect();
+            evaluated += level.len();
+            let mut next = Vec::new();
+            let mut kept: Vec<Vec<Interval>> = Vec::new();
+            for ((cell, depth), v) in level.into_iter().zip(verdicts) {
+                if let Verdict::Infeasible(e) = v? {
+                    discarded += 1;
+                    note(e, &mut worst);
+                    continue;
+                }
+                kept.push(cell.clone());
+                match bisect(&cell, &depth, &budget) {
+                    Some(children) => next.extend(children),
+                    None => finals.push(cell),
+                }
+            }
+            progress(&Progress {
+                evaluated,
+                queued: next.len(),
+                kept: kept.len(),
+                hull: hull_of_boxes(kept.iter().map(|c| c.as_slice())),
+            });
+            level = next;
+        }
+    }
+    let done: Vec<Result<Verdict<T>>> = finals.par_iter().map(|c| finish(c)).collect();
+    evaluated += finals.len();
+    let mut leaves = Vec::new();
+    for (cell, v) in finals.into_iter().zip(done) {
+        match v? {
+            Verdict::Infeasible(e) => {
+                discarded += 1;
+                note(e, &mut worst);
+            }
+            Verdict::Feasible(t) => leaves.push(Leaf {
+                cell,
+                value: Some(t),
+            }),
+            Verdict::Undecided => leaves.push(Leaf { cell, value: None }),
+        }
+    }
+    if leaves.is_empty() {
+        return Err(match worst {
+            Some(SmidError::Inconsistent {
+                stage,
+                sample,
+                detail,
+            }) => SmidError::Inconsistent {
+                stage,
+                sample,
+                detail: format!(
+                    "no value in the prior box of the bisected parameters fits ({evaluated} cells tried); the latest contradiction: {detail}"
+                ),
+            },
+            Some(e) => e,
+            None => SmidError::Inconsistent {
+                stage: Stage::Linear,
+                sample: 0,
+                detail: "every cell of the prior box was discarded".into(),
+            },
+        });
+    }
+    Ok(Search {
+        leaves,
+        evaluated,
+        discarded,
+        budget_stopped,
+    })
+}
+
+/// Whether inconsistency `a` names a later point of the data than `b` (stage, then sample).
+fn later(a: &SmidError, b: &SmidError) -> bool {
+    let key = |e: &SmidError| match e {
+        SmidError::Inconsistent { stage, sample, .. } => {
+            let s = match stage {
+                Stage::SteadyState => 0,
+                Stage::InnerSignal => 1,
+                Stage::Linear => 2,
+            };
+            (s, *sample)
+        }
+        _ => (0, 0),
+    };
+    key(a) >= key(b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn incons(sample: usize) -> SmidError {
+        SmidError::Inconsistent {
+            stage: Stage::Linear,
+            sample,
+            detail: "test".into(),
+        }
+    }
+
+    /// A 2-D set `x^2 + y^2 <= 0.25` "identified" by interval arithmetic: the surviving cells
+    /// cover it, and every discarded cell is disjoint from it.
+    #[test]
+    fn surviving_cells_cover_the_feasible_set() {
+        let eval = |c: &[Interval]| -> Result<Verdict<f64>> {
+            let sq = |i: Interval| {
+                if i.lo <= 0.0 && i.hi >= 0.0 {
+                    0.0
+                } else {
+                    i.lo.abs().min(i.hi.abs()).powi(2)
+                }
+            };
+            if sq(c[0]) + sq(c[1]) > 0.25 {
+                Ok(Verdict::Infeasible(incons(1)))
+            } else {
+                Ok(Verdict::Feasible(c[0].hi))
+            }
+        };
+        let prior = [Interval::new(-2.0, 2.0), Interval::new(-1.0, 3.0)];
+        let s = search(
+            &prior,
+            Budget {
+                resolution: vec![4.0 / 64.0, 4.0 / 64.0],
+                depth: 30,
+                max_cells: 100_000,
+            },
+            &|c| {
+                eval(c).map(|v| match v {
+                    Verdict::Infeasible(e) => Verdict::Infeasible(e),
+                    _ => Verdict::Feasible(()),
+                })
+            },
+            &eval,
+            &|_| {},
+        )
+        .unwrap();
+        assert!(!s.budget_stopped);
+        let h = s.hull();
+        assert!(h[0].lo <= -0.5 && h[0].hi >= 0.5 && h[1].lo <= -0.5 && h[1].hi >= 0.5);
+        assert!(h[0].lo > -0.6 && h[0].hi < 0.6, "{h:?}");
+        for k in 0..200 {
+            let a = k as f64 * 0.0314;
+            let p = [0.5 * a.cos(), 0.5 * a.sin()];
+            assert!(
+                s.leaves
+                    .iter()
+                    .any(|l| l.cell[0].contains(p[0]) && l.cell[1].contains(p[1])),
+                "{p:?} not covered"
+            );
+        }
+    }
+
+    #[test]
+    fn the_budget_stops_the_bisection_and_the_queued_cells_are_finished() {
+        let eval = |_: &[Interval]| -> Result<Verdict<u32>> { Ok(Verdict::Feasible(7)) };
+        let s = search(
+            &[Interval::new(0.0, 1.0)],
+            Budget {
+                resolution: vec![1e-9],
+                depth: 20,
+                max_cells: 10,
+            },
+            &|c| {
+                eval(c).map(|v| match v {
+                    Verdict::Infeasible(e) => Verdict::Infeasible(e),
+                    _ => Verdict::Feasible(()),
+                })
+            },
+            &eval,
+            &|_| {},
+        )
+        .unwrap();
+        assert!(s.budget_stopped);
+        assert!(s.evaluated <= 10 + s.leaves.len(), "{}", s.evaluated);
+        assert_eq!(s.hull(), vec![Interval::new(0.0, 1.0)]);
+        assert!(s.leaves.iter().all(|l| l.value == Some(7)));
+    }
+
+    #[test]
+    fn all_discarded_is_an_inconsistency_and_errors_propagate() {
+        let eval = |c: &[Interval]| -> Result<Verdict<()>> {
+            Ok(Verdict::Infeasible(incons((c[0].lo * 10.0) as usize)))
+        };
+        let r = search(
+            &[Interval::new(0.0, 1.0)],
+            Budget {
+                resolution: vec![0.1],
+                depth: 3,
+                max_cells: 100,
+            },
+            &|c| {
+                eval(c).map(|v| match v {
+                    Verdict::Infeasible(e) => Verdict::Infeasible(e),
+                    _ => Verdict::Feasible(()),
+                })
+            },
+            &eval,
+            &|_| {},
+        );
+        assert!(matches!(r, Err(SmidError::Inconsistent { .. })), "{r:?}");
+        let bad = |_: &[Interval]| -> Result<Verdict<()>> { Err(SmidError::Solver("x".into())) };
+        let r = search(
+            &[Interval::new(0.0, 1.0)],
+            Budget {
+                resolution: vec![0.1],
+                depth: 3,
+                max_cells: 100,
+            },
+            &bad,
+            &bad,
+            &|_| {},
+        );
+        assert!(matches!(r, Err(SmidError::Solver(_))));
+        let r = search(
+            &[Interval::new(0.0, f64::INFINITY)],
+            Budget {
+                resolution: vec![0.1],
+                depth: 3,
+                max_cells: 100,
+            },
+            &|c| {
+                eval(c).map(|v| match v {
+                    Verdict::Infeasible(e) => Verdict::Infeasible(e),
+                    _ => Verdict::Feasible(()),
+                })
+            },
+            &eval,
+            &|_| {},
+        );
+        assert!(matches!(r, Err(SmidError::Invalid { .. })));
+    }
+
+    #[test]
+    fn a_degenerate_prior_is_evaluated_once() {
+        let eval = |_: &[Interval]| -> Result<Verdict<()>> { Ok(Verdict::Feasible(())) };
+        let s = search(
+            &[Interval::new(1.0, 1.0)],
+            Budget {
+                resolution: vec![0.0],
+                depth: 8,
+                max_cells: 100,
+            },
+            &|c| {
+                eval(c).map(|v| match v {
+                    Verdict::Infeasible(e) => Verdict::Infeasible(e),
+                    _ => Verdict::Feasible(()),
+                })
+            },
+            &eval,
+            &|_| {},
+        )
+        .unwrap();
+        assert_eq!(s.evaluated, 2);
+        let never = |_: &[Interval]| -> Result<Verdict<()>> { panic!("nothing to test") };
+        let s = search(
+            &[],
+            Budget {
+                resolution: vec![],
+                depth: 8,
+                max_cells: 100,
+            },
+            &never,
+            &eval,
+            &|_| {},
+        )
+        .unwrap();
+        assert_eq!((s.evaluated, s.leaves.len()), (1, 1));
+    }
+}

@@ -1,0 +1,510 @@
+//! Diagnosis: trace what the model lacks to one of the registered effects, on the **training
+//! data only**, then report the error before and after on held-out records touched once.
+//!
+//! * **Candidates**: every registered effect (delay, actuator lag, sensor offset or drift,
+//!   friction, quantisation...) not yet in the model, each added to the model as one more term
+//!   ([`crate::effect`]); sensor parameters get a prior box from the training data's scale
+//!   (reported).
+//! * **Choice (training data only)**: the base model and every candidate are identified on the
+//!   training records with the declared noise bound. A model is *admissible* when its feasible
+//!   set is not empty (the training data do not falsify it). When the base model is admissible
+//!   nothing is missing: "no missing effect found", the model is unchanged. Otherwise the
+//!   admissible candidate with the fewest added parameters is chosen, ties broken by the
+//!   free-run fit of its centre member on the training records (a parsimony rule, like an
+//!   information criterion with an infinite price on inconsistency). When no candidate is
+//!   admissible, the one whose first contradiction comes latest in the data (it explains the
+//!   longest stretch) is kept and a further round adds another effect to it, up to
+//!   `max_effects`.
+//! * **Final table**: only then are the held-out records read: before and after are validated
+//!   on them ([`crate::validate`]). A base model that the training data falsify has no member;
+//!   for the table it is re-identified at the smallest noise bound that makes its training
+//!   data consistent (said in the table).
+use crate::effect::{self, DataScale, Effect};
+use crate::error::{Result, SmidError, Stage};
+use crate::model::ModelSet;
+use crate::pipeline::{data_scale, identify, ExperimentData, Identification, Record};
+use crate::spec::{ModelSpec, Spec};
+use crate::validate::{self, Fit, Validation};
+use serde::Serialize;
+
+/// Options of a diagnosis.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Effects added at most.
+    pub max_effects: usize,
+    /// Restrict the candidates to these `type` tags (empty: every registered effect).
+    pub only: Vec<String>,
+    /// Horizon of the k-step prediction in the final table.
+    pub k: usize,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            max_effects: 2,
+            only: Vec::new(),
+            k: 5,
+        }
+    }
+}
+
+/// What the training data said of one model.
+#[derive(Debug, Clone, Serialize)]
+#[serde(tag = "verdict", rename_all = "snake_case")]
+pub enum TrainVerdict {
+    /// A non-empty feasible set at the declared bound.
+    Consistent {
+        /// Free-run fit % of the centre member on the training records.
+        fit_percent: f64,
+    },
+    /// The training data falsify the model.
+    Falsified {
+        stage: Stage,
+        sample: usize,
+        detail: String,
+    },
+    /// Identification failed otherwise (unbounded parameters, solver trouble...).
+    Failed { message: String },
+}
+
+impl TrainVerdict {
+    fn admissible(&self) -> bool {
+        matches!(self, TrainVerdict::Consistent { .. })
+    }
+    /// How far into the data the model holds: later is better.
+    fn reach(&self) -> (u8, usize) {
+        match self {
+            TrainVerdict::Consistent { .. } => (4, usize::MAX),
+            TrainVerdict::Falsified { stage, sample, .. } => (
+                match stage {
+                    Stage::SteadyState => 1,
+                    Stage::InnerSignal => 2,
+                    Stage::Linear => 3,
+                },
+                *sample,
+            ),
+            TrainVerdict::Failed { .. } => (0, 0),
+        }
+    }
+}
+
+/// One candidate's evidence.
+#[derive(Debug, Clone, Serialize)]
+pub struct Evidence {
+    pub label: String,
+    pub tag: String,
+    /// Parameters the candidate adds to the model.
+    pub added_parameters: usize,
+    /// Prior boxes given to its bisected parameters (from the training data's scale).
+    pub priors: Vec<(String, [f64; 2])>,
+    pub train: TrainVerdict,
+    pub chosen: bool,
+}
+
+/// One round of the search.
+#[derive(Debug, Clone, Serialize)]
+pub struct Round {
+    /// The model this round extends (its effects).
+    pub base: String,
+    pub base_train: TrainVerdict,
+    pub candidates: Vec<Evidence>,
+}
+
+/// The outcome of the choice (made on training data only).
+#[derive(Debug, Serialize)]
+pub struct Choice {
+    /// The rule used, in words.
+    pub rule: String,
+    pub rounds: Vec<Round>,
+    /// Labels of the effects added (empty: "no missing effect found").
+    pub added: Vec<String>,
+    #[serde(skip)]
+    pub before: ModelSpec,
+    #[serde(skip)]
+    pub after: ModelSpec,
+    /// The after-model is admissible on the training data.
+    pub after_admissible: bool,
+    /// The after-model's set as identified during the choice (reused by the table).
+    #[serde(skip)]
+    pub after_set: Option<ModelSet>,
+}
+
+impl Choice {
+    /// "no missing effect found" or the effects added.
+    pub fn summary(&self) -> String {
+        if self.added.is_empty() {
+            if self.after_admissible {
+                "no missing effect found: the training data are consistent with the model as declared".into()
+            } else {
+                "no candidate made the training data consistent; the model is unchanged".into()
+            }
+        } else {
+            format!("missing: {}", self.added.join(", "))
+        }
+    }
+}
+
+fn label_of(m: &ModelSpec) -> String {
+    let mut s = format!(
+        "{} {} (na = {}, nb = {}, nk = {})",
+        match m.structure {
+            crate::nonlinearity::Structure::Wiener => "Wiener",
+            crate::nonlinearity::Structure::Hammerstein => "Hammerstein",
+        },
+        m.nonlinearity_tag(),
+        m.na,
+        m.nb,
+        m.nk
+    );
+    for e in &m.effects {
+        s.push_str(" + ");
+        s.push_str(&e.label());
+    }
+    s
+}
+
+/// A spec whose model is `model` (the rest as `spec`).
+pub fn with_model(spec: &Spec, model: &ModelSpec) -> Spec {
+    let mut v = serde_json::to_value(spec).expect("specs serialise");
+    v["model"] = serde_json::to_value(model).expect("model specs serialise");
+    serde_json::from_value(v).expect("a serialised spec deserialises")
+}
+
+/// Identify `model` on the training data and say what the data said.
+fn try_model(
+    spec: &Spec,
+    model: &ModelSpec,
+    data: &ExperimentData,
+) -> (TrainVerdict, Option<Identification>) {
+    let s = with_model(spec, model);
+    match identify(&s, data.clone(), &[]) {
+        Ok(id) => {
+            let fit = training_fit(&id.model).unwrap_or(f64::NEG_INFINITY);
+            (TrainVerdict::Consistent { fit_percent: fit }, Some(id))
+        }
+        Err(SmidError::Inconsistent {
+            stage,
+            sample,
+            detail,
+        }) => (
+            TrainVerdict::Falsified {
+                stage,
+                sample,
+                detail,
+            },
+            None,
+        ),
+        Err(e) => (
+            TrainVerdict::Failed {
+                message: e.to_string(),
+            },
+            None,
+        ),
+    }
+}
+
+/// Free-run fit % of the centre member on the model's own training records.
+pub fn training_fit(m: &ModelSet) -> Result<f64> {
+    let c = m.centre()?;
+    let sims: Vec<(Vec<f64>, Vec<f64>)> = m
+        .training
+        .records
+        .iter()
+        .map(|r| (r.y.clone(), c.simulate(&r.u, r.dt).y))
+        .collect();
+    let pairs: Vec<(&[f64], &[f64])> = sims
+        .iter()
+        .map(|(a, b)| (a.as_slice(), b.as_slice()))
+        .collect();
+    Ok(Fit::of(&pairs).fit_percent)
+}
+
+/// The candidates that extend `base`: every registered effect's candidates not declared yet,
+/// with default priors for their bisected parameters.
+fn candidates(base: &ModelSpec, scale: &DataScale, opts: &Options) -> Vec<(ModelSpec, Evidence)> {
+    let mut out = Vec::new();
+    for entry in effect::effects() {
+        if !opts.only.is_empty() && !opts.only.iter().any(|t| t == entry.tag) {
+            continue;
+        }
+        for cand in (entry.candidates)() {
+            if base
+                .effects
+                .iter()
+                .any(|e| effect::tag_of(e.as_ref()) == entry.tag)
+            {
+                continue;
+            }
+            let mut m = base.duplicate();
+            let before = m.layout().map(|l| l.p() + l.dims.len()).unwrap_or(0);
+            let names = cand.cell_parameters();
+            let priors = cand.default_prior(scale);
+            let mut given = Vec::new();
+            for (n, p) in names.iter().zip(&priors) {
+                m.prior.insert(n.clone(), [p.lo, p.hi]);
+                given.push((n.clone(), [p.lo, p.hi]));
+            }
+            let label = cand.label();
+            m.effects.push(cand);
+            let after = match m.layout() {
+                Ok(l) => l.p() + l.dims.len(),
+                Err(_) => continue, // e.g. a name clash with a declared term
+            };
+            out.push((
+                m,
+                Evidence {
+                    label,
+                    tag: entry.tag.to_string(),
+                    added_parameters: after.saturating_sub(before),
+                    priors: given,
+                    train: TrainVerdict::Failed {
+                        message: "not tried".into(),
+                    },
+                    chosen: false,
+                },
+            ));
+        }
+    }
+    out
+}
+
+/// Choose what to add, from the training data alone. `progress(done, total)` after each
+/// candidate.
+pub fn choose(
+    spec: &Spec,
+    training: &ExperimentData,
+    opts: &Options,
+    progress: &dyn Fn(usize, usize),
+) -> Result<Choice> {
+    let scale = data_scale(training);
+    let before = spec.model.duplicate();
+    let mut base = spec.model.duplicate();
+    let (mut base_train, first) = try_model(spec, &base, training);
+    let mut base_set = first.map(|id| id.model);
+    let mut rounds = Vec::new();
+    let mut added = Vec::new();
+    let rule = "admissible (training data consistent with the declared noise bound) with the fewest added parameters; ties broken by the free-run fit on the training records; when none is admissible, the one whose first contradiction comes latest is extended in a further round".to_string();
+    while !base_train.admissible() && added.len() < opts.max_effects {
+        let mut cands = candidates(&base, &scale, opts);
+        let total = cands.len();
+        let mut sets: Vec<Option<ModelSet>> = Vec::new();
+        for (i, (m, ev)) in cands.iter_mut().enumerate() {
+            let (t, id) = try_model(spec, m, training);
+            ev.train = t;
+            sets.push(id.map(|id| id.model));
+            progress(i + 1, total);
+        }
+        let best_admissible = cands
+            .iter()
+            .enumerate()
+            .filter(|(_, (_, e))| e.train.admissible())
+            .min_by(|(_, (_, a)), (_, (_, b))| {
+                let fit = |e: &Evidence| match e.train {
+                    TrainVerdict::Consistent { fit_percent } => fit_percent,
+                    _ => f64::NEG_INFINITY,
+                };
+                a.added_parameters.cmp(&b.added_parameters).then(
+                    fit(b)
+                        .partial_cmp(&fit(a))
+                        .unwrap_or(std::cmp::Ordering::Equal),
+                )
+            })
+            .map(|(i, _)| i);
+        let pick = best_admissible.or_else(|| {
+            cands
+                .iter()
+                .enumerate()
+                .filter(|(_, (_, e))| e.train.reach() > base_train.reach())
+                .max_by_key(|(_, (_, e))| (e.train.reach(), std::cmp::Reverse(e.added_parameters)))
+                .map(|(i, _)| i)
+        });
+        let mut round = Round {
+            base: label_of(&base),
+            base_train: base_train.clone(),
+            candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
+        };
+        match pick {
+            Some(i) => {
+                round.candidates[i].chosen = true;
+                added.push(round.candidates[i].label.clone());
+                base_train = round.candidates[i].train.clone();
+                base = cands.swap_remove(i).0;
+                base_set = sets.swap_remove(i);
+                rounds.push(round);
+            }
+            None => {
+                rounds.push(round);
+                break;
+            }
+        }
+    }
+    let after_admissible = base_train.admissible();
+    if !after_admissible {
+        // Nothing made the data consistent: keep the model as declared.
+        base = before.duplicate();
+        added.clear();
+    }
+    Ok(Choice {
+        rule,
+        rounds,
+        added,
+        before,
+        after: base,
+        after_admissible,
+        after_set: if after_admissible { base_set } else { None },
+    })
+}
+
+/// One column of the before/after table.
+#[derive(Debug, Serialize)]
+pub struct Column {
+    pub label: String,
+    /// The noise bound the model was identified with.
+    pub bound: f64,
+    /// The bound was inflated past the declared one to make the training data consistent.
+    pub inflated: bool,
+    pub parameters: usize,
+    /// Mean radius of the identified parameters' bounds.
+    pub mean_radius: f64,
+    pub validation: Validation,
+    /// The model set, when identified.
+    #[serde(skip)]
+    pub model: Option<ModelSet>,
+}
+
+/// Identify a model at the smallest noise bound (≥ the declared one) that makes the training
+/// data consistent: the declared bound when it suffices, else bisection between the last
+/// failing and the first passing of doubled bounds (relative resolution 2 %, at most 40
+/// identifications).
+pub fn identify_consistent(spec: &Spec, data: &ExperimentData) -> Result<(Identification, bool)> {
+    match identify(spec, data.clone(), &[]) {
+        Ok(id) => return Ok((id, false)),
+        Err(SmidError::Inconsistent { .. }) => {}
+        Err(e) => return Err(e),
+    }
+    let d0 = spec.noise.delta()?;
+    let at = |d: f64| -> Result<Option<Identification>> {
+        let mut v = serde_json::to_value(spec).expect("specs serialise");
+        v["noise"] = serde_json::json!({ "delta": d, "simulate": spec.noise.simulated()? });
+        let s: Spec = serde_json::from_value(v).expect("a serialised spec deserialises");
+        let mut d2 = data.clone();
+        for r in &mut d2.records {
+            *r = r.with_bound(d);
+        }
+        if let Some(st) = d2.steady.as_mut() {
+            for p in &mut st.points {
+                p.dy = d;
+            }
+        }
+        // Solver trouble at a trial bound counts as "not shown consistent": the bound found
+        // is then only larger (this bound serves the before/after table, not a guarantee).
+        match identify(&s, d2, &[]) {
+            Ok(id) => Ok(Some(id)),
+            Err(SmidError::Inconsistent { .. })
+            | Err(SmidError::Unbounded { .. })
+            | Err(SmidError::Solver(_)) => Ok(None),
+            Err(e) => Err(e),
+        }
+    };
+    let (mut lo, mut hi) = (d0, 2.0 * d0);
+    let mut best = None;
+    let mut checks = 0;
+    while best.is_none() {
+        checks += 1;
+        if checks > 30 {
+            return Err(SmidError::Inconsistent {
+                stage: Stage::Linear,
+                sample: 0,
+                detail: format!(
+                    "the training data stay inconsistent up to a noise bound of {hi:.3e}"
+                ),
+            });
+        }
+        match at(hi)? {
+            Some(id) => best = Some(id),
+            None => {
+                lo = hi;
+                hi *= 2.0;
+            }
+        }
+    }
+    let mut best = best.expect("found above");
+    while hi - lo > 0.02 * hi && checks < 40 {
+        let mid = 0.5 * (lo + hi);
+        checks += 1;
+        match at(mid)? {
+            Some(id) => {
+                best = id;
+                hi = mid;
+            }
+            None => lo = mid,
+        }
+    }
+    Ok((best, true))
+}
+
+/// The before/after table on held-out records (the only place they are read).
+pub fn assess(
+    spec: &Spec,
+    training: &ExperimentData,
+    choice: &Choice,
+    holdout: &[Record],
+    k: usize,
+) -> Result<(Column, Column)> {
+    let column = |model: &ModelSpec, known: Option<&ModelSet>| -> Result<Column> {
+        let (m, inflated) = match known {
+            Some(m) => (m.duplicate(), false),
+            None => {
+                let s = with_model(spec, model);
+                let (id, inflated) = identify_consistent(&s, training)?;
+                (id.model, inflated)
+            }
+        };
+        let opts = validate::Options {
+            k,
+            ..Default::default()
+        };
+        let v = validate::validate(&m, holdout, &opts)?;
+        let free = m.free_parameters();
+        let finite: Vec<f64> = free
+            .iter()
+            .map(|p| p.radius)
+            .filter(|r| r.is_finite())
+            .collect();
+        Ok(Column {
+            label: label_of(model),
+            bound: m.delta,
+            inflated,
+            parameters: free.len(),
+            mean_radius: finite.iter().sum::<f64>() / finite.len().max(1) as f64,
+            validation: v,
+            model: Some(m),
+        })
+    };
+    let unchanged = choice.added.is_empty();
+    let before = column(
+        &choice.before,
+        if unchanged {
+            choice.after_set.as_ref()
+        } else {
+            None
+        },
+    )?;
+    let after = column(&choice.after, choice.after_set.as_ref())?;
+    Ok((before, after))
+}
+
+/// Add effects to a model (for tests and the diagnosis check): the model with `extra` appended
+/// and priors from `scale`.
+pub fn extend(base: &ModelSpec, extra: &dyn Effect, scale: &DataScale) -> ModelSpec {
+    let mut m = base.duplicate();
+    for (n, p) in extra
+        .cell_parameters()
+        .iter()
+        .zip(extra.default_prior(scale))
+    {
+        m.prior.insert(n.clone(), [p.lo, p.hi]);
+    }
+    m.effects.push(effect::clone_effect(extra));
+    m
+}

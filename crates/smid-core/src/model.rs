@@ -1,0 +1,677 @@
+//! The one model: what `smid run` identifies and what `smid validate` and `smid diagnose`
+//! check and extend. A [`ModelSpec`] (the spec's `model:` section: structure, nonlinearity
+//! plugin, orders, effects, priors) resolves to a [`Layout`] (orders after the effects, the
+//! names of `θ = [a_1..a_na, b_0..b_nb, c_1..c_m]` (eq 7 plus the effects' equation
+//! coefficients), the bisected parameters `ψ` with their prior box). Identification yields a
+//! [`ModelSet`]: one [`CellSet`] per surviving cell of `ψ` (a single cell when nothing is
+//! bisected), each holding the nonlinearity's feasible set (stage 1, eqs 13-20: polygons,
+//! staircases...) and guaranteed `θ` intervals (stage 3), together with the training data from
+//! which the stage-3 LP data are rebuilt exactly. It serialises whole into `result.json`.
+//!
+//! A [`ModelPoint`] is one member of the set with concrete values (the centre, or an end of a
+//! bound): it simulates the model from the input alone (free run, eqs 1-2 plus effects) and
+//! predicts `k` steps ahead from measured outputs.
+use crate::effect::{self, Effect, Orders, Signals};
+use crate::error::{Result, SmidError};
+use crate::interval::Interval;
+use crate::linear::LinearModel;
+use crate::nonlinearity::{Nonlinearity, NonlinearitySet, SteadyStateData, Structure};
+use crate::spec::{MethodSpec, ModelSpec};
+use serde::{Deserialize, Serialize};
+use std::ops::Range;
+
+/// A bisected parameter: its name and prior interval.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CellDim {
+    pub name: String,
+    pub prior: Interval,
+}
+
+/// The resolved structure of a [`ModelSpec`].
+#[derive(Debug, Clone)]
+pub struct Layout {
+    /// Orders after every effect's change.
+    pub orders: Orders,
+    /// `θ` names: `a1..a_na`, `b0..b_nb`, then each equation term's coefficient.
+    pub theta_names: Vec<String>,
+    /// The equation terms' coefficient names (the tail of `theta_names`).
+    pub extra_names: Vec<String>,
+    /// Fixed `θ` entries (`model.fixed`), in `θ` order.
+    pub fixed: Vec<Option<f64>>,
+    /// The bisected parameters `ψ`.
+    pub dims: Vec<CellDim>,
+    /// The slice of `ψ` that belongs to each effect, in effect order.
+    pub effect_cells: Vec<Range<usize>>,
+}
+
+impl Layout {
+    /// The part of a cell that belongs to each effect.
+    pub fn effect_slices<'c>(&self, cell: &'c [Interval]) -> Vec<&'c [Interval]> {
+        self.effect_cells.iter().map(|r| &cell[r.clone()]).collect()
+    }
+    /// Number of `θ` entries.
+    pub fn p(&self) -> usize {
+        self.theta_names.len()
+    }
+}
+
+/// Names of `a1..a_na`, `b0..b_nb`.
+pub fn linear_names(na: usize, nb: usize) -> Vec<String> {
+    (1..=na)
+        .map(|i| format!("a{i}"))
+        .chain((0..=nb).map(|j| format!("b{j}")))
+        .collect()
+}
+
+impl ModelSpec {
+    /// The linear orders as declared (before effects).
+    pub fn base_orders(&self) -> Orders {
+        Orders {
+            na: self.na,
+            nb: self.nb,
+            nk: self.nk,
+        }
+    }
+
+    /// Resolve the structure; errors name the field (`model.fixed.x`, `model.prior.x`).
+    pub fn layout(&self) -> Result<Layout> {
+        let orders = effect::augmented(self.base_orders(), &self.effects);
+        let empty = Signals { u: &[], dt: 1.0 };
+        let extra_names: Vec<String> = effect::regressors(&self.effects, &empty)
+            .into_iter()
+            .map(|c| c.name)
+            .collect();
+        let mut theta_names = linear_names(orders.na, orders.nb);
+        theta_names.extend(extra_names.iter().cloned());
+        let mut dims = Vec::new();
+        let mut effect_cells = Vec::new();
+        for e in &self.effects {
+            let start = dims.len();
+            for name in e.cell_parameters() {
+                let p = self.prior.get(&name).ok_or_else(|| {
+                    SmidError::invalid(
+                        format!("model.prior.{name}"),
+                        format!(
+                            "the effect `{}` has the parameter `{name}`, bisected over a prior box: give `{name}: [lo, hi]`",
+                            e.label()
+                        ),
+                    )
+                })?;
+                if !(p[0].is_finite() && p[1].is_finite() && p[0] <= p[1]) {
+                    return Err(SmidError::invalid(
+                        format!("model.prior.{name}"),
+                        format!(
+                            "expected finite [lo, hi] with lo <= hi, got [{}, {}]",
+                            p[0], p[1]
+                        ),
+                    ));
+                }
+                dims.push(CellDim {
+                    name,
+                    prior: Interval::new(p[0], p[1]),
+                });
+            }
+            effect_cells.push(start..dims.len());
+        }
+        let mut all: Vec<&str> = theta_names.iter().map(|s| s.as_str()).collect();
+        all.extend(dims.iter().map(|d| d.name.as_str()));
+        let mut sorted = all.clone();
+        sorted.sort_unstable();
+        if let Some(w) = sorted.windows(2).find(|w| w[0] == w[1]) {
+            return Err(SmidError::invalid(
+                "model.effects",
+                format!("two terms of the model are both named `{}`: declare each effect once (a drift carries its own offset)", w[0]),
+            ));
+        }
+        for k in self.prior.keys() {
+            if !dims.iter().any(|d| &d.name == k) {
+                return Err(SmidError::invalid(
+                    format!("model.prior.{k}"),
+                    format!(
+                        "no bisected parameter is named `{k}`; the model's are: {}",
+                        if dims.is_empty() {
+                            "none".to_string()
+                        } else {
+                            dims.iter()
+                                .map(|d| d.name.as_str())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        }
+                    ),
+                ));
+            }
+        }
+        let mut fixed = vec![None; theta_names.len()];
+        for (k, v) in &self.fixed {
+            let Some(i) = theta_names.iter().position(|n| n == k) else {
+                return Err(SmidError::invalid(
+                    format!("model.fixed.{k}"),
+                    format!(
+                        "no such coefficient for na = {}, nb = {} and the declared effects; expected one of {}",
+                        orders.na,
+                        orders.nb,
+                        theta_names.join(", ")
+                    ),
+                ));
+            };
+            if !v.is_finite() {
+                return Err(SmidError::invalid(
+                    format!("model.fixed.{k}"),
+                    "expected a finite number",
+                ));
+            }
+            fixed[i] = Some(*v);
+        }
+        Ok(Layout {
+            orders,
+            theta_names,
+            extra_names,
+            fixed,
+            dims,
+            effect_cells,
+        })
+    }
+
+    /// A copy (the plugin and effects are trait objects): a round trip through JSON.
+    pub fn duplicate(&self) -> ModelSpec {
+        serde_json::from_value(serde_json::to_value(self).expect("model specs serialise"))
+            .expect("a serialised model spec deserialises")
+    }
+
+    /// The plugin's `type` tag.
+    pub fn nonlinearity_tag(&self) -> String {
+        serde_json::to_value(&self.nonlinearity)
+            .ok()
+            .and_then(|v| v.get("type").and_then(|t| t.as_str()).map(String::from))
+            .unwrap_or_default()
+    }
+}
+
+/// One dynamic record: input, measured output and per-sample noise bound, with the noise-free
+/// signals when they are known (simulated plants).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct Record {
+    /// Where it came from (file and rows, or the plant and seed), for reports and errors.
+    pub name: String,
+    pub u: Vec<f64>,
+    pub y: Vec<f64>,
+    /// Per-sample noise bound `Δη_t` (eq 5).
+    pub dy: Vec<f64>,
+    /// Sample time in seconds.
+    pub dt: f64,
+    /// Noise-free output, inner signal and noise, when simulated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub w: Option<Vec<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<Vec<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<Vec<f64>>,
+}
+
+impl Record {
+    /// A measured record with a constant noise bound.
+    pub fn measured(
+        name: impl Into<String>,
+        u: Vec<f64>,
+        y: Vec<f64>,
+        delta: f64,
+        dt: f64,
+    ) -> Self {
+        let n = y.len();
+        Record {
+            name: name.into(),
+            u,
+            y,
+            dy: vec![delta; n],
+            dt,
+            ..Default::default()
+        }
+    }
+    /// The same record with another noise bound.
+    pub fn with_bound(&self, delta: f64) -> Record {
+        Record {
+            dy: vec![delta; self.y.len()],
+            ..self.clone()
+        }
+    }
+    /// Check lengths and values; errors name the record and sample.
+    pub fn validate(&self) -> Result<()> {
+        if self.u.len() != self.y.len() || self.dy.len() != self.y.len() {
+            return Err(SmidError::invalid(
+                format!("record `{}`", self.name),
+                format!(
+                    "{} inputs, {} outputs and {} noise bounds: expected equal lengths",
+                    self.u.len(),
+                    self.y.len(),
+                    self.dy.len()
+                ),
+            ));
+        }
+        if let Some(t) = self.u.iter().position(|v| !v.is_finite()) {
+            return Err(SmidError::invalid(
+                format!("record `{}`, sample {t}", self.name),
+                "non-finite input",
+            ));
+        }
+        if let Some(t) = (0..self.y.len())
+            .find(|&t| !(self.y[t].is_finite() && self.dy[t].is_finite() && self.dy[t] >= 0.0))
+        {
+            return Err(SmidError::invalid(
+                format!("record `{}`, sample {t}", self.name),
+                "non-finite output or noise bound",
+            ));
+        }
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(SmidError::invalid(
+                format!("record `{}`", self.name),
+                format!("sample time must be > 0, got {}", self.dt),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The training data a model set was identified from (enough to rebuild every stage's data).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct Training {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub steady: Option<SteadyStateData>,
+    pub records: Vec<Record>,
+}
+
+/// One surviving cell of the bisected parameters, with what the stages proved over it.
+#[derive(Debug, Serialize, Deserialize)]
+pub struct CellSet {
+    /// The cell of `ψ` (empty when nothing is bisected).
+    pub cell: Vec<Interval>,
+    /// Stage 1: the nonlinearity's feasible set over this cell.
+    pub nonlinearity: Box<dyn NonlinearitySet>,
+    /// Stage 3: guaranteed `θ` intervals over this cell (fixed entries degenerate).
+    pub theta: Vec<Interval>,
+}
+
+impl CellSet {
+    /// A copy (the set is a trait object): a round trip through its serialised form.
+    pub fn duplicate(&self) -> CellSet {
+        serde_json::from_value(serde_json::to_value(self).expect("cell sets serialise"))
+            .expect("a serialised cell set deserialises")
+    }
+}
+
+/// Where the noise bound came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BoundSource {
+    /// Declared in the spec (a prior guarantee).
+    Given,
+    /// Estimated from the training data (not a prior guarantee; the report says so).
+    Estimated,
+}
+
+/// One parameter's guaranteed interval with its truth when known.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ParamResult {
+    pub name: String,
+    #[serde(deserialize_with = "crate::model::lo_inf")]
+    pub lower: f64,
+    #[serde(deserialize_with = "crate::model::hi_inf")]
+    pub upper: f64,
+    #[serde(deserialize_with = "crate::model::hi_inf")]
+    pub center: f64,
+    #[serde(deserialize_with = "crate::model::hi_inf")]
+    pub radius: f64,
+    pub truth: Option<f64>,
+    pub contains: Option<bool>,
+}
+
+fn lo_inf<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NEG_INFINITY))
+}
+fn hi_inf<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::INFINITY))
+}
+
+impl ParamResult {
+    pub fn new(name: &str, i: Interval, truth: Option<f64>) -> Self {
+        ParamResult {
+            name: name.to_string(),
+            lower: i.lo,
+            upper: i.hi,
+            center: i.center(),
+            radius: i.radius(),
+            truth,
+            contains: truth.map(|t| i.contains(t)),
+        }
+    }
+    pub fn interval(&self) -> Interval {
+        Interval::new(self.lower, self.upper)
+    }
+}
+
+/// The identified model set: everything `validate` and `diagnose` need, serialisable.
+#[derive(Debug, Serialize, Deserialize)]
+pub struct ModelSet {
+    pub name: String,
+    /// The model structure as declared (plugin, orders, effects, priors).
+    pub model: ModelSpec,
+    /// The stage options used (stage-3 method, band samples, α, cell budget).
+    pub method: MethodSpec,
+    /// The noise bound `Δη` of the training data.
+    pub delta: f64,
+    pub bound_source: BoundSource,
+    /// The bisected parameters (empty: one cell, the paper's three stages).
+    pub dims: Vec<CellDim>,
+    /// The surviving cells.
+    pub cells: Vec<CellSet>,
+    /// Hull over the cells, in report order: nonlinearity parameters, `θ`, `ψ`.
+    pub parameters: Vec<ParamResult>,
+    /// Cells evaluated, discarded, and whether the budget stopped the bisection.
+    pub search: SearchSummary,
+    pub training: Training,
+}
+
+/// What the branch and bound did.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct SearchSummary {
+    pub evaluated: usize,
+    pub discarded: usize,
+    pub budget_stopped: bool,
+}
+
+impl ModelSet {
+    /// A copy (trait objects inside): a round trip through its serialised form.
+    pub fn duplicate(&self) -> ModelSet {
+        serde_json::from_value(serde_json::to_value(self).expect("model sets serialise"))
+            .expect("a serialised model set deserialises")
+    }
+
+    /// A parameter by name.
+    pub fn parameter(&self, name: &str) -> Option<&ParamResult> {
+        self.parameters.iter().find(|p| p.name == name)
+    }
+
+    /// The structure.
+    pub fn structure(&self) -> Structure {
+        self.model.structure
+    }
+
+    /// The parameters with a non-degenerate bound (the identified ones).
+    pub fn free_parameters(&self) -> Vec<&ParamResult> {
+        self.parameters
+            .iter()
+            .filter(|p| p.upper > p.lower)
+            .collect()
+    }
+
+    /// The member at the centre of every bound (`θ` shifted so that the unit gain holds
+    /// exactly when imposed).
+    pub fn centre(&self) -> Result<ModelPoint> {
+        let v: Vec<(String, f64)> = self
+            .parameters
+            .iter()
+            .map(|p| (p.name.clone(), finite_centre(p.interval())))
+            .collect();
+        self.point(&v)
+    }
+
+    /// Members for an envelope: the centre and, per identified parameter, its lower and upper
+    /// bound with the others at the centre. They lie in the outer bounds, not necessarily in the
+    /// feasible set, so their envelope is indicative, not a guarantee.
+    pub fn axis_members(&self) -> Vec<(String, ModelPoint)> {
+        let base: Vec<(String, f64)> = self
+            .parameters
+            .iter()
+            .map(|p| (p.name.clone(), finite_centre(p.interval())))
+            .collect();
+        let mut out = Vec::new();
+        if let Ok(c) = self.point(&base) {
+            out.push(("centre".to_string(), c));
+        }
+        for (k, p) in self.parameters.iter().enumerate() {
+            if !(p.upper > p.lower) || !p.lower.is_finite() || !p.upper.is_finite() {
+                continue;
+            }
+            for (end, v) in [("lower", p.lower), ("upper", p.upper)] {
+                let mut vals = base.clone();
+                vals[k].1 = v;
+                if let Ok(m) = self.point(&vals) {
+                    out.push((format!("{} at its {end} bound", p.name), m));
+                }
+            }
+        }
+        out
+    }
+
+    /// A member with the given parameter values (by name; missing ones at the centre).
+    pub fn point(&self, values: &[(String, f64)]) -> Result<ModelPoint> {
+        let layout = self.model.layout()?;
+        let get = |n: &str| {
+            values
+                .iter()
+                .find(|(k, _)| k == n)
+                .map(|(_, v)| *v)
+                .or_else(|| self.parameter(n).map(|p| finite_centre(p.interval())))
+        };
+        let cell0 = self.cells.first().ok_or_else(|| {
+            SmidError::invalid("model set", "has no cell (nothing survived identification)")
+        })?;
+        let gamma: Vec<(String, f64)> = cell0
+            .nonlinearity
+            .parameters()
+            .iter()
+            .map(|b| (b.name.clone(), get(&b.name).unwrap_or(b.interval.center())))
+            .collect();
+        let nonlinearity = crate::registry::instantiate(&self.model.nonlinearity_tag(), &gamma)?;
+        let o = layout.orders;
+        let mut theta: Vec<f64> = layout
+            .theta_names
+            .iter()
+            .map(|n| get(n).unwrap_or(0.0))
+            .collect();
+        if self.model.unit_gain {
+            // Σb − Σa = 1 (eq 8): spread the defect over the free b's.
+            let free_b: Vec<usize> = (o.na..=o.na + o.nb)
+                .filter(|&k| layout.fixed[k].is_none())
+                .collect();
+            if !free_b.is_empty() {
+                let defect = 1.0 + theta[..o.na].iter().sum::<f64>()
+                    - theta[o.na..=o.na + o.nb].iter().sum::<f64>();
+                for &k in &free_b {
+                    theta[k] += defect / free_b.len() as f64;
+                }
+            }
+        }
+        let psi: Vec<f64> = layout
+            .dims
+            .iter()
+            .map(|d| get(&d.name).unwrap_or(d.prior.center()))
+            .collect();
+        Ok(ModelPoint {
+            structure: self.model.structure,
+            nonlinearity,
+            linear: LinearModel {
+                a: theta[..o.na].to_vec(),
+                b: theta[o.na..=o.na + o.nb].to_vec(),
+            },
+            nk: o.nk,
+            extras: theta[o.na + o.nb + 1..].to_vec(),
+            psi,
+            effects: self.model.effects.clone(),
+            effect_cells: layout.effect_cells.clone(),
+        })
+    }
+}
+
+/// The centre of an interval, or its finite end when the other is infinite (a saturation
+/// limit never reached is `[lo, inf)`: its member is the largest finite value).
+fn finite_centre(i: Interval) -> f64 {
+    match (i.lo.is_finite(), i.hi.is_finite()) {
+        (true, true) => i.center(),
+        (true, false) => f64::MAX.min(i.lo.abs().max(1.0) * 1e6),
+        (false, true) => -f64::MAX.max(-i.hi.abs().max(1.0) * 1e6),
+        (false, false) => 0.0,
+    }
+}
+
+/// One member of a model set with concrete values.
+#[derive(Debug)]
+pub struct ModelPoint {
+    pub structure: Structure,
+    pub nonlinearity: Box<dyn Nonlinearity>,
+    pub linear: LinearModel,
+    pub nk: usize,
+    /// Coefficients of the equation terms.
+    pub extras: Vec<f64>,
+    /// Values of the bisected (sensor) parameters.
+    pub psi: Vec<f64>,
+    pub effects: Vec<Box<dyn Effect>>,
+    pub effect_cells: Vec<Range<usize>>,
+}
+
+/// A simulation: inner signal `x`, nonlinearity output `w`, and the output `y` (with the
+/// sensor terms, without noise).
+#[derive(Debug, Clone)]
+pub struct Simulation {
+    pub x: Vec<f64>,
+    pub w: Vec<f64>,
+    pub y: Vec<f64>,
+}
+
+impl ModelPoint {
+    fn sensor(&self, t: usize) -> f64 {
+        let cells: Vec<Vec<Interval>> = self
+            .effect_cells
+            .iter()
+            .map(|r| {
+                self.psi[r.clone()]
+                    .iter()
+                    .map(|&v| Interval::new(v, v))
+                    .collect()
+            })
+            .collect();
+        let slices: Vec<&[Interval]> = cells.iter().map(|c| c.as_slice()).collect();
+        effect::sensor_sum(&self.effects, &slices, Some(t))
+            .map(|s| s.center())
+            .unwrap_or(0.0)
+    }
+
+    /// The equation-term sequence `Σ c_k φ_k(t)` of a record.
+    fn equation_terms(&self, u: &[f64], dt: f64) -> Vec<f64> {
+        let cols = effect::regressors(&self.effects, &Signals { u, dt });
+        let mut d = vec![0.0; u.len()];
+        for (c, col) in self.extras.iter().zip(&cols) {
+            for (dv, v) in d.iter_mut().zip(&col.values) {
+                *dv += c * v;
+            }
+        }
+        d
+    }
+
+    /// Whether the linear block is asymptotically stable.
+    pub fn stable(&self) -> bool {
+        self.linear.spectral_radius() < 1.0
+    }
+
+    /// Free-run simulation from rest on the input alone.
+    pub fn simulate(&self, u: &[f64], dt: f64) -> Simulation {
+        self.predict(u, None, dt, usize::MAX)
+    }
+
+    /// The sensor terms `s_t` of this member over a record of `n` samples.
+    pub fn sensor_terms(&self, n: usize) -> Vec<f64> {
+        (0..n).map(|t| self.sensor(t)).collect()
+    }
+
+    /// `k`-step-ahead prediction: at each `t` the linear block's past outputs up to `t - k` are
+    /// taken from `x_data` (estimates of the inner signal from the measurements: for
+    /// Hammerstein `y - s`, for Wiener the centres of the stage-2 inner bounds, the free-run
+    /// value where a sample was not inverted) and the model runs `k` steps on the input alone.
+    /// `k = usize::MAX` or no `x_data` is the free run.
+    pub fn predict(&self, u: &[f64], x_data: Option<&[f64]>, dt: f64, k: usize) -> Simulation {
+        let n = u.len();
+        let v = match self.structure {
+            Structure::Wiener => u.to_vec(),
+            Structure::Hammerstein => self.nonlinearity.simulate(u),
+        };
+        let v: Vec<f64> = (0..n)
+            .map(|t| if t >= self.nk { v[t - self.nk] } else { 0.0 })
+            .collect();
+        let d = self.equation_terms(u, dt);
+        let free = self.run_linear(&v, &d);
+        let sensor: Vec<f64> = (0..n).map(|t| self.sensor(t)).collect();
+        let out = |x: &[f64]| -> Vec<f64> {
+            match self.structure {
+                Structure::Wiener => self.nonlinearity.simulate(x),
+                Structure::Hammerstein => x.to_vec(),
+            }
+        };
+        let measured_x = match x_data {
+            Some(x) if x.len() == n && k < n && k > 0 => x,
+            _ => {
+                let w = out(&free);
+                let yy = w.iter().zip(&sensor).map(|(a, b)| a + b).collect();
+                return Simulation { x: free, w, y: yy };
+            }
+        };
+        let na = self.linear.a.len();
+        let mut x = vec![0.0; n];
+        for t in 0..n {
+            if t < k {
+                x[t] = free[t];
+                continue;
+            }
+            // Past outputs x_{t-k-i}, i >= 0, from the data; then k steps of the model.
+            let start = t + 1 - k;
+            let mut hist: Vec<f64> = (0..na)
+                .map(|i| {
+                    if start >= i + 1 {
+                        measured_x[start - 1 - i]
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let mut xs = 0.0;
+            for s in start..=t {
+                xs = self.linear_step(&v, &d, s, &hist);
+                if na > 0 {
+                    hist.rotate_right(1);
+                    hist[0] = xs;
+                }
+            }
+            x[t] = xs;
+        }
+        let w = out(&x);
+        let yy = w.iter().zip(&sensor).map(|(a, b)| a + b).collect();
+        Simulation { x, w, y: yy }
+    }
+
+    /// `x_s = -Σ a_i x_{s-i} + Σ b_j v_{s-j} + d_s` with the past outputs `hist[i-1] = x_{s-i}`.
+    fn linear_step(&self, v: &[f64], d: &[f64], s: usize, hist: &[f64]) -> f64 {
+        let mut x = d[s];
+        for (j, b) in self.linear.b.iter().enumerate() {
+            if s >= j {
+                x += b * v[s - j];
+            }
+        }
+        for (a, xi) in self.linear.a.iter().zip(hist) {
+            x -= a * xi;
+        }
+        x
+    }
+
+    fn run_linear(&self, v: &[f64], d: &[f64]) -> Vec<f64> {
+        let na = self.linear.a.len();
+        let mut hist = vec![0.0; na];
+        let mut x = Vec::with_capacity(v.len());
+        for s in 0..v.len() {
+            let xs = self.linear_step(v, d, s, &hist);
+            if na > 0 {
+                hist.rotate_right(1);
+                hist[0] = xs;
+            }
+            x.push(xs);
+        }
+        x
+    }
+}

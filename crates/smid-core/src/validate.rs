@@ -1,0 +1,622 @@
+//! Validation of an identified [`ModelSet`] on fresh records, for every structure:
+//!
+//! * **Set-membership verdict.** The same stages as identification, with the identified sets
+//!   as constraints: stage 2 inverts (or propagates) the fresh records through each cell's
+//!   identified nonlinearity set (eqs 23-27), and stage 3 asks whether one `θ` satisfies the
+//!   training equations and the fresh ones together (eqs 1, 28-30, the cell's `θ` box as a
+//!   prior). CONSISTENT when some cell admits such a `θ` (no contradiction found by the
+//!   relaxation: a necessary condition), FALSIFIED when none does (a proof), with the first
+//!   offending sample. The smallest noise bound of the fresh records for which they are
+//!   consistent (bisection; below it the data provably contradict the model) is compared with
+//!   the declared bound: PASS when it is within it.
+//! * **Free-run simulation** of the centre member from the input alone, with an envelope over
+//!   members at the ends of each bound (indicative, not a guarantee: those members lie in the
+//!   outer bounds, not necessarily in the feasible set); RMS error, NRMSE, fit % as MATLAB's
+//!   `compare` (`100 (1 - |y - ŷ| / |y - mean y|)`), maximum error; `k`-step-ahead prediction.
+//! * **Residuals**: auto- and cross-correlation of the one-step residual with 99 % bands
+//!   `±2.576/√N` (MATLAB's `resid`).
+//! * **Baseline**: a least-squares ARX of the same orders, trained on the model's training
+//!   records, simulated free-run on the same fresh records.
+//! * **Warnings**: an unstable centre model, bisected parameters at the edge of their prior,
+//!   a noise bound estimated from the data, a cell budget that stopped the bisection.
+use crate::baseline::Arx;
+use crate::error::{Result, SmidError, Stage};
+use crate::inversion::InnerKind;
+use crate::model::{BoundSource, ModelPoint, ModelSet, Record};
+use crate::pipeline::{stage2, stage3, StageSignals};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Largest lag of the correlation analysis.
+pub const MAX_LAG: usize = 25;
+/// Two-sided 99 % normal quantile.
+pub const Z99: f64 = 2.576;
+
+/// Options of a validation.
+#[derive(Debug, Clone, Copy)]
+pub struct Options {
+    /// Horizon of the k-step-ahead prediction.
+    pub k: usize,
+    /// Relative resolution of the smallest consistent bound.
+    pub bound_resolution: f64,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            k: 5,
+            bound_resolution: 0.02,
+        }
+    }
+}
+
+/// The set-membership verdict on fresh records.
+#[derive(Debug, Clone, Serialize)]
+pub struct Consistency {
+    /// No contradiction was proven (FALSIFIED needs a proof for every cell).
+    pub consistent: bool,
+    /// Where the fresh data contradict every cell (the latest first offending sample).
+    pub falsified_at: Option<Falsification>,
+    /// Cells whose check the LP solver could not complete (counted as not contradicted).
+    pub unchecked: usize,
+}
+
+/// The first offending sample of a falsification.
+#[derive(Debug, Clone, Serialize)]
+pub struct Falsification {
+    /// Index of the fresh record.
+    pub record: usize,
+    pub sample: usize,
+    pub stage: Stage,
+    pub detail: String,
+}
+
+/// Figures of merit of a simulated or predicted output against the measured one.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Fit {
+    pub rms: f64,
+    /// `|y - ŷ| / |y - mean y|`.
+    pub nrmse: f64,
+    /// `100 (1 - nrmse)`.
+    pub fit_percent: f64,
+    pub max_abs: f64,
+    pub samples: usize,
+}
+
+impl Fit {
+    /// Over the pairs of measured and model outputs (several records pooled: the means are
+    /// per record, the norms pooled).
+    pub fn of(pairs: &[(&[f64], &[f64])]) -> Fit {
+        let (mut e2, mut d2, mut mx, mut n) = (0.0, 0.0, 0.0f64, 0usize);
+        for (y, yh) in pairs {
+            let m = y.iter().sum::<f64>() / y.len().max(1) as f64;
+            for (a, b) in y.iter().zip(yh.iter()) {
+                let e = a - b;
+                e2 += e * e;
+                d2 += (a - m) * (a - m);
+                mx = mx.max(e.abs());
+                n += 1;
+            }
+        }
+        let nrmse = if d2 > 0.0 {
+            (e2 / d2).sqrt()
+        } else {
+            f64::INFINITY
+        };
+        let rms = (e2 / n.max(1) as f64).sqrt();
+        Fit {
+            rms: if rms.is_finite() { rms } else { f64::INFINITY },
+            nrmse: if nrmse.is_finite() {
+                nrmse
+            } else {
+                f64::INFINITY
+            },
+            fit_percent: if nrmse.is_finite() {
+                100.0 * (1.0 - nrmse)
+            } else {
+                f64::NEG_INFINITY
+            },
+            max_abs: if mx.is_finite() { mx } else { f64::INFINITY },
+            samples: n,
+        }
+    }
+}
+
+/// Residual correlations (MATLAB `resid`).
+#[derive(Debug, Clone, Serialize)]
+pub struct Correlations {
+    /// `r_ee(τ)`, τ = 0..=MAX_LAG.
+    pub auto: Vec<f64>,
+    /// `r_eu(τ)`, τ = -MAX_LAG..=MAX_LAG.
+    pub cross: Vec<f64>,
+    /// 99 % band half-width `2.576/√N`.
+    pub band: f64,
+    /// Lags τ >= 1 with `|r_ee(τ)|` above the band.
+    pub auto_outside: usize,
+    /// Lags with `|r_eu(τ)|` above the band.
+    pub cross_outside: usize,
+}
+
+/// Normalised correlations of `e` with itself and with `u` (same length).
+pub fn correlations(e: &[f64], u: &[f64]) -> Correlations {
+    let n = e.len();
+    let center = |x: &[f64]| {
+        let m = x.iter().sum::<f64>() / x.len().max(1) as f64;
+        x.iter().map(|v| v - m).collect::<Vec<_>>()
+    };
+    let (e, u) = (center(e), center(u));
+    let se = (e.iter().map(|v| v * v).sum::<f64>()).sqrt().max(1e-300);
+    let su = (u.iter().map(|v| v * v).sum::<f64>()).sqrt().max(1e-300);
+    let c = |a: &[f64], b: &[f64], tau: i64| -> f64 {
+        let mut s = 0.0;
+        for t in 0..n as i64 {
+            let k = t - tau;
+            if k >= 0 && (k as usize) < n {
+                s += a[t as usize] * b[k as usize];
+            }
+        }
+        s
+    };
+    let auto: Vec<f64> = (0..=MAX_LAG as i64)
+        .map(|k| c(&e, &e, k) / (se * se))
+        .collect();
+    let cross: Vec<f64> = (-(MAX_LAG as i64)..=MAX_LAG as i64)
+        .map(|k| c(&e, &u, k) / (se * su))
+        .collect();
+    let band = Z99 / (n.max(1) as f64).sqrt();
+    Correlations {
+        auto_outside: auto[1..].iter().filter(|v| v.abs() > band).count(),
+        cross_outside: cross.iter().filter(|v| v.abs() > band).count(),
+        auto,
+        cross,
+        band,
+    }
+}
+
+/// The series of one fresh record, for plots.
+#[derive(Debug, Clone, Serialize)]
+pub struct Series {
+    pub name: String,
+    pub y: Vec<f64>,
+    /// Free run of the centre member.
+    pub free_run: Vec<f64>,
+    /// Envelope over the members (lower, upper).
+    pub envelope: (Vec<f64>, Vec<f64>),
+    pub one_step: Vec<f64>,
+    pub k_step: Vec<f64>,
+    pub baseline: Option<Vec<f64>>,
+}
+
+/// A whole validation.
+#[derive(Debug, Clone, Serialize)]
+pub struct Validation {
+    pub model: String,
+    pub consistency: Consistency,
+    /// The declared (or estimated) noise bound of the model.
+    pub bound: f64,
+    pub bound_source: BoundSource,
+    /// Smallest noise bound of the fresh records for which they are consistent, as a bracket
+    /// `[lo, hi]`: provably inconsistent below `lo`, consistent at `hi`.
+    pub smallest_bound: Option<(f64, f64)>,
+    /// The smallest consistent bound is within the declared one.
+    pub pass: bool,
+    pub free_run: Fit,
+    pub one_step: Fit,
+    pub k: usize,
+    pub k_step: Fit,
+    /// Per fresh record: the free-run fit.
+    pub per_record: Vec<(String, Fit)>,
+    pub baseline: Option<Fit>,
+    pub baseline_orders: (usize, usize, usize),
+    /// How the envelope was made.
+    pub envelope: String,
+    pub correlations: Correlations,
+    pub warnings: Vec<String>,
+    pub parameters: usize,
+    #[serde(skip)]
+    pub series: Vec<Series>,
+}
+
+/// The cells of a model set from the centre of the bisected parameters outwards (the centre
+/// cells are the likeliest to admit fresh data, which ends a consistency search early).
+fn centre_out(model: &ModelSet) -> Vec<usize> {
+    let hull = crate::cells::hull_of_boxes(model.cells.iter().map(|c| c.cell.as_slice()));
+    let dist = |k: usize| -> f64 {
+        model.cells[k]
+            .cell
+            .iter()
+            .zip(&hull)
+            .map(|(c, h)| {
+                let w = (h.hi - h.lo).max(f64::MIN_POSITIVE);
+                ((c.center() - h.center()) / w).powi(2)
+            })
+            .sum()
+    };
+    let mut order: Vec<usize> = (0..model.cells.len()).collect();
+    order.sort_by(|&a, &b| dist(a).total_cmp(&dist(b)));
+    order
+}
+
+/// One cell against the training records plus `fresh`: `None` when consistent, else where
+/// the fresh data contradict it.
+fn check_cell(model: &ModelSet, k: usize, records: &[Record]) -> Result<Option<Falsification>> {
+    let layout = model.model.layout()?;
+    let nt = model.training.records.len();
+    let c = &model.cells[k];
+    let err = match stage2(
+        &model.model,
+        &layout,
+        c.nonlinearity.as_ref(),
+        &c.cell,
+        records,
+    ) {
+        Err(e) => e,
+        Ok(sig) => match stage3(&model.model, &layout, &model.method, &sig, None) {
+            // Unbounded is not a contradiction.
+            Ok(_) | Err(SmidError::Unbounded { .. }) => return Ok(None),
+            Err(e) => relabel(e, &sig, nt),
+        },
+    };
+    if let SmidError::Solver(_) = err {
+        return Err(err);
+    }
+    match err {
+        SmidError::Inconsistent {
+            stage,
+            sample,
+            detail,
+        } => {
+            let (record, sample) = decode(sample);
+            Ok(Some(Falsification {
+                record,
+                sample,
+                stage,
+                detail,
+            }))
+        }
+        e => Err(e),
+    }
+}
+
+fn joint(model: &ModelSet, fresh: &[Record]) -> Vec<Record> {
+    let mut records = model.training.records.clone();
+    records.extend(fresh.iter().cloned());
+    records
+}
+
+/// Whether the fresh records (with their own noise bounds) are consistent with the model set:
+/// some cell admits one `θ` for the training and fresh equations together. Cells are checked in
+/// parallel, centre first; the search stops at the first consistent cell.
+pub fn consistency(model: &ModelSet, fresh: &[Record]) -> Result<Consistency> {
+    let records = joint(model, fresh);
+    let found = AtomicBool::new(false);
+    let results: Vec<Result<Option<Falsification>>> = centre_out(model)
+        .par_iter()
+        .map(|&k| {
+            if found.load(Ordering::Relaxed) {
+                return Ok(None);
+            }
+            let r = check_cell(model, k, &records);
+            if matches!(r, Ok(None)) {
+                found.store(true, Ordering::Relaxed);
+            }
+            r
+        })
+        .collect();
+    let mut worst: Option<Falsification> = None;
+    let mut unchecked = 0;
+    for r in results {
+        let r = match r {
+            Err(SmidError::Solver(_)) => {
+                unchecked += 1;
+                continue;
+            }
+            r => r?,
+        };
+        match r {
+            None => {
+                return Ok(Consistency {
+                    consistent: true,
+                    falsified_at: None,
+                    unchecked: 0,
+                })
+            }
+            Some(f) => {
+                if worst
+                    .as_ref()
+                    .map_or(true, |w| (f.record, f.sample) > (w.record, w.sample))
+                {
+                    worst = Some(f);
+                }
+            }
+        }
+    }
+    Ok(Consistency {
+        consistent: unchecked > 0,
+        falsified_at: if unchecked > 0 { None } else { worst },
+        unchecked,
+    })
+}
+
+/// Pack `(record, sample)` into one index for [`relabel`] (records below 2^20 samples).
+const PACK: usize = 1 << 20;
+fn decode(s: usize) -> (usize, usize) {
+    (s / PACK, s % PACK)
+}
+
+/// Map a stage-3 inconsistency on the joint signals to `(fresh record, sample)`; an
+/// inconsistency inside the training records (possible only when the training set changed) is
+/// reported as record 0 of the training data.
+fn relabel(e: SmidError, sig: &StageSignals, n_train: usize) -> SmidError {
+    match e {
+        SmidError::Inconsistent {
+            stage,
+            sample,
+            detail,
+        } => {
+            let (r, t) = sig.locate(sample);
+            let fresh = r.saturating_sub(n_train);
+            SmidError::Inconsistent {
+                stage,
+                sample: fresh * PACK + t.min(PACK - 1),
+                detail: if r < n_train {
+                    format!("in the training record {r}: {detail}")
+                } else {
+                    detail
+                },
+            }
+        }
+        e => e,
+    }
+}
+
+/// The smallest noise bound of the fresh records for which they are consistent with the
+/// model set, as a bracket `[lo, hi]` (relative width `resolution`): the data provably
+/// contradict every cell below `lo`, and some cell admits them at `hi`. `None` when even
+/// `2^30` times the model's bound is inconsistent.
+///
+/// It is the smallest of the cells' own smallest bounds: the cells are visited centre first;
+/// a cell is bisected only when it admits the data just below the best bound found so far
+/// (one check otherwise), so most cells cost one stage-3 call.
+pub fn smallest_bound(
+    model: &ModelSet,
+    fresh: &[Record],
+    resolution: f64,
+) -> Result<Option<(f64, f64)>> {
+    let with = |d: f64| -> Vec<Record> {
+        let recs: Vec<Record> = fresh.iter().map(|r| r.with_bound(d)).collect();
+        joint(model, &recs)
+    };
+    let ok_set = |d: f64| -> Result<bool> {
+        let recs: Vec<Record> = fresh.iter().map(|r| r.with_bound(d)).collect();
+        Ok(consistency(model, &recs)?.consistent)
+    };
+    // A bound at which some cell admits the data.
+    let d0 = model.delta;
+    let mut lo_set = 0.0;
+    let mut hi = d0;
+    let mut steps = 0;
+    while !ok_set(hi)? {
+        steps += 1;
+        if steps > 30 {
+            return Ok(None);
+        }
+        lo_set = hi;
+        hi *= 2.0;
+    }
+    let res = resolution.max(1e-6);
+    // Each cell: can it go below the best bound so far? The candidates are checked in
+    // parallel in chunks at the current target, then bisected one by one.
+    let order = centre_out(model);
+    for chunk in order.chunks(16) {
+        let target = hi * (1.0 - res);
+        if target <= lo_set {
+            break;
+        }
+        let recs = with(target);
+        // A cell the solver cannot check is skipped here (its own bound stays unknown).
+        let pass: Vec<Result<bool>> = chunk
+            .par_iter()
+            .map(|&k| match check_cell(model, k, &recs) {
+                Ok(r) => Ok(r.is_none()),
+                Err(SmidError::Solver(_)) => Ok(false),
+                Err(e) => Err(e),
+            })
+            .collect();
+        for (&k, p) in chunk.iter().zip(pass) {
+            if !p? {
+                continue;
+            }
+            // Bisect this cell between the set's lower end and the target.
+            let (mut a, mut b) = (lo_set, hi * (1.0 - res));
+            if b <= a {
+                continue;
+            }
+            // The best bound may have dropped since the chunk was checked: check again.
+            if b < target && !matches!(check_cell(model, k, &with(b)), Ok(None)) {
+                continue;
+            }
+            let mut n = 0;
+            while b - a > res * b && n < 40 {
+                let mid = 0.5 * (a + b);
+                if matches!(check_cell(model, k, &with(mid)), Ok(None)) {
+                    b = mid;
+                } else {
+                    a = mid;
+                }
+                n += 1;
+            }
+            hi = b;
+        }
+    }
+    Ok(Some(((hi * (1.0 - res)).max(lo_set), hi)))
+}
+
+/// The inner-signal estimate a k-step predictor starts from: Hammerstein `y - s` (the centre
+/// member's sensor terms), Wiener the centres of the stage-2 bounds of the first cell where
+/// finite, the free-run inner signal elsewhere.
+fn inner_estimate(model: &ModelSet, point: &ModelPoint, rec: &Record) -> Result<Vec<f64>> {
+    let free = point.simulate(&rec.u, rec.dt);
+    match model.model.structure {
+        crate::nonlinearity::Structure::Hammerstein => {
+            let s = point.sensor_terms(rec.y.len());
+            Ok(rec.y.iter().zip(&s).map(|(y, s)| y - s).collect())
+        }
+        crate::nonlinearity::Structure::Wiener => {
+            let layout = model.model.layout()?;
+            let c = &model.cells[0];
+            let sig = stage2(
+                &model.model,
+                &layout,
+                c.nonlinearity.as_ref(),
+                &c.cell,
+                std::slice::from_ref(rec),
+            )?;
+            Ok(sig
+                .output
+                .iter()
+                .zip(&free.x)
+                .map(|(b, xf)| {
+                    if b.interval.is_finite() && b.kind == InnerKind::Inverted {
+                        b.interval.center()
+                    } else {
+                        *xf
+                    }
+                })
+                .collect())
+        }
+    }
+}
+
+/// Validate `model` on fresh records.
+pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Validation> {
+    if fresh.is_empty() {
+        return Err(SmidError::invalid("validation", "no fresh record given"));
+    }
+    for r in fresh {
+        r.validate()?;
+    }
+    let fresh: Vec<Record> = fresh.iter().map(|r| r.with_bound(model.delta)).collect();
+    let consistency = consistency(model, &fresh)?;
+    let smallest = smallest_bound(model, &fresh, opts.bound_resolution)?;
+    let pass = consistency.consistent && smallest.is_some_and(|(_, hi)| hi <= model.delta);
+
+    let centre = model.centre()?;
+    let members = model.axis_members();
+    let layout = model.model.layout()?;
+    let o = layout.orders;
+    let arx = Arx::fit(&model.training.records, o.na, o.nb, o.nk).ok();
+    let mut warnings = Vec::new();
+    if !centre.stable() {
+        warnings.push(format!(
+            "the centre model is unstable (largest pole modulus {:.4}): its free run diverges",
+            centre.linear.spectral_radius()
+        ));
+    }
+    for d in &model.dims {
+        if let Some(p) = model.parameter(&d.name) {
+            let w = d.prior.hi - d.prior.lo;
+            let tol = 1e-6 * w.max(f64::MIN_POSITIVE);
+            if p.lower <= d.prior.lo + tol || p.upper >= d.prior.hi - tol {
+                warnings.push(format!(
+                    "`{}` reaches the edge of its prior [{:.4e}, {:.4e}]: the prior, not the data, bounds it there",
+                    d.name, d.prior.lo, d.prior.hi
+                ));
+            }
+        }
+    }
+    if model.bound_source == BoundSource::Estimated {
+        warnings.push(
+            "the noise bound was estimated from the training data, not given: the verdicts hold for that estimate, not as a prior guarantee".into(),
+        );
+    }
+    if consistency.unchecked > 0 {
+        warnings.push(format!(
+            "{} cell(s) could not be checked (LP solver trouble): they count as not contradicted, so CONSISTENT is not proven there",
+            consistency.unchecked
+        ));
+    }
+    if model.search.budget_stopped {
+        warnings.push(
+            "the cell budget stopped the branch and bound: the bounds hold but are looser than the resolution asked for".into(),
+        );
+    }
+    let unstable_members = members.iter().filter(|(_, m)| !m.stable()).count();
+    let envelope = format!(
+        "axis members: the centre and each identified parameter at its lower and upper bound ({} stable members of {}; unstable ones left out). They lie in the outer bounds, not necessarily in the feasible set: the envelope is indicative, not a guarantee",
+        members.len() - unstable_members,
+        members.len()
+    );
+
+    let mut series = Vec::new();
+    let mut per_record = Vec::new();
+    let mut residuals = Vec::new();
+    let mut inputs = Vec::new();
+    for rec in &fresh {
+        let n = rec.y.len();
+        let free = centre.simulate(&rec.u, rec.dt).y;
+        let xd = inner_estimate(model, &centre, rec)?;
+        let one = centre.predict(&rec.u, Some(&xd), rec.dt, 1).y;
+        let kst = centre.predict(&rec.u, Some(&xd), rec.dt, opts.k).y;
+        let mut lo = free.clone();
+        let mut hi = free.clone();
+        for (_, m) in members.iter().filter(|(_, m)| m.stable()) {
+            let s = m.simulate(&rec.u, rec.dt).y;
+            for t in 0..n {
+                if s[t].is_finite() {
+                    lo[t] = lo[t].min(s[t]);
+                    hi[t] = hi[t].max(s[t]);
+                }
+            }
+        }
+        let base = arx.as_ref().map(|a| a.simulate(&rec.u));
+        per_record.push((rec.name.clone(), Fit::of(&[(&rec.y, &free)])));
+        let skip = (o.na + o.nb + o.nk + 1).min(n);
+        residuals.extend(rec.y[skip..].iter().zip(&one[skip..]).map(|(a, b)| a - b));
+        inputs.extend_from_slice(&rec.u[skip..]);
+        series.push(Series {
+            name: rec.name.clone(),
+            y: rec.y.clone(),
+            free_run: free,
+            envelope: (lo, hi),
+            one_step: one,
+            k_step: kst,
+            baseline: base,
+        });
+    }
+    let pairs = |f: &dyn Fn(&Series) -> &[f64]| -> Fit {
+        let v: Vec<(&[f64], &[f64])> = series.iter().map(|s| (s.y.as_slice(), f(s))).collect();
+        Fit::of(&v)
+    };
+    let free_run = pairs(&|s| &s.free_run);
+    let k_step = pairs(&|s| &s.k_step);
+    let one_step = pairs(&|s| &s.one_step);
+    let baseline = arx.as_ref().map(|_| {
+        let v: Vec<(&[f64], &[f64])> = series
+            .iter()
+            .filter_map(|s| s.baseline.as_ref().map(|b| (s.y.as_slice(), b.as_slice())))
+            .collect();
+        Fit::of(&v)
+    });
+    Ok(Validation {
+        model: model.name.clone(),
+        consistency,
+        bound: model.delta,
+        bound_source: model.bound_source,
+        smallest_bound: smallest,
+        pass,
+        free_run,
+        one_step,
+        k: opts.k,
+        k_step,
+        per_record,
+        baseline,
+        baseline_orders: (o.na, o.nb, o.nk),
+        envelope,
+        correlations: correlations(&residuals, &inputs),
+        warnings,
+        parameters: model.free_parameters().len(),
+        series,
+    })
+}

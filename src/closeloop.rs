@@ -1,0 +1,535 @@
+//! The edge of closing the loop: where the model set and the fresh records come from (a run
+//! spec, identified now, or a `result.json` of `smid run`; CSV files or the spec's plant with
+//! other seeds), and the reports of `smid validate` and `smid diagnose` as text, JSON and SVG.
+//! The computing is in `smid_core::validate` and `smid_core::diagnose`.
+use crate::{load_spec, with_fmu_plant};
+use smid_core::diagnose::{self, Choice, Column};
+use smid_core::model::{ModelSet, Record};
+use smid_core::pipeline::{self, ExperimentData};
+use smid_core::plant::Plant;
+use smid_core::plot::{self, Line};
+use smid_core::spec::{AlphaSpec, Spec};
+use smid_core::validate::{Fit, Validation};
+use smid_core::{Result, SmidError};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// What `validate` and `diagnose` start from.
+pub struct Source {
+    /// The run spec (from the file, or stored in `result.json`).
+    pub spec: Spec,
+    /// Directory relative paths of the spec resolve against.
+    pub base: PathBuf,
+    /// The model set already identified (`result.json`), if any.
+    pub model: Option<ModelSet>,
+}
+
+/// Read a run spec (`.yaml`) or a `result.json` of `smid run` (which stores its spec).
+pub fn load_source(path: &Path) -> Result<Source> {
+    let is_json = path.extension().is_some_and(|e| e == "json");
+    if !is_json {
+        return Ok(Source {
+            spec: load_spec(path)?,
+            base: path.parent().unwrap_or(Path::new(".")).to_path_buf(),
+            model: None,
+        });
+    }
+    crate::link_plugins();
+    let text = std::fs::read_to_string(path).map_err(|source| SmidError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let bad = |field: &str, message: String| SmidError::Spec {
+        file: path.to_path_buf(),
+        line: None,
+        field: field.into(),
+        message,
+    };
+    let v: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| bad("", format!("not JSON: {e}")))?;
+    let model: ModelSet = serde_json::from_value(v.get("model").cloned().ok_or_else(|| {
+        bad(
+            "model",
+            "no model set: write it with this version's `smid run`".into(),
+        )
+    })?)
+    .map_err(|e| bad("model", e.to_string()))?;
+    let spec: Spec = serde_json::from_value(
+        v.get("spec")
+            .cloned()
+            .ok_or_else(|| bad("spec", "no spec stored".into()))?,
+    )
+    .map_err(|e| bad("spec", e.to_string()))?;
+    let base = v
+        .get("spec_dir")
+        .and_then(|d| d.as_str())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| path.parent().unwrap_or(Path::new(".")).to_path_buf());
+    Ok(Source {
+        spec,
+        base,
+        model: Some(model),
+    })
+}
+
+/// The training data of a source: the spec's experiments (run on its plant, or its measured
+/// records), or the training data stored with the model set (α already applied, so the spec's
+/// α becomes `zero`).
+pub fn training_data(src: &mut Source) -> Result<ExperimentData> {
+    if let Some(m) = &src.model {
+        src.spec.method.alpha = AlphaSpec::Zero;
+        return Ok(ExperimentData {
+            steady: m.training.steady.clone(),
+            steady_record: None,
+            records: m.training.records.clone(),
+            filter: None,
+        });
+    }
+    let spec = &src.spec;
+    if spec.plant.data.is_some() {
+        return pipeline::load_data(spec, &src.base);
+    }
+    with_plant(spec, &src.base, |plant| {
+        pipeline::simulate_experiments(spec, plant)
+    })
+}
+
+/// Run `f` on the spec's plant (built-in simulator or FMU).
+pub fn with_plant<T>(
+    spec: &Spec,
+    base: &Path,
+    f: impl FnOnce(&mut dyn Plant) -> Result<T>,
+) -> Result<T> {
+    if spec.plant.fmu.is_some() {
+        return with_fmu_plant(spec, base, f);
+    }
+    match pipeline::builtin_plant(spec) {
+        Some(mut p) => f(&mut p),
+        None => Err(SmidError::invalid(
+            "plant",
+            "measured data have no plant to draw fresh records from: give them with --data / --holdout",
+        )),
+    }
+}
+
+/// Fresh records: the CSV files given (columns of the spec's first dynamic record for measured
+/// data, else `u` and `y` as `smid simulate` writes them), or `count` records of the spec's
+/// plant drawn with seeds `seed, seed + 1, ...` (`length` samples each).
+pub fn fresh_records(
+    spec: &Spec,
+    base: &Path,
+    csvs: &[PathBuf],
+    seed: u64,
+    length: usize,
+    count: usize,
+) -> Result<Vec<Record>> {
+    let delta = spec.noise.delta()?;
+    if !csvs.is_empty() {
+        let (template, dt) = match &spec.plant.data {
+            Some(d) => (d.dynamic.items()[0].clone(), d.dt.unwrap_or(1.0)),
+            None => (
+                smid_core::spec::CsvColumns {
+                    file: PathBuf::new(),
+                    u: "u".into(),
+                    y: "y".into(),
+                    part: None,
+                    rows: None,
+                    decimate: None,
+                },
+                1.0,
+            ),
+        };
+        return csvs
+            .iter()
+            .map(|f| {
+                let mut c = template.clone();
+                c.file = f.clone();
+                c.rows = None;
+                c.part = None;
+                smid_core::data::read_record(Path::new("."), &c, delta, dt)
+            })
+            .collect();
+    }
+    with_plant(spec, base, |plant| {
+        (0..count as u64)
+            .map(|k| pipeline::fresh_record(spec, plant, seed + k, length))
+            .collect()
+    })
+}
+
+fn pct(f: f64) -> String {
+    if f.is_finite() {
+        format!("{f:.2} %")
+    } else {
+        "-inf %".into()
+    }
+}
+
+fn fit_line(name: &str, f: &Fit) -> String {
+    format!(
+        "{name:<26} fit {:>9}  NRMSE {:.4}  RMS {:.4e}  max {:.4e}",
+        pct(f.fit_percent),
+        f.nrmse,
+        f.rms,
+        f.max_abs
+    )
+}
+
+/// The text report of a validation.
+pub fn format_validation(v: &Validation, records: &[Record]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "validation of `{}` on {} fresh record(s): {}",
+        v.model,
+        records.len(),
+        records
+            .iter()
+            .map(|r| format!("{} ({} samples)", r.name, r.y.len()))
+            .collect::<Vec<_>>()
+            .join("; ")
+    );
+    match &v.consistency.falsified_at {
+        None => {
+            let _ = writeln!(
+                s,
+                "verdict: CONSISTENT (the identified sets and the training equations admit the fresh data: no contradiction found)"
+            );
+        }
+        Some(f) => {
+            let _ = writeln!(
+                s,
+                "verdict: FALSIFIED: fresh record {}, first offending sample {} ({}: {})",
+                f.record, f.sample, f.stage, f.detail
+            );
+        }
+    }
+    let src = match v.bound_source {
+        smid_core::model::BoundSource::Given => "declared",
+        smid_core::model::BoundSource::Estimated => "estimated from the training data",
+    };
+    match v.smallest_bound {
+        Some((lo, hi)) => {
+            let _ = writeln!(
+                s,
+                "smallest consistent noise bound: {hi:.4e} (provably inconsistent below {lo:.4e}); bound {:.4e} ({src}): {}",
+                v.bound,
+                if v.pass { "PASS" } else { "FAIL" }
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "smallest consistent noise bound: none up to 2^30 × the bound: FAIL"
+            );
+        }
+    }
+    let _ = writeln!(s, "{}", fit_line("free run (centre member)", &v.free_run));
+    let _ = writeln!(s, "{}", fit_line("one-step prediction", &v.one_step));
+    let _ = writeln!(
+        s,
+        "{}",
+        fit_line(&format!("{}-step prediction", v.k), &v.k_step)
+    );
+    if let Some(b) = &v.baseline {
+        let (na, nb, nk) = v.baseline_orders;
+        let _ = writeln!(
+            s,
+            "{}",
+            fit_line(&format!("baseline ARX({na},{nb},{nk}) free run"), b)
+        );
+    }
+    if v.per_record.len() > 1 {
+        for (name, f) in &v.per_record {
+            let _ = writeln!(s, "  {}", fit_line(name, f));
+        }
+    }
+    let c = &v.correlations;
+    let _ = writeln!(
+        s,
+        "one-step residual: autocorrelation outside the 99 % band at {}/{} lags, input cross-correlation at {}/{}",
+        c.auto_outside,
+        c.auto.len() - 1,
+        c.cross_outside,
+        c.cross.len()
+    );
+    let _ = writeln!(s, "envelope: {}", v.envelope);
+    if v.warnings.is_empty() {
+        let _ = writeln!(s, "warnings: none");
+    } else {
+        for w in &v.warnings {
+            let _ = writeln!(s, "warning: {w}");
+        }
+    }
+    s
+}
+
+fn io(path: &Path) -> impl Fn(std::io::Error) -> SmidError + '_ {
+    move |source| SmidError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Write `validation.json` and the SVG plots (measured against free run with the envelope
+/// and the baseline, per record; residual correlations).
+pub fn write_validation(v: &Validation, dir: &Path, prefix: &str) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let mut out = Vec::new();
+    let json = dir.join(format!("{prefix}validation.json"));
+    std::fs::write(&json, serde_json::to_string_pretty(v).unwrap_or_default())
+        .map_err(io(&json))?;
+    out.push(json);
+    for (k, s) in v.series.iter().enumerate() {
+        let path = dir.join(format!("{prefix}free_run_{k}.svg"));
+        let mut lines = vec![
+            Line {
+                label: "measured y",
+                values: &s.y,
+                color: (0, 0, 0),
+            },
+            Line {
+                label: "model, free run (centre)",
+                values: &s.free_run,
+                color: (0, 0, 255),
+            },
+        ];
+        if let Some(b) = &s.baseline {
+            lines.push(Line {
+                label: "ARX baseline, free run",
+                values: b,
+                color: (0, 150, 0),
+            });
+        }
+        plot::series_svg(
+            &format!("{}: {}", v.model, s.name),
+            &lines,
+            Some((&s.envelope.0, &s.envelope.1, "envelope (indicative)")),
+            &path,
+        )?;
+        out.push(path);
+    }
+    let path = dir.join(format!("{prefix}residual_correlation.svg"));
+    plot::correlation_svg(
+        &v.correlations.auto,
+        &v.correlations.cross,
+        v.correlations.band,
+        &path,
+    )?;
+    out.push(path);
+    Ok(out)
+}
+
+fn verdict_text(t: &diagnose::TrainVerdict) -> String {
+    match t {
+        diagnose::TrainVerdict::Consistent { fit_percent } => {
+            format!("consistent, training free-run fit {}", pct(*fit_percent))
+        }
+        diagnose::TrainVerdict::Falsified { stage, sample, .. } => {
+            format!("falsified at sample {sample} ({stage})")
+        }
+        diagnose::TrainVerdict::Failed { message } => format!("failed: {message}"),
+    }
+}
+
+/// The evidence of the choice (training data only).
+pub fn format_choice(c: &Choice) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "choice rule (training data only): {}", c.rule);
+    for (i, r) in c.rounds.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "round {}: base {} — {}",
+            i + 1,
+            r.base,
+            verdict_text(&r.base_train)
+        );
+        for e in &r.candidates {
+            let _ = writeln!(
+                s,
+                "  {} {:<36} +{} param  {}{}",
+                if e.chosen { "*" } else { " " },
+                e.label,
+                e.added_parameters,
+                verdict_text(&e.train),
+                if e.priors.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        "  (prior {})",
+                        e.priors
+                            .iter()
+                            .map(|(n, p)| format!("{n} ∈ [{:.3e}, {:.3e}]", p[0], p[1]))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                }
+            );
+        }
+    }
+    let _ = writeln!(s, "diagnosis: {}", c.summary());
+    s
+}
+
+/// The before/after table on the held-out records.
+pub fn format_table(before: &Column, after: &Column) -> String {
+    let mut s = String::new();
+    let row = |s: &mut String, name: &str, a: String, b: String| {
+        let _ = writeln!(s, "| {name} | {a} | {b} |");
+    };
+    let _ = writeln!(s, "| held-out records | before | after |");
+    let _ = writeln!(s, "|---|---|---|");
+    row(&mut s, "model", before.label.clone(), after.label.clone());
+    row(
+        &mut s,
+        "noise bound used",
+        bound_text(before),
+        bound_text(after),
+    );
+    let verdict = |c: &Column| match &c.validation.consistency.falsified_at {
+        None => "CONSISTENT".to_string(),
+        Some(f) => format!("FALSIFIED (record {}, sample {})", f.record, f.sample),
+    };
+    row(&mut s, "verdict", verdict(before), verdict(after));
+    let smallest = |c: &Column| match c.validation.smallest_bound {
+        Some((_, hi)) => format!(
+            "{hi:.3e} ({})",
+            if c.validation.pass { "PASS" } else { "FAIL" }
+        ),
+        None => "none".into(),
+    };
+    row(
+        &mut s,
+        "smallest consistent bound",
+        smallest(before),
+        smallest(after),
+    );
+    row(
+        &mut s,
+        "one-step RMS / fit",
+        format!(
+            "{:.3e} / {}",
+            before.validation.one_step.rms,
+            pct(before.validation.one_step.fit_percent)
+        ),
+        format!(
+            "{:.3e} / {}",
+            after.validation.one_step.rms,
+            pct(after.validation.one_step.fit_percent)
+        ),
+    );
+    row(
+        &mut s,
+        "free-run RMS / fit",
+        format!(
+            "{:.3e} / {}",
+            before.validation.free_run.rms,
+            pct(before.validation.free_run.fit_percent)
+        ),
+        format!(
+            "{:.3e} / {}",
+            after.validation.free_run.rms,
+            pct(after.validation.free_run.fit_percent)
+        ),
+    );
+    let base = |c: &Column| {
+        c.validation
+            .baseline
+            .map(|b| pct(b.fit_percent))
+            .unwrap_or_else(|| "-".into())
+    };
+    row(
+        &mut s,
+        "ARX baseline free-run fit (same orders)",
+        base(before),
+        base(after),
+    );
+    row(
+        &mut s,
+        "identified parameters",
+        before.parameters.to_string(),
+        after.parameters.to_string(),
+    );
+    row(
+        &mut s,
+        "mean bound radius",
+        format!("{:.3e}", before.mean_radius),
+        format!("{:.3e}", after.mean_radius),
+    );
+    s
+}
+
+fn bound_text(c: &Column) -> String {
+    if c.inflated {
+        format!(
+            "{:.3e} (inflated: the training data falsify the model at the declared bound)",
+            c.bound
+        )
+    } else {
+        format!("{:.3e}", c.bound)
+    }
+}
+
+/// Write `diagnosis.json`, the augmented spec, and the before/after plots.
+pub fn write_diagnosis(
+    spec: &Spec,
+    choice: &Choice,
+    before: &Column,
+    after: &Column,
+    dir: &Path,
+) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let mut out = Vec::new();
+    let json = dir.join("diagnosis.json");
+    let v = serde_json::json!({
+        "choice": choice,
+        "before": before,
+        "after": after,
+    });
+    std::fs::write(&json, serde_json::to_string_pretty(&v).unwrap_or_default())
+        .map_err(io(&json))?;
+    out.push(json);
+    let augmented = dir.join("augmented.yaml");
+    let s = diagnose::with_model(spec, &choice.after);
+    let text =
+        serde_norway::to_string(&s).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
+    std::fs::write(&augmented, text).map_err(io(&augmented))?;
+    out.push(augmented);
+    for (k, (b, a)) in before
+        .validation
+        .series
+        .iter()
+        .zip(&after.validation.series)
+        .enumerate()
+    {
+        let path = dir.join(format!("before_after_{k}.svg"));
+        let mut lines = vec![
+            Line {
+                label: "measured y",
+                values: &b.y,
+                color: (0, 0, 0),
+            },
+            Line {
+                label: "before, free run",
+                values: &b.free_run,
+                color: (220, 0, 0),
+            },
+            Line {
+                label: "after, free run",
+                values: &a.free_run,
+                color: (0, 0, 255),
+            },
+        ];
+        if let Some(base) = &a.baseline {
+            lines.push(Line {
+                label: "ARX baseline, free run",
+                values: base,
+                color: (0, 150, 0),
+            });
+        }
+        plot::series_svg(&format!("held-out: {}", b.name), &lines, None, &path)?;
+        out.push(path);
+    }
+    out.extend(write_validation(&after.validation, dir, "after_")?);
+    Ok(out)
+}
