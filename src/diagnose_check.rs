@@ -26,15 +26,58 @@ pub const CASES: [(&str, &str); 7] = [
     ("viscous_friction", "{type: viscous_friction, value: -0.3}"),
 ];
 
+/// Which plant a trial runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlantKind {
+    /// The built-in simulator with the effect injected (`plant.simulator.effects`).
+    Simulator,
+    /// The FMU `fmus/paper_effects` with its `effect` parameter (offset, drift, delay only).
+    Fmu,
+}
+
+/// The FMU's `effect` parameter and its own parameters for a case (`None`: not offered).
+fn fmu_case(name: &str) -> Option<(f64, &'static str)> {
+    match name {
+        "none" => Some((0.0, "")),
+        "offset" => Some((1.0, ", offset: 0.01")),
+        "drift" => Some((2.0, ", offset: 0.005, drift: 2.0e-7")),
+        "delay" => Some((3.0, "")),
+        _ => None,
+    }
+}
+
 /// The spec of a trial: the paper's plant and model, classical stage 3 for speed.
-pub fn trial_spec(seed: u64, length: usize) -> Result<Spec> {
+pub fn trial_spec(seed: u64, length: usize, plant: PlantKind, case: &str) -> Result<Spec> {
+    let plant_text = match plant {
+        PlantKind::Simulator => "  simulator:
+    a: [0.5, 0.7]
+    b: [0.0, 1.4, 0.8]
+    nonlinearity: { type: output_backlash, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 }"
+            .to_string(),
+        PlantKind::Fmu => {
+            let (effect, params) = fmu_case(case).ok_or_else(|| {
+                SmidError::invalid("--fmu", format!("the FMU has no case `{case}`"))
+            })?;
+            let truth = match case {
+                "offset" => ", offset: 0.01",
+                "drift" => ", offset: 0.005, drift: 2.0e-7",
+                _ => "",
+            };
+            format!(
+                "  fmu: {dir}/fmus/paper_effects
+  input: u
+  output: y
+  step: 1.0
+  parameters: {{ effect: {effect}{params} }}
+  truth: {{ a1: 0.5, a2: 0.7, b0: 0.0, b1: 1.4, b2: 0.8, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349{truth} }}",
+                dir = env!("CARGO_MANIFEST_DIR")
+            )
+        }
+    };
     let text = format!(
         "name: diagnose-check-{seed}
 plant:
-  simulator:
-    a: [0.5, 0.7]
-    b: [0.0, 1.4, 0.8]
-    nonlinearity: {{ type: output_backlash, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 }}
+{plant_text}
 noise: {{ encoder_bits: 15 }}
 experiment:
   seed: {seed}
@@ -59,6 +102,8 @@ method:
 #[derive(Debug, Clone)]
 pub struct TrialOutcome {
     pub case: &'static str,
+    /// Consistency checks of the after-model the LP solver could not complete.
+    pub unchecked: usize,
     pub seed: u64,
     pub named: bool,
     pub chosen: Vec<String>,
@@ -80,10 +125,11 @@ fn tag_of_label(label: &str) -> String {
 }
 
 /// Run one trial.
-pub fn trial(case: usize, seed: u64) -> TrialOutcome {
+pub fn trial(case: usize, seed: u64, plant: PlantKind) -> TrialOutcome {
     let (name, yaml) = CASES[case];
     let mut out = TrialOutcome {
         case: name,
+        unchecked: 0,
         seed,
         named: false,
         chosen: Vec::new(),
@@ -94,31 +140,46 @@ pub fn trial(case: usize, seed: u64) -> TrialOutcome {
         fit_baseline: f64::NAN,
         error: None,
     };
-    if let Err(e) = run_trial(yaml, name, seed, &mut out) {
+    let r = trial_spec(seed, 300, plant, name).and_then(|spec| {
+        let injected: Vec<Box<dyn Effect>> = if yaml.is_empty() || plant == PlantKind::Fmu {
+            Vec::new()
+        } else {
+            vec![serde_norway::from_str(yaml)
+                .map_err(|e| SmidError::invalid("case", e.to_string()))?]
+        };
+        match &spec.plant.simulator {
+            Some(sim) => {
+                let mut p = SimulatedPlant {
+                    linear: sim.linear(),
+                    nonlinearity: sim.nonlinearity.as_ref(),
+                    structure: sim.structure,
+                    effects: &injected,
+                    dt: 1.0,
+                };
+                run_trial(&spec, &mut p, name, seed, &mut out)
+            }
+            None => crate::with_fmu_plant(&spec, std::path::Path::new("."), |p| {
+                run_trial(&spec, p, name, seed, &mut out)
+            }),
+        }
+    });
+    if let Err(e) = r {
         out.error = Some(e.to_string());
     }
     out
 }
 
-fn run_trial(yaml: &str, name: &str, seed: u64, out: &mut TrialOutcome) -> Result<()> {
-    let spec = trial_spec(seed, 300)?;
-    let injected: Vec<Box<dyn Effect>> = if yaml.is_empty() {
-        Vec::new()
-    } else {
-        vec![serde_norway::from_str(yaml).map_err(|e| SmidError::invalid("case", e.to_string()))?]
-    };
-    let sim = spec.plant.simulator.as_ref().expect("a simulator spec");
-    let mut plant = SimulatedPlant {
-        linear: sim.linear(),
-        nonlinearity: sim.nonlinearity.as_ref(),
-        structure: sim.structure,
-        effects: &injected,
-        dt: 1.0,
-    };
+fn run_trial(
+    spec: &Spec,
+    plant: &mut dyn Plant,
+    name: &str,
+    seed: u64,
+    out: &mut TrialOutcome,
+) -> Result<()> {
     let at = |what: &'static str| move |e: SmidError| SmidError::invalid(what, e.to_string());
-    let training = pipeline::simulate_experiments(&spec, &mut plant).map_err(at("training"))?;
-    let choice = diagnose::choose(&spec, &training, &Options::default(), &|_, _| {})
-        .map_err(at("choice"))?;
+    let training = pipeline::simulate_experiments(spec, plant).map_err(at("training"))?;
+    let choice =
+        diagnose::choose(spec, &training, &Options::default(), &|_, _| {}).map_err(at("choice"))?;
     out.chosen = choice.added.clone();
     let tags: Vec<String> = choice.added.iter().map(|l| tag_of_label(l)).collect();
     out.named = if name == "none" {
@@ -129,7 +190,7 @@ fn run_trial(yaml: &str, name: &str, seed: u64, out: &mut TrialOutcome) -> Resul
     let holdout: Vec<Record> = (0..2u64)
         .map(|k| {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(10_000 + 10 * seed + k);
-            pipeline::dynamic_record(&spec, &mut plant, &mut rng, 300, format!("held-out {k}"))
+            pipeline::dynamic_record(spec, plant, &mut rng, 300, format!("held-out {k}"))
         })
         .collect::<Result<_>>()?;
     let (before, after) = diagnose::assess(&spec, &training, &choice, &holdout, 5)
@@ -141,8 +202,8 @@ fn run_trial(yaml: &str, name: &str, seed: u64, out: &mut TrialOutcome) -> Resul
         .validation
         .baseline
         .map_or(f64::NAN, |b| b.fit_percent);
-    let after_spec = diagnose::with_model(&spec, &choice.after);
-    let truth = pipeline::plant_truth(&after_spec, &plant as &dyn Plant)?;
+    let after_spec = diagnose::with_model(spec, &choice.after);
+    let truth = pipeline::plant_truth(&after_spec, plant)?;
     let model = after.model.as_ref().expect("identified");
     out.truth_inside = truth.iter().all(|(n, v)| {
         model
@@ -160,11 +221,13 @@ pub fn run(
     trials: usize,
     first_seed: u64,
     only: &[String],
+    plant: PlantKind,
     jobs: usize,
     tick: impl Fn() + Sync,
 ) -> Result<Vec<TrialOutcome>> {
     let cases: Vec<usize> = (0..CASES.len())
         .filter(|&i| only.is_empty() || only.iter().any(|o| o == CASES[i].0))
+        .filter(|&i| plant == PlantKind::Simulator || fmu_case(CASES[i].0).is_some())
         .collect();
     if cases.is_empty() {
         return Err(SmidError::invalid(
@@ -186,7 +249,7 @@ pub fn run(
             sc.spawn(|| loop {
                 let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 let Some(&(c, s)) = work.get(i) else { break };
-                let o = trial(c, s);
+                let o = trial(c, s, plant);
                 results.lock().expect("no poisoned lock").push((i, o));
                 tick();
             });
@@ -237,6 +300,12 @@ pub fn format(outcomes: &[TrialOutcome]) -> String {
     for o in outcomes {
         if let Some(e) = &o.error {
             let _ = writeln!(s, "  {} seed {}: error: {e}", o.case, o.seed);
+        } else if o.unchecked > 0 {
+            let _ = writeln!(
+                s,
+                "  {} seed {}: {} held-out consistency check(s) hit LP solver trouble",
+                o.case, o.seed, o.unchecked
+            );
         } else if !(o.named && o.heldout_pass && o.truth_inside) {
             let _ = writeln!(
                 s,

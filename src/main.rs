@@ -140,6 +140,10 @@ enum Command {
         /// Trials run in parallel (default: the number of cores).
         #[arg(long)]
         jobs: Option<usize>,
+        /// Run the cases the FMU fmus/paper_effects offers (none, offset, drift, delay) on it
+        /// instead of the built-in simulator (needs the `fmu` feature).
+        #[arg(long)]
+        fmu: bool,
     },
 }
 
@@ -337,17 +341,27 @@ fn real_main() -> Result<()> {
             first_seed,
             only,
             jobs,
+            fmu,
         } => {
+            let plant = if fmu {
+                smid::diagnose_check::PlantKind::Fmu
+            } else {
+                smid::diagnose_check::PlantKind::Simulator
+            };
             let n = if only.is_empty() {
                 smid::diagnose_check::CASES.len()
             } else {
                 only.len()
             };
             let pb = progress(n * trials, "diagnosis trials");
-            let r =
-                smid::diagnose_check::run(trials, first_seed, &only, jobs_or_cores(jobs), || {
-                    pb.inc(1)
-                })?;
+            let r = smid::diagnose_check::run(
+                trials,
+                first_seed,
+                &only,
+                plant,
+                jobs_or_cores(jobs),
+                || pb.inc(1),
+            )?;
             pb.finish_and_clear();
             print!("{}", smid::diagnose_check::format(&r));
             anyhow::ensure!(

@@ -205,7 +205,7 @@ fn try_model(
 
 /// Free-run fit % of the centre member on the model's own training records.
 pub fn training_fit(m: &ModelSet) -> Result<f64> {
-    let c = m.centre()?;
+    let c = crate::members::centre(m)?;
     let sims: Vec<(Vec<f64>, Vec<f64>)> = m
         .training
         .records

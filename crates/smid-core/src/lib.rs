@@ -21,6 +21,7 @@ pub mod interval;
 pub mod inversion;
 pub mod linear;
 pub mod lp;
+pub mod members;
 pub mod model;
 pub mod noise;
 pub mod nonlinearity;

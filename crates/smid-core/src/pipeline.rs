@@ -657,9 +657,10 @@ pub fn identify_with(
     for leaf in search.leaves {
         match leaf.value {
             Some(c) => kept.push(c),
-            None => return Err(SmidError::Unbounded {
-                parameter: "θ".into(),
-                message: format!(
+            None => {
+                return Err(SmidError::Unbounded {
+                    parameter: "θ".into(),
+                    message: format!(
                     "over the cell {} of the bisected parameters stage 3 found no finite bound{}",
                     fmt_cell(&layout, &leaf.cell),
                     if summary.budget_stopped {
@@ -668,7 +669,8 @@ pub fn identify_with(
                         ""
                     }
                 ),
-            }),
+                })
+            }
         }
     }
     let truth_of = |n: &str| truth.iter().find(|(k, _)| k == n).map(|(_, v)| *v);

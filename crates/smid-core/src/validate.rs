@@ -22,7 +22,8 @@
 use crate::baseline::Arx;
 use crate::error::{Result, SmidError, Stage};
 use crate::inversion::InnerKind;
-use crate::model::{BoundSource, ModelPoint, ModelSet, Record};
+use crate::members::{self, ModelPoint};
+use crate::model::{BoundSource, ModelSet, Record};
 use crate::pipeline::{stage2, stage3, StageSignals};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -502,8 +503,8 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     let smallest = smallest_bound(model, &fresh, opts.bound_resolution)?;
     let pass = consistency.consistent && smallest.is_some_and(|(_, hi)| hi <= model.delta);
 
-    let centre = model.centre()?;
-    let members = model.axis_members();
+    let centre = members::centre(model)?;
+    let members = members::axis_members(model);
     let layout = model.model.layout()?;
     let o = layout.orders;
     let arx = Arx::fit(&model.training.records, o.na, o.nb, o.nk).ok();
@@ -544,7 +545,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     }
     let unstable_members = members.iter().filter(|(_, m)| !m.stable()).count();
     let envelope = format!(
-        "axis members: the centre and each identified parameter at its lower and upper bound ({} stable members of {}; unstable ones left out). They lie in the outer bounds, not necessarily in the feasible set: the envelope is indicative, not a guarantee",
+        "axis members: the central member and each identified parameter at its lower and upper bound ({} stable members of {}; unstable ones left out). They lie in the outer bounds, not necessarily in the feasible set: the envelope is indicative, not a guarantee",
         members.len() - unstable_members,
         members.len()
     );

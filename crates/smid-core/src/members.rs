@@ -1,0 +1,423 @@
+//! Members of an identified [`ModelSet`]: concrete parameter values that simulate (free run,
+//! eqs 1-2 with the effects) and predict `k` steps ahead. The *central member* takes the
+//! nonlinearity parameters and bisected parameters at the centre of the central cell's bounds,
+//! and `θ` by least squares on the central cell's stage-2 centres (eq 28: `x^c`, `v^c`), subject
+//! to the fixed coefficients and the unit gain (eq 8) and clamped into the cell's `θ` bounds, so
+//! it is a good predictor even when the bound box is wide (its centre can be unstable). The
+//! *axis members* put one identified parameter at an end of its bound, the others central: they
+//! lie in the outer bounds, not necessarily in the feasible set, so an envelope over them is
+//! indicative, not a guarantee.
+use crate::effect::{self, Effect, Signals};
+use crate::error::{Result, SmidError};
+use crate::interval::Interval;
+use crate::linear::LinearModel;
+use crate::model::ModelSet;
+use crate::nonlinearity::{Nonlinearity, Structure};
+use std::ops::Range;
+
+/// The index of the central cell: the one whose centre is nearest the centre of the hull of
+/// the bisected parameters (relative to the hull's widths).
+pub fn central_cell(set: &ModelSet) -> usize {
+    let hull = crate::cells::hull_of_boxes(set.cells.iter().map(|c| c.cell.as_slice()));
+    let dist = |k: usize| -> f64 {
+        set.cells[k]
+            .cell
+            .iter()
+            .zip(&hull)
+            .map(|(c, h)| {
+                let w = (h.hi - h.lo).max(f64::MIN_POSITIVE);
+                ((c.center() - h.center()) / w).powi(2)
+            })
+            .sum()
+    };
+    (0..set.cells.len())
+        .min_by(|&a, &b| dist(a).total_cmp(&dist(b)))
+        .unwrap_or(0)
+}
+
+/// `θ` by least squares on a cell's stage-2 centres over the training records (equations whose
+/// samples were all inverted), subject to the fixed coefficients and the unit gain, clamped into
+/// the cell's bounds. `None` when too few equations.
+fn least_squares_theta(set: &ModelSet, k: usize) -> Result<Option<Vec<f64>>> {
+    let layout = set.model.layout()?;
+    let c = &set.cells[k];
+    let sig = crate::pipeline::stage2(
+        &set.model,
+        &layout,
+        c.nonlinearity.as_ref(),
+        &c.cell,
+        &set.training.records,
+    )?;
+    let o = layout.orders;
+    let p = layout.p();
+    let ok = |b: &crate::inversion::InnerBound| {
+        b.interval.is_finite() && b.kind == crate::inversion::InnerKind::Inverted
+    };
+    let mut rows: Vec<(Vec<f64>, f64)> = Vec::new();
+    for t in o.na.max(o.nb)..sig.output.len() {
+        if !(0..=o.na).all(|i| ok(&sig.output[t - i]))
+            || !(0..=o.nb).all(|j| sig.input[t - j].is_finite())
+            || !sig.extra.iter().all(|e| e.values[t].is_finite())
+        {
+            continue;
+        }
+        let mut phi = Vec::with_capacity(p);
+        for i in 1..=o.na {
+            phi.push(-sig.output[t - i].interval.center());
+        }
+        for j in 0..=o.nb {
+            phi.push(sig.input[t - j].center());
+        }
+        for e in &sig.extra {
+            phi.push(e.values[t].center());
+        }
+        rows.push((phi, sig.output[t].interval.center()));
+    }
+    if rows.len() < p {
+        return Ok(None);
+    }
+    // Equality constraints: fixed entries, and Σb − Σa = 1.
+    let mut eq: Vec<(Vec<f64>, f64)> = Vec::new();
+    for (i, f) in layout.fixed.iter().enumerate() {
+        if let Some(v) = f {
+            let mut g = vec![0.0; p];
+            g[i] = 1.0;
+            eq.push((g, *v));
+        }
+    }
+    if set.model.unit_gain {
+        let mut g = vec![0.0; p];
+        for v in g.iter_mut().take(o.na) {
+            *v = -1.0;
+        }
+        for v in g.iter_mut().skip(o.na).take(o.nb + 1) {
+            *v = 1.0;
+        }
+        eq.push((g, 1.0));
+    }
+    let m = eq.len();
+    let n = p + m;
+    let mut kkt = nalgebra::DMatrix::<f64>::zeros(n, n);
+    let mut rhs = nalgebra::DVector::<f64>::zeros(n);
+    for (phi, y) in &rows {
+        for i in 0..p {
+            rhs[i] += phi[i] * y;
+            for j in 0..p {
+                kkt[(i, j)] += phi[i] * phi[j];
+            }
+        }
+    }
+    for (r, (g, f)) in eq.iter().enumerate() {
+        for i in 0..p {
+            kkt[(p + r, i)] = g[i];
+            kkt[(i, p + r)] = g[i];
+        }
+        rhs[p + r] = *f;
+    }
+    let Ok(sol) = kkt.svd(true, true).solve(&rhs, 1e-12) else {
+        return Ok(None);
+    };
+    let theta: Vec<f64> = (0..p)
+        .map(|i| sol[i].clamp(c.theta[i].lo, c.theta[i].hi))
+        .collect();
+    Ok(theta.iter().all(|v| v.is_finite()).then_some(theta))
+}
+
+/// The central member's values, by name: the central cell's nonlinearity parameters and
+/// bisected parameters at their centres, `θ` by least squares on its stage-2 centres (the
+/// centres of its `θ` bounds when that fails).
+pub fn central_values(set: &ModelSet) -> Result<Vec<(String, f64)>> {
+    let layout = set.model.layout()?;
+    if set.cells.is_empty() {
+        return Err(SmidError::invalid(
+            "model set",
+            "has no cell (nothing survived identification)",
+        ));
+    }
+    let k = central_cell(set);
+    let c = &set.cells[k];
+    let mut v: Vec<(String, f64)> = c
+        .nonlinearity
+        .parameters()
+        .iter()
+        .map(|b| (b.name.clone(), finite_centre(b.interval)))
+        .collect();
+    let theta = least_squares_theta(set, k)?
+        .unwrap_or_else(|| c.theta.iter().map(|i| finite_centre(*i)).collect());
+    v.extend(layout.theta_names.iter().cloned().zip(theta));
+    v.extend(
+        layout
+            .dims
+            .iter()
+            .zip(&c.cell)
+            .map(|(d, i)| (d.name.clone(), i.center())),
+    );
+    Ok(v)
+}
+
+/// The central member (see the module doc).
+pub fn centre(set: &ModelSet) -> Result<ModelPoint> {
+    point(set, &central_values(set)?)
+}
+
+/// Members for an envelope: the central member and, per identified parameter, its lower and
+/// upper bound with the others central. They lie in the outer bounds, not necessarily in the
+/// feasible set, so their envelope is indicative, not a guarantee.
+pub fn axis_members(set: &ModelSet) -> Vec<(String, ModelPoint)> {
+    let Ok(base) = central_values(set) else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    if let Ok(c) = point(set, &base) {
+        out.push(("central".to_string(), c));
+    }
+    for p in set.parameters.iter() {
+        if !(p.upper > p.lower && p.lower.is_finite() && p.upper.is_finite()) {
+            continue;
+        }
+        let Some(k) = base.iter().position(|(n, _)| n == &p.name) else {
+            continue;
+        };
+        for (end, v) in [("lower", p.lower), ("upper", p.upper)] {
+            let mut vals = base.clone();
+            vals[k].1 = v;
+            if let Ok(m) = point(set, &vals) {
+                out.push((format!("{} at its {end} bound", p.name), m));
+            }
+        }
+    }
+    out
+}
+
+/// A member with the given parameter values (by name; missing ones at the centre).
+pub fn point(set: &ModelSet, values: &[(String, f64)]) -> Result<ModelPoint> {
+    let layout = set.model.layout()?;
+    let get = |n: &str| {
+        values
+            .iter()
+            .find(|(k, _)| k == n)
+            .map(|(_, v)| *v)
+            .or_else(|| set.parameter(n).map(|p| finite_centre(p.interval())))
+    };
+    let cell0 = set.cells.first().ok_or_else(|| {
+        SmidError::invalid("model set", "has no cell (nothing survived identification)")
+    })?;
+    let gamma: Vec<(String, f64)> = cell0
+        .nonlinearity
+        .parameters()
+        .iter()
+        .map(|b| (b.name.clone(), get(&b.name).unwrap_or(b.interval.center())))
+        .collect();
+    let nonlinearity = crate::registry::instantiate(&set.model.nonlinearity_tag(), &gamma)?;
+    let o = layout.orders;
+    let mut theta: Vec<f64> = layout
+        .theta_names
+        .iter()
+        .map(|n| get(n).unwrap_or(0.0))
+        .collect();
+    if set.model.unit_gain {
+        // Σb − Σa = 1 (eq 8): spread the defect over the free b's.
+        let free_b: Vec<usize> = (o.na..=o.na + o.nb)
+            .filter(|&k| layout.fixed[k].is_none())
+            .collect();
+        if !free_b.is_empty() {
+            let defect = 1.0 + theta[..o.na].iter().sum::<f64>()
+                - theta[o.na..=o.na + o.nb].iter().sum::<f64>();
+            for &k in &free_b {
+                theta[k] += defect / free_b.len() as f64;
+            }
+        }
+    }
+    let psi: Vec<f64> = layout
+        .dims
+        .iter()
+        .map(|d| get(&d.name).unwrap_or(d.prior.center()))
+        .collect();
+    Ok(ModelPoint {
+        structure: set.model.structure,
+        nonlinearity,
+        linear: LinearModel {
+            a: theta[..o.na].to_vec(),
+            b: theta[o.na..=o.na + o.nb].to_vec(),
+        },
+        nk: o.nk,
+        extras: theta[o.na + o.nb + 1..].to_vec(),
+        psi,
+        effects: set.model.effects.clone(),
+        effect_cells: layout.effect_cells.clone(),
+    })
+}
+
+/// The centre of an interval, or its finite end when the other is infinite (a saturation
+/// limit never reached is `[lo, inf)`: its member is the largest finite value).
+fn finite_centre(i: Interval) -> f64 {
+    match (i.lo.is_finite(), i.hi.is_finite()) {
+        (true, true) => i.center(),
+        (true, false) => f64::MAX.min(i.lo.abs().max(1.0) * 1e6),
+        (false, true) => -f64::MAX.max(-i.hi.abs().max(1.0) * 1e6),
+        (false, false) => 0.0,
+    }
+}
+
+/// One member of a model set with concrete values.
+#[derive(Debug)]
+pub struct ModelPoint {
+    pub structure: Structure,
+    pub nonlinearity: Box<dyn Nonlinearity>,
+    pub linear: LinearModel,
+    pub nk: usize,
+    /// Coefficients of the equation terms.
+    pub extras: Vec<f64>,
+    /// Values of the bisected (sensor) parameters.
+    pub psi: Vec<f64>,
+    pub effects: Vec<Box<dyn Effect>>,
+    pub effect_cells: Vec<Range<usize>>,
+}
+
+/// A simulation: inner signal `x`, nonlinearity output `w`, and the output `y` (with the
+/// sensor terms, without noise).
+#[derive(Debug, Clone)]
+pub struct Simulation {
+    pub x: Vec<f64>,
+    pub w: Vec<f64>,
+    pub y: Vec<f64>,
+}
+
+impl ModelPoint {
+    fn sensor(&self, t: usize) -> f64 {
+        let cells: Vec<Vec<Interval>> = self
+            .effect_cells
+            .iter()
+            .map(|r| {
+                self.psi[r.clone()]
+                    .iter()
+                    .map(|&v| Interval::new(v, v))
+                    .collect()
+            })
+            .collect();
+        let slices: Vec<&[Interval]> = cells.iter().map(|c| c.as_slice()).collect();
+        effect::sensor_sum(&self.effects, &slices, Some(t))
+            .map(|s| s.center())
+            .unwrap_or(0.0)
+    }
+
+    /// The equation-term sequence `Σ c_k φ_k(t)` of a record.
+    fn equation_terms(&self, u: &[f64], dt: f64) -> Vec<f64> {
+        let cols = effect::regressors(&self.effects, &Signals { u, dt });
+        let mut d = vec![0.0; u.len()];
+        for (c, col) in self.extras.iter().zip(&cols) {
+            for (dv, v) in d.iter_mut().zip(&col.values) {
+                *dv += c * v;
+            }
+        }
+        d
+    }
+
+    /// Whether the linear block is asymptotically stable.
+    pub fn stable(&self) -> bool {
+        self.linear.spectral_radius() < 1.0
+    }
+
+    /// Free-run simulation from rest on the input alone.
+    pub fn simulate(&self, u: &[f64], dt: f64) -> Simulation {
+        self.predict(u, None, dt, usize::MAX)
+    }
+
+    /// The sensor terms `s_t` of this member over a record of `n` samples.
+    pub fn sensor_terms(&self, n: usize) -> Vec<f64> {
+        (0..n).map(|t| self.sensor(t)).collect()
+    }
+
+    /// `k`-step-ahead prediction: at each `t` the linear block's past outputs up to `t - k` are
+    /// taken from `x_data` (estimates of the inner signal from the measurements: for
+    /// Hammerstein `y - s`, for Wiener the centres of the stage-2 inner bounds, the free-run
+    /// value where a sample was not inverted) and the model runs `k` steps on the input alone.
+    /// `k = usize::MAX` or no `x_data` is the free run.
+    pub fn predict(&self, u: &[f64], x_data: Option<&[f64]>, dt: f64, k: usize) -> Simulation {
+        let n = u.len();
+        let v = match self.structure {
+            Structure::Wiener => u.to_vec(),
+            Structure::Hammerstein => self.nonlinearity.simulate(u),
+        };
+        let v: Vec<f64> = (0..n)
+            .map(|t| if t >= self.nk { v[t - self.nk] } else { 0.0 })
+            .collect();
+        let d = self.equation_terms(u, dt);
+        let free = self.run_linear(&v, &d);
+        let sensor: Vec<f64> = (0..n).map(|t| self.sensor(t)).collect();
+        let out = |x: &[f64]| -> Vec<f64> {
+            match self.structure {
+                Structure::Wiener => self.nonlinearity.simulate(x),
+                Structure::Hammerstein => x.to_vec(),
+            }
+        };
+        let measured_x = match x_data {
+            Some(x) if x.len() == n && k < n && k > 0 => x,
+            _ => {
+                let w = out(&free);
+                let yy = w.iter().zip(&sensor).map(|(a, b)| a + b).collect();
+                return Simulation { x: free, w, y: yy };
+            }
+        };
+        let na = self.linear.a.len();
+        let mut x = vec![0.0; n];
+        for t in 0..n {
+            if t < k {
+                x[t] = free[t];
+                continue;
+            }
+            // Past outputs x_{t-k-i}, i >= 0, from the data; then k steps of the model.
+            let start = t + 1 - k;
+            let mut hist: Vec<f64> = (0..na)
+                .map(|i| {
+                    if start >= i + 1 {
+                        measured_x[start - 1 - i]
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let mut xs = 0.0;
+            for s in start..=t {
+                xs = self.linear_step(&v, &d, s, &hist);
+                if na > 0 {
+                    hist.rotate_right(1);
+                    hist[0] = xs;
+                }
+            }
+            x[t] = xs;
+        }
+        let w = out(&x);
+        let yy = w.iter().zip(&sensor).map(|(a, b)| a + b).collect();
+        Simulation { x, w, y: yy }
+    }
+
+    /// `x_s = -Σ a_i x_{s-i} + Σ b_j v_{s-j} + d_s` with the past outputs `hist[i-1] = x_{s-i}`.
+    fn linear_step(&self, v: &[f64], d: &[f64], s: usize, hist: &[f64]) -> f64 {
+        let mut x = d[s];
+        for (j, b) in self.linear.b.iter().enumerate() {
+            if s >= j {
+                x += b * v[s - j];
+            }
+        }
+        for (a, xi) in self.linear.a.iter().zip(hist) {
+            x -= a * xi;
+        }
+        x
+    }
+
+    fn run_linear(&self, v: &[f64], d: &[f64]) -> Vec<f64> {
+        let na = self.linear.a.len();
+        let mut hist = vec![0.0; na];
+        let mut x = Vec::with_capacity(v.len());
+        for s in 0..v.len() {
+            let xs = self.linear_step(v, d, s, &hist);
+            if na > 0 {
+                hist.rotate_right(1);
+                hist[0] = xs;
+            }
+            x.push(xs);
+        }
+        x
+    }
+}
