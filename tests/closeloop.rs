@@ -1,0 +1,299 @@
+//! Closing the loop on the one model: what `smid run` identifies is what `validate` checks and
+//! `diagnose` extends. A fresh record of the same plant is consistent with the identified set
+//! and the free run fits it; a record with an effect the model lacks falsifies it at a named
+//! sample; `result.json` carries the whole model set; the diagnosis names a missing effect from
+//! the training data alone and reads the held-out records only for the final table.
+use smid::closeloop;
+use smid::core::diagnose::{self, Options};
+use smid::core::pipeline;
+use smid::core::plant::SimulatedPlant;
+use smid::core::validate::{self, Validation};
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn validate_on(model: &smid::core::model::ModelSet, fresh: &[pipeline::Record]) -> Validation {
+    validate::validate(model, fresh, &validate::Options::default()).unwrap()
+}
+
+#[test]
+fn the_paper_model_validates_on_a_fresh_record_and_beats_the_arx_baseline() {
+    let path = root().join("examples/paper.yaml");
+    let id = smid::run_spec_file(&path).unwrap();
+    let spec = smid::load_spec(&path).unwrap();
+    let fresh =
+        closeloop::fresh_records(&spec, &root().join("examples"), &[], 1001, 200, 1).unwrap();
+    let v = validate_on(&id.model, &fresh);
+    assert!(v.consistency.consistent, "{:?}", v.consistency);
+    assert!(
+        v.pass,
+        "smallest bound {:?} vs {}",
+        v.smallest_bound, v.bound
+    );
+    let (lo, hi) = v.smallest_bound.unwrap();
+    assert!(lo <= hi && hi <= v.bound);
+    assert!(v.free_run.fit_percent > 99.0, "{:?}", v.free_run);
+    assert!(v.free_run.fit_percent > v.baseline.unwrap().fit_percent);
+    assert!(v.warnings.is_empty(), "{:?}", v.warnings);
+    assert_eq!(v.series.len(), 1);
+    let (l, u) = &v.series[0].envelope;
+    assert!(l.iter().zip(u).all(|(a, b)| a <= b));
+}
+
+#[test]
+fn a_record_with_an_undeclared_delay_falsifies_the_model_at_a_sample() {
+    let path = root().join("examples/paper.yaml");
+    let id = smid::run_spec_file(&path).unwrap();
+    let spec = smid::load_spec(&path).unwrap();
+    let sim = spec.plant.simulator.as_ref().unwrap();
+    let delay: Vec<Box<dyn smid::core::effect::Effect>> =
+        vec![serde_norway::from_str("{type: delay, samples: 1}").unwrap()];
+    let mut plant = SimulatedPlant {
+        linear: sim.linear(),
+        nonlinearity: sim.nonlinearity.as_ref(),
+        structure: sim.structure,
+        effects: &delay,
+        dt: 1.0,
+    };
+    let fresh = pipeline::fresh_record(&spec, &mut plant, 1001, 200).unwrap();
+    let v = validate_on(&id.model, std::slice::from_ref(&fresh));
+    assert!(!v.consistency.consistent);
+    let f = v.consistency.falsified_at.as_ref().unwrap();
+    assert_eq!(f.record, 0);
+    assert!(f.sample < 200);
+    assert!(!v.pass);
+    assert!(v.smallest_bound.unwrap().0 > v.bound);
+}
+
+#[test]
+fn result_json_carries_the_whole_model_set() {
+    let path = root().join("examples/paper.yaml");
+    let spec = smid::load_spec(&path).unwrap();
+    let id = smid::run_spec_file(&path).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    smid::write_run(&id, &spec, &path, dir.path()).unwrap();
+    let src = closeloop::load_source(&dir.path().join("result.json")).unwrap();
+    let back = src.model.unwrap();
+    assert_eq!(back.parameters, id.model.parameters);
+    assert_eq!(back.cells.len(), id.model.cells.len());
+    assert_eq!(back.training.records[0].y, id.data.records[0].y);
+    assert_eq!(
+        src.base,
+        std::fs::canonicalize(root().join("examples")).unwrap()
+    );
+    let fresh = closeloop::fresh_records(&src.spec, &src.base, &[], 1001, 150, 1).unwrap();
+    let a = validate_on(&id.model, &fresh);
+    let b = validate_on(&back, &fresh);
+    assert_eq!(a.smallest_bound, b.smallest_bound);
+    assert_eq!(a.free_run.rms, b.free_run.rms);
+}
+
+fn training_of(spec_path: &Path) -> (smid::core::spec::Spec, pipeline::ExperimentData) {
+    let mut src = closeloop::load_source(spec_path).unwrap();
+    let data = closeloop::training_data(&mut src).unwrap();
+    (src.spec, data)
+}
+
+fn only(tags: &[&str]) -> Options {
+    Options {
+        only: tags.iter().map(|t| t.to_string()).collect(),
+        ..Default::default()
+    }
+}
+
+#[test]
+fn the_diagnosis_names_an_undeclared_delay_and_adds_nothing_when_nothing_is_missing() {
+    let (spec, data) = training_of(&root().join("examples/diagnose/paper-delay.yaml"));
+    let c = diagnose::choose(
+        &spec,
+        &data,
+        &only(&["delay", "actuator_lag", "extra_zero"]),
+        &|_, _| {},
+    )
+    .unwrap();
+    assert_eq!(c.added, vec!["one more sample of delay".to_string()]);
+    assert!(c.after_admissible);
+    assert_eq!(c.after.layout().unwrap().orders.nk, 1);
+    let round = &c.rounds[0];
+    assert!(round.candidates.iter().filter(|e| e.chosen).count() == 1);
+
+    // The paper's own spec: its training data are consistent, nothing is added.
+    let (spec, data) = training_of(&root().join("examples/paper.yaml"));
+    let c = diagnose::choose(&spec, &data, &only(&["delay", "actuator_lag"]), &|_, _| {}).unwrap();
+    assert!(c.added.is_empty() && c.after_admissible, "{}", c.summary());
+    assert!(c.summary().starts_with("no missing effect found"));
+    assert!(c.rounds.is_empty());
+}
+
+/// The choice is made on the training records only: corrupting the held-out record changes
+/// the final table but not the chosen model (the CLI writes both).
+#[test]
+fn corrupting_the_held_out_records_does_not_change_the_chosen_model() {
+    let exe = env!("CARGO_BIN_EXE_smid");
+    let spec = root().join("examples/diagnose/paper-delay.yaml");
+    let dir = tempfile::tempdir().unwrap();
+    let sim = std::process::Command::new(exe)
+        .args([
+            "simulate",
+            spec.to_str().unwrap(),
+            "--seed",
+            "77",
+            "--length",
+            "200",
+        ])
+        .args(["--out", dir.path().to_str().unwrap(), "--name", "held"])
+        .output()
+        .unwrap();
+    assert!(
+        sim.status.success(),
+        "{}",
+        String::from_utf8_lossy(&sim.stderr)
+    );
+    let good = dir.path().join("held.csv");
+    let bad = dir.path().join("corrupt.csv");
+    let text = std::fs::read_to_string(&good).unwrap();
+    let mut lines = text.lines();
+    let mut corrupt = format!("{}\n", lines.next().unwrap());
+    for (k, l) in lines.enumerate() {
+        let f: Vec<&str> = l.split(',').collect();
+        let y = if k % 7 == 3 {
+            5.0
+        } else {
+            -f[2].parse::<f64>().unwrap()
+        };
+        corrupt.push_str(&format!("{},{},{y},{}\n", f[0], f[1], f[3]));
+    }
+    std::fs::write(&bad, corrupt).unwrap();
+    let run = |held: &Path, out: &str| {
+        let o = std::process::Command::new(exe)
+            .args([
+                "diagnose",
+                spec.to_str().unwrap(),
+                "--only",
+                "delay,actuator_lag",
+            ])
+            .args(["--holdout", held.to_str().unwrap()])
+            .args(["--out", dir.path().join(out).to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let json: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join(out).join("diagnosis.json")).unwrap(),
+        )
+        .unwrap();
+        let aug = std::fs::read_to_string(dir.path().join(out).join("augmented.yaml")).unwrap();
+        (json, aug)
+    };
+    let (a, aug_a) = run(&good, "a");
+    let (b, aug_b) = run(&bad, "b");
+    assert_eq!(aug_a, aug_b);
+    assert_eq!(a["choice"], b["choice"]);
+    assert!(aug_a.contains("type: delay"));
+    // The held-out records were read for the table: the corrupted ones falsify the model.
+    assert_eq!(a["after"]["validation"]["consistency"]["consistent"], true);
+    assert_eq!(b["after"]["validation"]["consistency"]["consistent"], false);
+}
+
+#[test]
+fn priors_and_effects_are_checked_with_named_fields() {
+    smid::link_plugins();
+    let base = std::fs::read_to_string(root().join("examples/paper.yaml")).unwrap();
+    let with = |model_extra: &str| {
+        let text = base.replace(
+            "  fixed: { b0: 0.0 }\n",
+            &format!("  fixed: {{ b0: 0.0 }}\n{model_extra}"),
+        );
+        smid::core::spec::Spec::parse(&text, Path::new("t.yaml"))
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default()
+    };
+    let e = with("  effects: [ { type: offset } ]\n");
+    assert!(e.contains("model.prior.offset"), "{e}");
+    let e = with("  effects: [ { type: offset } ]\n  prior: { ofset: [0, 1] }\n");
+    assert!(e.contains("model.prior"), "{e}");
+    let e = with("  effects: [ { type: offset } ]\n  prior: { offset: [1, 0] }\n");
+    assert!(e.contains("lo <= hi"), "{e}");
+    let e = with("  effects: [ { type: offset }, { type: drift } ]\n  prior: { offset: [0, 1], drift: [0, 1] }\n");
+    assert!(e.contains("offset"), "{e}");
+    let e = with("  effects: [ { type: wobble } ]\n");
+    assert!(e.contains("wobble") && e.contains("delay"), "{e}");
+    // A simulator effect without its true value names the field.
+    let text = base.replace(
+        "    nonlinearity: { type: output_backlash, m_l",
+        "    effects: [ { type: actuator_lag } ]\n    nonlinearity: { type: output_backlash, m_l",
+    );
+    let e = smid::core::spec::Spec::parse(&text, Path::new("t.yaml"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("plant.simulator.effects[0].pole"), "{e}");
+}
+
+#[test]
+fn a_declared_offset_is_bounded_around_the_truth_by_the_branch_and_bound() {
+    let path = root().join("examples/diagnose/paper-offset.yaml");
+    let mut spec = smid::load_spec(&path).unwrap();
+    spec.model.effects = vec![serde_norway::from_str("{type: offset}").unwrap()];
+    spec.model.prior.insert("offset".into(), [-0.05, 0.05]);
+    let id = smid::run_spec(&spec, &root().join("examples/diagnose"), &|_| {}).unwrap();
+    assert_eq!(id.all_contain_truth(), Some(true));
+    let off = id.parameter("offset").unwrap();
+    assert!(off.lower > -0.05 && off.upper < 0.05, "{off:?}");
+    assert!(id.model.cells.len() > 1);
+    assert!(!id.model.search.budget_stopped);
+    // The linear block stays tight although the offset trades against the half-plays.
+    assert!(id.parameter("a1").unwrap().radius < 2e-3);
+}
+
+/// Every run example (the specs in `examples/`; `examples/diagnose/` holds training data with
+/// an undeclared effect by design) validates on a fresh record of its own plant: CONSISTENT,
+/// PASS, and its free run fits.
+#[test]
+fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
+    let mut n = 0;
+    for entry in std::fs::read_dir(root().join("examples")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "yaml") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        if text.contains("\n  fmu:") && !cfg!(feature = "fmu") {
+            eprintln!(
+                "skipping {}: built without the `fmu` feature",
+                path.display()
+            );
+            continue;
+        }
+        if text.contains("eiv: sdp") && !smid::core::stage3::EivMethod::Sdp.available() {
+            eprintln!(
+                "skipping {}: built without the `sdp` feature",
+                path.display()
+            );
+            continue;
+        }
+        let mut src = closeloop::load_source(&path).unwrap();
+        let id = smid::run_spec(&src.spec, &src.base, &|_| {})
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        src.model = Some(id.model);
+        let length = src.spec.experiment.dynamic.length;
+        let fresh = closeloop::fresh_records(&src.spec, &src.base, &[], 1001, length, 1).unwrap();
+        let v = validate_on(src.model.as_ref().unwrap(), &fresh);
+        assert!(
+            v.consistency.consistent && v.pass,
+            "{}: {:?} {:?}",
+            path.display(),
+            v.consistency,
+            v.smallest_bound
+        );
+        assert!(
+            v.free_run.fit_percent > 95.0,
+            "{}: {:?}",
+            path.display(),
+            v.free_run
+        );
+        n += 1;
+    }
+    assert!(n >= 7, "only {n} examples validated");
+}
