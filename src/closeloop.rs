@@ -123,7 +123,11 @@ pub fn fresh_records(
     length: usize,
     count: usize,
 ) -> Result<Vec<Record>> {
-    let delta = spec.noise.delta()?;
+    // Validation bounds fresh records by the model's own Δη; an estimated one is not known here.
+    let delta = match spec.noise.delta() {
+        Err(_) if spec.noise.estimated() => 1.0,
+        d => d?,
+    };
     if !csvs.is_empty() {
         let (template, dt) = match &spec.plant.data {
             Some(d) => (d.dynamic.items()[0].clone(), d.dt.unwrap_or(1.0)),
@@ -143,8 +147,9 @@ pub fn fresh_records(
             .iter()
             .map(|f| {
                 let mut c = template.clone();
-                c.file = f.clone();
-                c.rows = None;
+                let (file, rows) = split_rows(f)?;
+                c.file = file;
+                c.rows = rows;
                 c.part = None;
                 smid_core::data::read_record(Path::new("."), &c, delta, dt)
             })
@@ -155,6 +160,25 @@ pub fn fresh_records(
             .map(|k| pipeline::fresh_record(spec, plant, seed + k, length))
             .collect()
     })
+}
+
+/// `PATH@START..END`: the data rows `[START, END)` of a CSV file (a held-out stretch of a long
+/// record); a plain path takes every row.
+pub fn split_rows(arg: &Path) -> Result<(PathBuf, Option<[usize; 2]>)> {
+    let text = arg.to_string_lossy();
+    let Some((file, range)) = text.rsplit_once('@') else {
+        return Ok((arg.to_path_buf(), None));
+    };
+    let bad = || {
+        SmidError::invalid(
+            format!("record `{text}`"),
+            "expected PATH or PATH@START..END (data rows, END exclusive)",
+        )
+    };
+    let (a, b) = range.split_once("..").ok_or_else(bad)?;
+    let a: usize = a.trim().parse().map_err(|_| bad())?;
+    let b: usize = b.trim().parse().map_err(|_| bad())?;
+    Ok((PathBuf::from(file), Some([a, b])))
 }
 
 fn pct(f: f64) -> String {

@@ -88,8 +88,8 @@ enum Command {
     Validate {
         /// A run spec (YAML) or a `result.json` of `smid run`.
         spec: PathBuf,
-        /// Fresh records (CSV; repeat for several). Default: a record of the spec's plant with
-        /// another seed.
+        /// Fresh records (CSV, `PATH@START..END` for a row range; repeat for several). Default:
+        /// a record of the spec's plant with another seed.
         #[arg(long)]
         data: Vec<PathBuf>,
         /// Output directory (default: out/<spec name>/validate).
@@ -111,8 +111,8 @@ enum Command {
     Diagnose {
         /// A run spec (YAML; its data are the training records) or a `result.json`.
         spec: PathBuf,
-        /// Held-out records (CSV; repeat for several). Default: two records of the spec's plant
-        /// with other seeds.
+        /// Held-out records (CSV, `PATH@START..END` for a row range; repeat for several).
+        /// Default: two records of the spec's plant with other seeds.
         #[arg(long)]
         holdout: Vec<PathBuf>,
         /// Output directory (default: out/<spec name>/diagnose).

@@ -107,6 +107,7 @@ impl Trial {
                 delta: None,
                 encoder_bits: Some(self.bits),
                 simulate: None,
+                estimate: None,
             },
             experiment,
             model: ModelSpec {

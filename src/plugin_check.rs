@@ -164,6 +164,7 @@ impl PluginTrial {
                 delta: None,
                 encoder_bits: Some(self.bits),
                 simulate: None,
+                estimate: None,
             },
             experiment,
             model: ModelSpec {

@@ -79,7 +79,10 @@ pub fn read_record(
 ) -> Result<crate::model::Record> {
     let file = base.join(&c.file);
     let (mut u, mut y) = read_columns(&file, &c.u, &c.y, c.part.as_deref())?;
-    let mut name = file.display().to_string();
+    let mut name = file
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_else(|| file.display().to_string());
     if let Some([a, b]) = c.rows {
         if !(a < b && b <= u.len()) {
             return Err(SmidError::Data {
@@ -109,7 +112,7 @@ pub fn read_record(
     if k > 1 {
         let rest = u.len() % k;
         if rest > 0 {
-            name = format!("{name} (last {rest} samples, an incomplete block, left out)");
+            name = format!("{name} (last {rest} raw samples left out)");
         }
         let mean = |v: &[f64]| -> Vec<f64> {
             v.chunks_exact(k)

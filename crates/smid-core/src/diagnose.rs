@@ -24,7 +24,7 @@ use crate::error::{Result, SmidError, Stage};
 use crate::model::ModelSet;
 use crate::pipeline::{data_scale, identify, ExperimentData, Identification, Record};
 use crate::spec::{ModelSpec, Spec};
-use crate::validate::{self, Fit, Validation};
+use crate::validate::{self, Validation};
 use serde::Serialize;
 
 /// Options of a diagnosis.
@@ -203,25 +203,19 @@ fn try_model(
     }
 }
 
-/// Free-run fit % of the centre member on the model's own training records.
+/// Free-run fit % of the central member on the model's own training records.
 pub fn training_fit(m: &ModelSet) -> Result<f64> {
-    let c = crate::members::centre(m)?;
-    let sims: Vec<(Vec<f64>, Vec<f64>)> = m
-        .training
-        .records
-        .iter()
-        .map(|r| (r.y.clone(), c.simulate(&r.u, r.dt).y))
-        .collect();
-    let pairs: Vec<(&[f64], &[f64])> = sims
-        .iter()
-        .map(|(a, b)| (a.as_slice(), b.as_slice()))
-        .collect();
-    Ok(Fit::of(&pairs).fit_percent)
+    Ok(validate::free_run_fit(m, &m.training.records)?.fit_percent)
 }
 
 /// The candidates that extend `base`: every registered effect's candidates not declared yet,
 /// with default priors for their bisected parameters.
-fn candidates(base: &ModelSpec, scale: &DataScale, opts: &Options) -> Vec<(ModelSpec, Evidence)> {
+fn candidates(
+    base: &ModelSpec,
+    scale: &DataScale,
+    opts: &Options,
+    steady: bool,
+) -> Vec<(ModelSpec, Evidence)> {
     let mut out = Vec::new();
     for entry in effect::effects() {
         if !opts.only.is_empty() && !opts.only.iter().any(|t| t == entry.tag) {
@@ -232,6 +226,7 @@ fn candidates(base: &ModelSpec, scale: &DataScale, opts: &Options) -> Vec<(Model
                 .effects
                 .iter()
                 .any(|e| effect::tag_of(e.as_ref()) == entry.tag)
+                || (steady && !cand.vanishes_at_steady_state())
             {
                 continue;
             }
@@ -285,7 +280,7 @@ pub fn choose(
     let mut added = Vec::new();
     let rule = "admissible (training data consistent with the declared noise bound) with the fewest added parameters; ties broken by the free-run fit on the training records; when none is admissible, the one whose first contradiction comes latest is extended in a further round".to_string();
     while !base_train.admissible() && added.len() < opts.max_effects {
-        let mut cands = candidates(&base, &scale, opts);
+        let mut cands = candidates(&base, &scale, opts, training.steady.is_some());
         let total = cands.len();
         let mut sets: Vec<Option<ModelSet>> = Vec::new();
         for (i, (m, ev)) in cands.iter_mut().enumerate() {

@@ -39,21 +39,45 @@ pub struct Orders {
     pub nk: usize,
 }
 
-/// The known signals of one record, from which equation terms are computed.
+/// The signals of one record from which equation terms are computed.
 #[derive(Debug, Clone, Copy)]
 pub struct Signals<'a> {
     /// The measured input `u_t`.
     pub u: &'a [f64],
     /// Sample time in seconds (1 when unknown).
     pub dt: f64,
+    /// The linear block's output `x_t` as far as it is known: the stage-2 bounds in
+    /// identification (an interval per sample), the simulated values (degenerate intervals) in a
+    /// simulation, where only `x[..t]` exists when the regressor at `t` is asked for. `None`:
+    /// not available (column names only).
+    pub x: Option<&'a [Interval]>,
 }
 
-/// A named regressor column `φ_k(t)`, one value per sample of the record. Contract: causal
-/// (the value at `t` reads only `u[..=t]`) and zero at steady state (constant input).
+impl<'a> Signals<'a> {
+    /// Signals of the input alone.
+    pub fn input(u: &'a [f64], dt: f64) -> Self {
+        Signals { u, dt, x: None }
+    }
+}
+
+/// A named regressor column `φ_k(t)`, one interval per sample of the record (exact values are
+/// degenerate intervals; a regressor of the uncertain output is an interval that holds its
+/// value; not finite where unknown). Contract: causal (the value at `t` reads `u[..=t]` and
+/// `x[..t]` only).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Column {
     pub name: String,
-    pub values: Vec<f64>,
+    pub values: Vec<Interval>,
+}
+
+impl Column {
+    /// A column of exact values.
+    pub fn exact(name: impl Into<String>, values: impl IntoIterator<Item = f64>) -> Self {
+        Column {
+            name: name.into(),
+            values: values.into_iter().map(|v| Interval::new(v, v)).collect(),
+        }
+    }
 }
 
 /// The scale of the training data, from which diagnosis candidates take a default prior box
@@ -103,9 +127,28 @@ pub trait Effect: Debug + Send + Sync {
     // ---- the model side ------------------------------------------------------------------
     /// Change the linear orders (delay, extra pole or zero). Default: none.
     fn orders(&self, _orders: &mut Orders) {}
-    /// Equation regressors of one record (causal, zero at steady state). Default: none.
+    /// Equation regressors of one record (causal). Default: none.
     fn regressors(&self, _signals: &Signals) -> Vec<Column> {
         Vec::new()
+    }
+    /// The regressors at sample `t` alone, from `u[..=t]` and `x[..t]` (a simulation asks
+    /// sample by sample when [`Effect::uses_output`]). Default: from [`Effect::regressors`].
+    fn regressors_at(&self, signals: &Signals, t: usize) -> Vec<f64> {
+        self.regressors(signals)
+            .iter()
+            .map(|c| c.values.get(t).map_or(0.0, |v| v.center()))
+            .collect()
+    }
+    /// Whether the regressors read the linear block's output (then a simulation computes them
+    /// sample by sample from its own output). Default: no.
+    fn uses_output(&self) -> bool {
+        false
+    }
+    /// Whether the equation terms vanish at steady state (stage 1 from steady-state data assumes
+    /// so). Default: yes. A constant term does not: it needs data without the designed
+    /// steady-state experiment.
+    fn vanishes_at_steady_state(&self) -> bool {
+        true
     }
     /// Names of the sensor parameters `ψ` that the branch and bound bisects. Default: none.
     fn cell_parameters(&self) -> Vec<String> {

@@ -2,8 +2,8 @@
 //! eqs 1-2 with the effects) and predict `k` steps ahead. The *central member* takes the
 //! nonlinearity parameters and bisected parameters at the centre of the central cell's bounds,
 //! and `θ` by least squares on the central cell's stage-2 centres (eq 28: `x^c`, `v^c`), subject
-//! to the fixed coefficients and the unit gain (eq 8) and clamped into the cell's `θ` bounds, so
-//! it is a good predictor even when the bound box is wide (its centre can be unstable). The
+//! to the fixed coefficients, the unit gain (eq 8) and the cell's `θ` bounds, so it is a good
+//! predictor even when the bound box is wide (its centre can be unstable). The
 //! *axis members* put one identified parameter at an end of its bound, the others central: they
 //! lie in the outer bounds, not necessarily in the feasible set, so an envelope over them is
 //! indicative, not a guarantee.
@@ -36,8 +36,8 @@ pub fn central_cell(set: &ModelSet) -> usize {
 }
 
 /// `θ` by least squares on a cell's stage-2 centres over the training records (equations whose
-/// samples were all inverted), subject to the fixed coefficients and the unit gain, clamped into
-/// the cell's bounds. `None` when too few equations.
+/// samples were all inverted), subject to the fixed coefficients and the unit gain, inside the
+/// cell's bounds (an active set). `None` when too few equations.
 fn least_squares_theta(set: &ModelSet, k: usize) -> Result<Option<Vec<f64>>> {
     let layout = set.model.layout()?;
     let c = &set.cells[k];
@@ -95,32 +95,94 @@ fn least_squares_theta(set: &ModelSet, k: usize) -> Result<Option<Vec<f64>>> {
         }
         eq.push((g, 1.0));
     }
-    let m = eq.len();
-    let n = p + m;
-    let mut kkt = nalgebra::DMatrix::<f64>::zeros(n, n);
-    let mut rhs = nalgebra::DVector::<f64>::zeros(n);
+    let mut gram = nalgebra::DMatrix::<f64>::zeros(p, p);
+    let mut rhs = nalgebra::DVector::<f64>::zeros(p);
     for (phi, y) in &rows {
         for i in 0..p {
             rhs[i] += phi[i] * y;
             for j in 0..p {
-                kkt[(i, j)] += phi[i] * phi[j];
+                gram[(i, j)] += phi[i] * phi[j];
             }
         }
     }
-    for (r, (g, f)) in eq.iter().enumerate() {
-        for i in 0..p {
-            kkt[(p + r, i)] = g[i];
-            kkt[(i, p + r)] = g[i];
-        }
-        rhs[p + r] = *f;
-    }
-    let Ok(sol) = kkt.svd(true, true).solve(&rhs, 1e-12) else {
-        return Ok(None);
+    let cost = |th: &[f64]| -> f64 {
+        rows.iter()
+            .map(|(phi, y)| {
+                let e = y - phi.iter().zip(th).map(|(a, b)| a * b).sum::<f64>();
+                e * e
+            })
+            .sum()
     };
-    let theta: Vec<f64> = (0..p)
-        .map(|i| sol[i].clamp(c.theta[i].lo, c.theta[i].hi))
-        .collect();
-    Ok(theta.iter().all(|v| v.is_finite()).then_some(theta))
+    // Least squares inside the cell's bounds: an active set that clamps the worst violator
+    // and releases a clamped coefficient when that lowers the cost and stays inside.
+    let mut clamped: Vec<Option<f64>> = vec![None; p];
+    let mut best: Option<Vec<f64>> = None;
+    for _ in 0..4 * p + 4 {
+        let Some(th) = constrained_ls(&gram, &rhs, &eq, &clamped) else {
+            break;
+        };
+        let worst = (0..p)
+            .filter(|&i| clamped[i].is_none())
+            .map(|i| {
+                let b = c.theta[i];
+                let v = (b.lo - th[i]).max(th[i] - b.hi);
+                (i, v)
+            })
+            .filter(|(_, v)| *v > 0.0)
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((i, _)) = worst {
+            let b = c.theta[i];
+            clamped[i] = Some(th[i].clamp(b.lo, b.hi));
+            continue;
+        }
+        best = Some(th.clone());
+        let here = cost(&th);
+        let release = (0..p).filter(|&i| clamped[i].is_some()).find(|&i| {
+            let mut trial = clamped.clone();
+            trial[i] = None;
+            constrained_ls(&gram, &rhs, &eq, &trial).is_some_and(|t| {
+                (0..p).all(|k| trial[k].is_some() || c.theta[k].contains(t[k])) && cost(&t) < here
+            })
+        });
+        match release {
+            Some(i) => clamped[i] = None,
+            None => break,
+        }
+    }
+    Ok(best.filter(|t| t.iter().all(|v| v.is_finite())))
+}
+
+/// `argmin |y - Φθ|²` from the normal equations subject to the equalities `eq` and the clamped
+/// coefficients (KKT system, SVD).
+fn constrained_ls(
+    gram: &nalgebra::DMatrix<f64>,
+    rhs: &nalgebra::DVector<f64>,
+    eq: &[(Vec<f64>, f64)],
+    clamped: &[Option<f64>],
+) -> Option<Vec<f64>> {
+    let p = rhs.len();
+    let mut rows: Vec<(Vec<f64>, f64)> = eq.to_vec();
+    for (i, c) in clamped.iter().enumerate() {
+        if let Some(v) = c {
+            let mut g = vec![0.0; p];
+            g[i] = 1.0;
+            rows.push((g, *v));
+        }
+    }
+    let n = p + rows.len();
+    let mut kkt = nalgebra::DMatrix::<f64>::zeros(n, n);
+    let mut r = nalgebra::DVector::<f64>::zeros(n);
+    kkt.view_mut((0, 0), (p, p)).copy_from(gram);
+    r.rows_mut(0, p).copy_from(rhs);
+    for (k, (g, f)) in rows.iter().enumerate() {
+        for i in 0..p {
+            kkt[(p + k, i)] = g[i];
+            kkt[(i, p + k)] = g[i];
+        }
+        r[p + k] = *f;
+    }
+    let sol = kkt.svd(true, true).solve(&r, 1e-12).ok()?;
+    Some((0..p).map(|i| sol[i]).collect())
 }
 
 /// The central member's values, by name: the central cell's nonlinearity parameters and
@@ -301,14 +363,43 @@ impl ModelPoint {
             .unwrap_or(0.0)
     }
 
-    /// The equation-term sequence `Σ c_k φ_k(t)` of a record.
-    fn equation_terms(&self, u: &[f64], dt: f64) -> Vec<f64> {
-        let cols = effect::regressors(&self.effects, &Signals { u, dt });
+    /// The equation-term sequence `Σ c_k φ_k(t)` of a record with the linear block's output
+    /// given (`x`: regressors that read it use it), and the coefficient slices of the effects
+    /// that read the output (to be evaluated online in a free run).
+    fn equation_terms(&self, u: &[f64], dt: f64, x: Option<&[Interval]>) -> Vec<f64> {
         let mut d = vec![0.0; u.len()];
-        for (c, col) in self.extras.iter().zip(&cols) {
-            for (dv, v) in d.iter_mut().zip(&col.values) {
-                *dv += c * v;
+        let mut k = 0;
+        for e in &self.effects {
+            let cols = e.regressors(&Signals { u, dt, x });
+            if x.is_some() || !e.uses_output() {
+                for (c, col) in self.extras[k..].iter().zip(&cols) {
+                    for (dv, v) in d.iter_mut().zip(&col.values) {
+                        if v.is_finite() {
+                            *dv += c * v.center();
+                        }
+                    }
+                }
             }
+            k += cols.len();
+        }
+        d
+    }
+
+    /// The terms of the effects that read the output, at sample `s` of a free run.
+    fn online_terms(&self, u: &[f64], dt: f64, x: &[Interval], s: usize) -> f64 {
+        let mut d = 0.0;
+        let mut k = 0;
+        for e in &self.effects {
+            let n = e.regressors(&Signals::input(&[], dt)).len();
+            if e.uses_output() {
+                let vals = e.regressors_at(&Signals { u, dt, x: Some(x) }, s);
+                d += self.extras[k..k + n]
+                    .iter()
+                    .zip(&vals)
+                    .map(|(c, v)| c * v)
+                    .sum::<f64>();
+            }
+            k += n;
         }
         d
     }
@@ -320,7 +411,7 @@ impl ModelPoint {
 
     /// Free-run simulation from rest on the input alone.
     pub fn simulate(&self, u: &[f64], dt: f64) -> Simulation {
-        self.predict(u, None, dt, usize::MAX)
+        self.predict(u, None, dt, usize::MAX, 0)
     }
 
     /// The sensor terms `s_t` of this member over a record of `n` samples.
@@ -328,12 +419,20 @@ impl ModelPoint {
         (0..n).map(|t| self.sensor(t)).collect()
     }
 
-    /// `k`-step-ahead prediction: at each `t` the linear block's past outputs up to `t - k` are
-    /// taken from `x_data` (estimates of the inner signal from the measurements: for
-    /// Hammerstein `y - s`, for Wiener the centres of the stage-2 inner bounds, the free-run
-    /// value where a sample was not inverted) and the model runs `k` steps on the input alone.
-    /// `k = usize::MAX` or no `x_data` is the free run.
-    pub fn predict(&self, u: &[f64], x_data: Option<&[f64]>, dt: f64, k: usize) -> Simulation {
+    /// Simulation or prediction from the input. `x_data` are estimates of the linear block's
+    /// output from the measurements (Hammerstein `y - s`; Wiener the centres of the stage-2
+    /// inner bounds, the free-run value where a sample was not inverted). The first `warm`
+    /// samples take `x_data` as they are (the measured initial condition, as MATLAB's
+    /// `compare` estimates one), then the model runs on the input alone (`k = usize::MAX`: the
+    /// free run), or, for a `k`-step-ahead prediction, from `x_data` up to `t - k` for each `t`.
+    pub fn predict(
+        &self,
+        u: &[f64],
+        x_data: Option<&[f64]>,
+        dt: f64,
+        k: usize,
+        warm: usize,
+    ) -> Simulation {
         let n = u.len();
         let v = match self.structure {
             Structure::Wiener => u.to_vec(),
@@ -342,8 +441,30 @@ impl ModelPoint {
         let v: Vec<f64> = (0..n)
             .map(|t| if t >= self.nk { v[t - self.nk] } else { 0.0 })
             .collect();
-        let d = self.equation_terms(u, dt);
-        let free = self.run_linear(&v, &d);
+        let xd = x_data.filter(|d| d.len() == n);
+        let online = self.effects.iter().any(|e| e.uses_output());
+        let na = self.linear.a.len();
+        // The free run (with the warm start).
+        let batch = self.equation_terms(u, dt, None);
+        let mut free = Vec::with_capacity(n);
+        let mut free_iv: Vec<Interval> = Vec::with_capacity(n);
+        for s in 0..n {
+            let xs = match xd {
+                Some(d) if s < warm => d[s],
+                _ => {
+                    let mut ds = batch[s];
+                    if online {
+                        ds += self.online_terms(u, dt, &free_iv, s);
+                    }
+                    let hist: Vec<f64> = (1..=na)
+                        .map(|i| if s >= i { free[s - i] } else { 0.0 })
+                        .collect();
+                    self.linear_step(&v, ds, s, &hist)
+                }
+            };
+            free.push(xs);
+            free_iv.push(Interval::new(xs, xs));
+        }
         let sensor: Vec<f64> = (0..n).map(|t| self.sensor(t)).collect();
         let out = |x: &[f64]| -> Vec<f64> {
             match self.structure {
@@ -351,26 +472,29 @@ impl ModelPoint {
                 Structure::Hammerstein => x.to_vec(),
             }
         };
-        let measured_x = match x_data {
-            Some(x) if x.len() == n && k < n && k > 0 => x,
+        let measured_x = match xd {
+            Some(x) if k < n && k > 0 => x,
             _ => {
                 let w = out(&free);
                 let yy = w.iter().zip(&sensor).map(|(a, b)| a + b).collect();
                 return Simulation { x: free, w, y: yy };
             }
         };
-        let na = self.linear.a.len();
+        // k-step prediction; regressors that read the output read the data.
+        let data_iv: Vec<Interval> = measured_x.iter().map(|&v| Interval::new(v, v)).collect();
+        let d = self.equation_terms(u, dt, Some(&data_iv));
         let mut x = vec![0.0; n];
         for t in 0..n {
-            if t < k {
+            // Past outputs x_{t-k-i}, i >= 0, from the data (all of them in the record); then
+            // k steps of the model. Before that, the free run.
+            if t < k.max(warm) || t + 1 < k + na {
                 x[t] = free[t];
                 continue;
             }
-            // Past outputs x_{t-k-i}, i >= 0, from the data; then k steps of the model.
             let start = t + 1 - k;
             let mut hist: Vec<f64> = (0..na)
                 .map(|i| {
-                    if start >= i + 1 {
+                    if start > i {
                         measured_x[start - 1 - i]
                     } else {
                         0.0
@@ -379,7 +503,7 @@ impl ModelPoint {
                 .collect();
             let mut xs = 0.0;
             for s in start..=t {
-                xs = self.linear_step(&v, &d, s, &hist);
+                xs = self.linear_step(&v, d[s], s, &hist);
                 if na > 0 {
                     hist.rotate_right(1);
                     hist[0] = xs;
@@ -393,8 +517,8 @@ impl ModelPoint {
     }
 
     /// `x_s = -Σ a_i x_{s-i} + Σ b_j v_{s-j} + d_s` with the past outputs `hist[i-1] = x_{s-i}`.
-    fn linear_step(&self, v: &[f64], d: &[f64], s: usize, hist: &[f64]) -> f64 {
-        let mut x = d[s];
+    fn linear_step(&self, v: &[f64], d: f64, s: usize, hist: &[f64]) -> f64 {
+        let mut x = d;
         for (j, b) in self.linear.b.iter().enumerate() {
             if s >= j {
                 x += b * v[s - j];
@@ -402,21 +526,6 @@ impl ModelPoint {
         }
         for (a, xi) in self.linear.a.iter().zip(hist) {
             x -= a * xi;
-        }
-        x
-    }
-
-    fn run_linear(&self, v: &[f64], d: &[f64]) -> Vec<f64> {
-        let na = self.linear.a.len();
-        let mut hist = vec![0.0; na];
-        let mut x = Vec::with_capacity(v.len());
-        for s in 0..v.len() {
-            let xs = self.linear_step(v, d, s, &hist);
-            if na > 0 {
-                hist.rotate_right(1);
-                hist[0] = xs;
-            }
-            x.push(xs);
         }
         x
     }

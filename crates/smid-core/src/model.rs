@@ -35,8 +35,12 @@ pub struct Layout {
     pub extra_names: Vec<String>,
     /// Fixed `θ` entries (`model.fixed`), in `θ` order.
     pub fixed: Vec<Option<f64>>,
-    /// The bisected parameters `ψ`.
+    /// The bisected parameters `ψ`: the nonlinearity's (when its prior is given), then the
+    /// effects'.
     pub dims: Vec<CellDim>,
+    /// The slice of `ψ` that holds the nonlinearity's parameters (empty: stage 1 from
+    /// steady-state data).
+    pub nonlinearity_cells: Range<usize>,
     /// The slice of `ψ` that belongs to each effect, in effect order.
     pub effect_cells: Vec<Range<usize>>,
 }
@@ -50,6 +54,19 @@ impl Layout {
     pub fn p(&self) -> usize {
         self.theta_names.len()
     }
+}
+
+fn check_prior(name: &str, p: &[f64; 2]) -> Result<Interval> {
+    if !(p[0].is_finite() && p[1].is_finite() && p[0] <= p[1]) {
+        return Err(SmidError::invalid(
+            format!("model.prior.{name}"),
+            format!(
+                "expected finite [lo, hi] with lo <= hi, got [{}, {}]",
+                p[0], p[1]
+            ),
+        ));
+    }
+    Ok(Interval::new(p[0], p[1]))
 }
 
 /// Names of `a1..a_na`, `b0..b_nb`.
@@ -73,7 +90,7 @@ impl ModelSpec {
     /// Resolve the structure; errors name the field (`model.fixed.x`, `model.prior.x`).
     pub fn layout(&self) -> Result<Layout> {
         let orders = effect::augmented(self.base_orders(), &self.effects);
-        let empty = Signals { u: &[], dt: 1.0 };
+        let empty = Signals::input(&[], 1.0);
         let extra_names: Vec<String> = effect::regressors(&self.effects, &empty)
             .into_iter()
             .map(|c| c.name)
@@ -81,6 +98,27 @@ impl ModelSpec {
         let mut theta_names = linear_names(orders.na, orders.nb);
         theta_names.extend(extra_names.iter().cloned());
         let mut dims = Vec::new();
+        // The plugin's parameters are bisected when the prior names any of them (identification
+        // from any record); then every one needs its prior.
+        let pnames = crate::registry::parameter_names(&self.nonlinearity_tag());
+        if pnames.iter().any(|n| self.prior.contains_key(n)) {
+            for name in &pnames {
+                let p = self.prior.get(name).ok_or_else(|| {
+                    SmidError::invalid(
+                        format!("model.prior.{name}"),
+                        format!(
+                            "the nonlinearity's parameters are bisected over a prior box: give all of {}",
+                            pnames.join(", ")
+                        ),
+                    )
+                })?;
+                dims.push(CellDim {
+                    name: name.clone(),
+                    prior: check_prior(name, p)?,
+                });
+            }
+        }
+        let nonlinearity_cells = 0..dims.len();
         let mut effect_cells = Vec::new();
         for e in &self.effects {
             let start = dims.len();
@@ -94,19 +132,8 @@ impl ModelSpec {
                         ),
                     )
                 })?;
-                if !(p[0].is_finite() && p[1].is_finite() && p[0] <= p[1]) {
-                    return Err(SmidError::invalid(
-                        format!("model.prior.{name}"),
-                        format!(
-                            "expected finite [lo, hi] with lo <= hi, got [{}, {}]",
-                            p[0], p[1]
-                        ),
-                    ));
-                }
-                dims.push(CellDim {
-                    name,
-                    prior: Interval::new(p[0], p[1]),
-                });
+                let prior = check_prior(&name, p)?;
+                dims.push(CellDim { name, prior });
             }
             effect_cells.push(start..dims.len());
         }
@@ -165,6 +192,7 @@ impl ModelSpec {
             extra_names,
             fixed,
             dims,
+            nonlinearity_cells,
             effect_cells,
         })
     }

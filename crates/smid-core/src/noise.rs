@@ -5,7 +5,10 @@ use crate::error::{Result, SmidError};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
-/// How the noise bound is declared in a spec: exactly one of the two fields.
+/// How the noise bound is declared in a spec: `delta` or `encoder_bits`, or `estimate` for
+/// measured data whose sensor bound is not known (then `Δη` is the margin times the smallest
+/// bound for which the training records are consistent with the model, and every report says
+/// the bound was estimated, not given).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NoiseSpec {
@@ -20,9 +23,34 @@ pub struct NoiseSpec {
     /// quantization inside an FMU), so that added noise plus the plant's own stays within the bound.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub simulate: Option<f64>,
+    /// Estimate `Δη` from the training data: this margin (`>= 1`) times the smallest bound for
+    /// which they are consistent with the model (bisection). With `delta` also present, `delta`
+    /// is that estimate (as `result.json` stores it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub estimate: Option<f64>,
 }
 
 impl NoiseSpec {
+    /// Whether the bound is (to be) estimated from the data.
+    pub fn estimated(&self) -> bool {
+        self.estimate.is_some()
+    }
+
+    /// Check the estimate's margin (`>= 1`, finite).
+    pub fn check_estimate(&self) -> Result<()> {
+        match self.estimate {
+            Some(m) if !(m.is_finite() && m >= 1.0) => Err(SmidError::invalid(
+                "noise.estimate",
+                format!("expected a margin >= 1, got {m}"),
+            )),
+            Some(_) if self.encoder_bits.is_some() => Err(SmidError::invalid(
+                "noise",
+                "give `estimate` or `encoder_bits`, not both",
+            )),
+            _ => Ok(()),
+        }
+    }
+
     /// Amplitude of the noise added to simulated plants, checked (`0 <= simulate`).
     pub fn simulated(&self) -> Result<f64> {
         let d = self.delta()?;
@@ -63,9 +91,13 @@ impl NoiseSpec {
                 "noise",
                 "give either `delta` or `encoder_bits`, not both",
             )),
+            (None, None) if self.estimate.is_some() => Err(SmidError::invalid(
+                "noise.estimate",
+                "the bound is estimated from the training data during identification (smid run)",
+            )),
             (None, None) => Err(SmidError::invalid(
                 "noise",
-                "give `delta` (the bound Δη) or `encoder_bits`",
+                "give `delta` (the bound Δη), `encoder_bits` or `estimate`",
             )),
         }
     }

@@ -220,6 +220,18 @@ pub trait NonlinearityModel: Debug + Send + Sync {
     fn supports(&self, structure: Structure) -> bool {
         structure == Structure::Wiener
     }
+    /// Identification from any record (no steady-state data): the set of **every** parameter
+    /// vector in a box (one interval per parameter, in the order of
+    /// [`Nonlinearity::parameters`] of the plugin's simulator), whose
+    /// [`NonlinearitySet::invert`] / [`NonlinearitySet::propagate`] must bound the inner signal
+    /// for every member of the box. The branch and bound of [`crate::cells`] calls it per cell.
+    /// Default: unsupported (the plugin then needs steady-state data).
+    fn set_from_box(&self, _cell: &[Interval]) -> Result<Box<dyn NonlinearitySet>> {
+        Err(SmidError::Unsupported {
+            plugin: format!("{self:?}"),
+            what: "a parameter box without steady-state data (implement NonlinearityModel::set_from_box)".into(),
+        })
+    }
 }
 
 /// The uncertain nonlinearity left after stage 1: parameter bounds, and the inner-signal bounds

@@ -213,12 +213,32 @@ pub fn stage1(
     steady: Option<&SteadyStateData>,
     cell: &[Interval],
 ) -> Result<Box<dyn NonlinearitySet>> {
-    let steady = steady.ok_or_else(|| {
-        SmidError::invalid(
-            "plant",
-            "stage 1 needs steady-state data (the designed experiment of Section 3); without it, bound the nonlinearity from a prior box",
-        )
-    })?;
+    let range = layout.nonlinearity_cells.clone();
+    if !range.is_empty() {
+        if steady.is_some() {
+            return Err(SmidError::invalid(
+                "model.prior",
+                "a prior box for the nonlinearity's parameters together with steady-state data is not supported yet: give one or the other",
+            ));
+        }
+        return model.nonlinearity.set_from_box(&cell[range]);
+    }
+    let steady = match steady {
+        Some(s) => s,
+        // A plugin without parameters needs no stage 1.
+        None if crate::registry::parameter_names(&model.nonlinearity_tag()).is_empty() => {
+            return model.nonlinearity.set_from_box(&[])
+        }
+        None => {
+            return Err(SmidError::invalid(
+                "plant",
+                format!(
+                    "stage 1 needs steady-state data (the designed experiment of Section 3); without it, give the nonlinearity's parameters a prior box (`model.prior`: {})",
+                    crate::registry::parameter_names(&model.nonlinearity_tag()).join(", ")
+                ),
+            ))
+        }
+    };
     if model.effects.is_empty() {
         return model.nonlinearity.bound_steady_state(steady);
     }
@@ -325,16 +345,20 @@ pub fn stage2(
                 Interval::entire()
             }
         }));
+        let xs: Vec<Interval> = out.output[out.output.len() - n..]
+            .iter()
+            .map(|b| b.interval)
+            .collect();
         let cols = effect::regressors(
             &model.effects,
             &Signals {
                 u: &rec.u,
                 dt: rec.dt,
+                x: Some(&xs),
             },
         );
         for (e, c) in out.extra.iter_mut().zip(cols) {
-            e.values
-                .extend(c.values.iter().map(|&v| Interval::new(v, v)));
+            e.values.extend(c.values);
         }
     }
     Ok(out)
@@ -390,6 +414,7 @@ pub fn relabel(e: SmidError, sig: &StageSignals) -> SmidError {
             detail,
         } => {
             let (r, t) = sig.locate(sample);
+            let detail = detail.replace(&format!("t = {sample}"), &format!("sample {t}"));
             SmidError::Inconsistent {
                 stage,
                 sample: t,
@@ -482,7 +507,11 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
         spec.plant.data.as_ref().ok_or_else(|| {
             SmidError::invalid("plant.data", "the spec's plant is not measured data")
         })?;
-    let delta = spec.noise.delta()?;
+    // An estimated bound is set after loading (see `estimate_bound`); 1 stands in until then.
+    let delta = match spec.noise.delta() {
+        Err(_) if spec.noise.estimated() => 1.0,
+        d => d?,
+    };
     let steady = match &d.steady_state {
         None => None,
         Some(ss) => {
@@ -548,6 +577,107 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
     })
 }
 
+/// The spec with the noise bound `d` (an estimate keeps its margin, so reports say so).
+pub fn with_bound(spec: &Spec, d: f64) -> Spec {
+    let mut v = serde_json::to_value(spec).expect("specs serialise");
+    v["noise"]["delta"] = serde_json::json!(d);
+    v["noise"].as_object_mut().map(|o| o.remove("encoder_bits"));
+    serde_json::from_value(v).expect("a serialised spec deserialises")
+}
+
+/// The data with every noise bound set to `d`.
+pub fn data_with_bound(data: &ExperimentData, d: f64) -> ExperimentData {
+    let mut out = data.clone();
+    for r in &mut out.records {
+        *r = r.with_bound(d);
+    }
+    if let Some(st) = out.steady.as_mut() {
+        for p in &mut st.points {
+            p.dy = d;
+        }
+    }
+    out
+}
+
+/// Whether the training data are consistent with the model at noise bound `d`, by the
+/// branch and bound's cheap test alone (classical outer sets, no bounds computed): `false`
+/// proves them inconsistent; `true` proves nothing.
+pub fn consistent_at(spec: &Spec, data: &ExperimentData, d: f64) -> Result<bool> {
+    let spec = with_bound(spec, d);
+    let data = data_with_bound(data, d);
+    let layout = spec.model.layout()?;
+    let training = Training {
+        steady: data.steady.clone(),
+        records: data.records.clone(),
+    };
+    let prior: Vec<Interval> = layout.dims.iter().map(|d| d.prior).collect();
+    let scale = data_scale(&data);
+    // Coarser than the identification's cells: a test that cannot discard a coarse cell only
+    // lowers the estimate, which the identification then raises by the margin if needed.
+    let halvings = 2f64.powi(spec.method.cells.nonlinearity_halvings.saturating_sub(2) as i32);
+    let resolution: Vec<f64> = layout.dims[layout.nonlinearity_cells.clone()]
+        .iter()
+        .map(|d| (d.prior.hi - d.prior.lo) / halvings)
+        .chain(
+            spec.model
+                .effects
+                .iter()
+                .flat_map(|e| e.resolution(d, &scale)),
+        )
+        .collect();
+    let test = |c: &[Interval]| test_cell(&spec.model, &layout, &spec.method, &training, c);
+    match cells::search(
+        &prior,
+        Budget {
+            resolution,
+            depth: spec.method.cells.depth,
+            max_cells: spec.method.cells.max_cells,
+        },
+        &test,
+        &test,
+        &|_| {},
+    ) {
+        Ok(s) => Ok(!s.leaves.is_empty()),
+        Err(SmidError::Inconsistent { .. }) => Ok(false),
+        Err(e) => Err(e),
+    }
+}
+
+/// The estimated noise bound of `noise.estimate`: the margin times the smallest bound for
+/// which the training data are consistent with the model (doubling from a thousandth of the
+/// largest output, then bisection to 2 %; at most 60 tests). That smallest bound is a lower
+/// bound of the exact one (the test is an outer relaxation), so the identification at the
+/// estimate may still find the data inconsistent: the estimate then grows by the margin again.
+pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<f64> {
+    let margin = spec.noise.estimate.unwrap_or(1.1);
+    let scale = data_scale(data).y_max;
+    let mut hi = 1e-3 * scale;
+    let mut lo = 0.0;
+    let mut n = 0;
+    while !consistent_at(spec, data, hi)? {
+        n += 1;
+        if n > 40 {
+            return Err(SmidError::Inconsistent {
+                stage: crate::error::Stage::Linear,
+                sample: 0,
+                detail: format!("no noise bound up to {hi:.3e} makes the training data consistent"),
+            });
+        }
+        lo = hi;
+        hi *= 2.0;
+    }
+    while hi - lo > 0.02 * hi && n < 60 {
+        let mid = 0.5 * (lo + hi);
+        if consistent_at(spec, data, mid)? {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+        n += 1;
+    }
+    Ok(margin * hi)
+}
+
 /// The true values of `θ` under the model's orders from a true linear block: `a_i`, and
 /// `b_j = B[nk + j]` (None when the model cannot represent it: a true coefficient before the
 /// delay or beyond the orders).
@@ -590,6 +720,29 @@ pub fn identify_with(
     truth: &[(String, f64)],
     progress: &(dyn Fn(&cells::Progress) + Sync),
 ) -> Result<Identification> {
+    if spec.noise.estimated() && spec.noise.delta.is_none() {
+        // Measured data without a known sensor bound: estimate it, then identify with it
+        // (growing it by the margin while the stage-3 method still finds the data inconsistent).
+        let margin = spec.noise.estimate.unwrap_or(1.1);
+        let mut d = estimate_bound(spec, &data)?;
+        for _ in 0..10 {
+            match identify_with(
+                &with_bound(spec, d),
+                data_with_bound(&data, d),
+                truth,
+                progress,
+            ) {
+                Err(SmidError::Inconsistent { .. }) => d *= margin,
+                r => return r,
+            }
+        }
+        return identify_with(
+            &with_bound(spec, d),
+            data_with_bound(&data, d),
+            truth,
+            progress,
+        );
+    }
     let delta = spec.noise.delta()?;
     let layout = spec.model.layout()?;
     if let Some(steady) = data.steady.as_mut() {
@@ -616,6 +769,22 @@ pub fn identify_with(
     for r in &data.records {
         r.validate()?;
     }
+    if data.steady.is_some() {
+        if let Some(e) = spec
+            .model
+            .effects
+            .iter()
+            .find(|e| !e.vanishes_at_steady_state())
+        {
+            return Err(SmidError::invalid(
+                "model.effects",
+                format!(
+                    "`{}` does not vanish at steady state, so stage 1 from steady-state data would be biased: use it on records without the designed steady-state experiment",
+                    e.label()
+                ),
+            ));
+        }
+    }
     if data.records.is_empty() {
         return Err(SmidError::invalid(
             "plant",
@@ -630,10 +799,16 @@ pub fn identify_with(
     let method = &spec.method;
     let prior: Vec<Interval> = layout.dims.iter().map(|d| d.prior).collect();
     let scale = data_scale(&data);
-    let resolution: Vec<f64> = model
-        .effects
+    let halvings = 2f64.powi(method.cells.nonlinearity_halvings as i32);
+    let resolution: Vec<f64> = layout.dims[layout.nonlinearity_cells.clone()]
         .iter()
-        .flat_map(|e| e.resolution(delta, &scale))
+        .map(|d| (d.prior.hi - d.prior.lo) / halvings)
+        .chain(
+            model
+                .effects
+                .iter()
+                .flat_map(|e| e.resolution(delta, &scale)),
+        )
         .collect();
     let test = |cell: &[Interval]| test_cell(model, &layout, method, &training, cell);
     let eval = |cell: &[Interval]| evaluate_cell(model, &layout, method, &training, cell);
@@ -692,6 +867,9 @@ pub fn identify_with(
         parameters.push(ParamResult::new(name, h, truth_of(name)));
     }
     for (k, d) in layout.dims.iter().enumerate() {
+        if layout.nonlinearity_cells.contains(&k) {
+            continue; // reported above, from the sets (which are these cells)
+        }
         let h = hull(kept.iter().map(|c| c.cell[k]));
         parameters.push(ParamResult::new(&d.name, h, truth_of(&d.name)));
     }
@@ -741,7 +919,11 @@ pub fn identify_with(
         model: model.duplicate(),
         method: method.clone(),
         delta,
-        bound_source: BoundSource::Given,
+        bound_source: if spec.noise.estimated() {
+            BoundSource::Estimated
+        } else {
+            BoundSource::Given
+        },
         dims: layout.dims.clone(),
         cells: kept,
         parameters,

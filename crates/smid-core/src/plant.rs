@@ -76,7 +76,7 @@ impl SimulatedPlant<'_> {
             // The exact operation order of the plant FMUs (bit-for-bit agreement).
             return self.linear.simulate(&v);
         }
-        let signals = Signals { u, dt: self.dt };
+        let signals = Signals::input(u, self.dt);
         let mut d = vec![0.0; u.len()];
         for e in self.effects {
             if let Some(term) = e.plant_equation(&signals) {

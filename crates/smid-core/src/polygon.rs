@@ -173,6 +173,31 @@ impl Polygon {
         Ok(poly)
     }
 
+    /// The exact image of a box `m ∈ [m0, m1]`, `c ∈ [c0, c1]` (`m0 > 0`) in the coordinates
+    /// `(m, m·c)` of a linear branch: for each `m` the segment `m·c ∈ [c0 m, c1 m]`, so the
+    /// image is the quadrilateral between two rays through the origin cut by two verticals.
+    /// Quasi-linear functions of `(m, m·c)` (the branch inverses) then take their extremes over
+    /// the box at its corners, and the plugins' vertex-based inversion holds per cell.
+    pub fn from_slope_offset_box(m: Interval, c: Interval) -> Result<Polygon> {
+        if !(m.lo > 0.0 && m.lo <= m.hi && c.lo <= c.hi && m.is_finite() && c.is_finite()) {
+            return Err(SmidError::invalid(
+                "model.prior",
+                format!(
+                    "a slope box needs 0 < lo <= hi and an offset box lo <= hi, finite; got m ∈ [{}, {}], c ∈ [{}, {}]",
+                    m.lo, m.hi, c.lo, c.hi
+                ),
+            ));
+        }
+        Ok(Polygon {
+            vertices: vec![
+                [m.lo, c.lo * m.lo],
+                [m.hi, c.lo * m.hi],
+                [m.hi, c.hi * m.hi],
+                [m.lo, c.hi * m.lo],
+            ],
+        })
+    }
+
     /// The half-planes `z0 >= 0`, `z1 >= 0`.
     pub fn positive_quadrant() -> [([f64; 2], f64); 2] {
         [([-1.0, 0.0], 0.0), ([0.0, -1.0], 0.0)]

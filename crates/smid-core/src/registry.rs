@@ -72,6 +72,21 @@ pub fn instantiate(tag: &str, values: &[(String, f64)]) -> crate::Result<Box<dyn
     })
 }
 
+/// The parameter names of a plugin `type`, in report order (from its registered example).
+pub fn parameter_names(tag: &str) -> Vec<String> {
+    nonlinearities()
+        .iter()
+        .find(|e| e.tag == tag)
+        .map(|e| {
+            (e.example)()
+                .parameters()
+                .into_iter()
+                .map(|(n, _)| n)
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
 /// Register a simulation nonlinearity: `register_nonlinearity!("tag", Type, example_expr)`.
 /// `Type` must implement `schemars::JsonSchema` and `Nonlinearity` (with the same tag).
 #[macro_export]

@@ -421,6 +421,14 @@ pub struct CellSpec {
     pub depth: u32,
     #[serde(default = "d_max_cells")]
     pub max_cells: usize,
+    /// The nonlinearity's bisected parameters (a prior box without steady-state data) are
+    /// halved down to `prior width / 2^nonlinearity_halvings`.
+    #[serde(default = "d_nl_halvings")]
+    pub nonlinearity_halvings: u32,
+}
+
+fn d_nl_halvings() -> u32 {
+    6
 }
 
 impl Default for CellSpec {
@@ -428,6 +436,7 @@ impl Default for CellSpec {
         CellSpec {
             depth: d_depth(),
             max_cells: d_max_cells(),
+            nonlinearity_halvings: d_nl_halvings(),
         }
     }
 }
@@ -531,7 +540,15 @@ impl Spec {
                 })?;
             }
         }
-        self.noise.delta()?;
+        self.noise.check_estimate()?;
+        if !self.noise.estimated() {
+            self.noise.delta()?;
+        } else if self.plant.data.is_none() {
+            return Err(SmidError::invalid(
+                "noise.estimate",
+                "an estimated bound is for measured data (`plant.data`); a simulated plant's noise is declared",
+            ));
+        }
         let layout = self.model.layout()?;
         if layout.orders.na > 8 || layout.orders.nb > 8 {
             return Err(SmidError::invalid(

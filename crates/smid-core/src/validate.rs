@@ -9,14 +9,16 @@
 //!   offending sample. The smallest noise bound of the fresh records for which they are
 //!   consistent (bisection; below it the data provably contradict the model) is compared with
 //!   the declared bound: PASS when it is within it.
-//! * **Free-run simulation** of the centre member from the input alone, with an envelope over
-//!   members at the ends of each bound (indicative, not a guarantee: those members lie in the
-//!   outer bounds, not necessarily in the feasible set); RMS error, NRMSE, fit % as MATLAB's
+//! * **Free-run simulation** of the central member ([`crate::members`]) from the input alone
+//!   after an initial condition taken from the first `na + nb + nk` measured samples (as
+//!   MATLAB's `compare` estimates one; the figures leave those samples out), with an envelope
+//!   over members at the ends of each bound (indicative, not a guarantee: those members lie in
+//!   the outer bounds, not necessarily in the feasible set); RMS error, NRMSE, fit % as
 //!   `compare` (`100 (1 - |y - ŷ| / |y - mean y|)`), maximum error; `k`-step-ahead prediction.
 //! * **Residuals**: auto- and cross-correlation of the one-step residual with 99 % bands
 //!   `±2.576/√N` (MATLAB's `resid`).
 //! * **Baseline**: a least-squares ARX of the same orders, trained on the model's training
-//!   records, simulated free-run on the same fresh records.
+//!   records, simulated free-run on the same fresh records from the same initial condition.
 //! * **Warnings**: an unstable centre model, bisected parameters at the edge of their prior,
 //!   a noise bound estimated from the data, a cell budget that stopped the bisection.
 use crate::baseline::Arx;
@@ -357,6 +359,7 @@ fn relabel(e: SmidError, sig: &StageSignals, n_train: usize) -> SmidError {
             detail,
         } => {
             let (r, t) = sig.locate(sample);
+            let detail = detail.replace(&format!("t = {sample}"), &format!("sample {t}"));
             let fresh = r.saturating_sub(n_train);
             SmidError::Inconsistent {
                 stage,
@@ -490,6 +493,25 @@ fn inner_estimate(model: &ModelSet, point: &ModelPoint, rec: &Record) -> Result<
     }
 }
 
+/// The free-run fit of the central member on records (warm start as in [`validate`]).
+pub fn free_run_fit(model: &ModelSet, records: &[Record]) -> Result<Fit> {
+    let centre = members::centre(model)?;
+    let o = model.model.layout()?.orders;
+    let warm = o.na + o.nb + o.nk;
+    let mut sims = Vec::new();
+    for rec in records {
+        let w0 = warm.min(rec.y.len());
+        let xd = inner_estimate(model, &centre, rec)?;
+        let free = centre.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y;
+        sims.push((rec.y[w0..].to_vec(), free[w0..].to_vec()));
+    }
+    let pairs: Vec<(&[f64], &[f64])> = sims
+        .iter()
+        .map(|(a, b)| (a.as_slice(), b.as_slice()))
+        .collect();
+    Ok(Fit::of(&pairs))
+}
+
 /// Validate `model` on fresh records.
 pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Validation> {
     if fresh.is_empty() {
@@ -518,8 +540,8 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     for d in &model.dims {
         if let Some(p) = model.parameter(&d.name) {
             let w = d.prior.hi - d.prior.lo;
-            let tol = 1e-6 * w.max(f64::MIN_POSITIVE);
-            if p.lower <= d.prior.lo + tol || p.upper >= d.prior.hi - tol {
+            let tol = 1e-6 * w;
+            if w > 0.0 && (p.lower <= d.prior.lo + tol || p.upper >= d.prior.hi - tol) {
                 warnings.push(format!(
                     "`{}` reaches the edge of its prior [{:.4e}, {:.4e}]: the prior, not the data, bounds it there",
                     d.name, d.prior.lo, d.prior.hi
@@ -554,16 +576,20 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     let mut per_record = Vec::new();
     let mut residuals = Vec::new();
     let mut inputs = Vec::new();
+    // The first `warm` samples give the initial condition (measured), as MATLAB's `compare`
+    // estimates one; the figures are over the rest.
+    let warm = o.na + o.nb + o.nk;
     for rec in &fresh {
         let n = rec.y.len();
-        let free = centre.simulate(&rec.u, rec.dt).y;
+        let w0 = warm.min(n);
         let xd = inner_estimate(model, &centre, rec)?;
-        let one = centre.predict(&rec.u, Some(&xd), rec.dt, 1).y;
-        let kst = centre.predict(&rec.u, Some(&xd), rec.dt, opts.k).y;
+        let free = centre.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y;
+        let one = centre.predict(&rec.u, Some(&xd), rec.dt, 1, w0).y;
+        let kst = centre.predict(&rec.u, Some(&xd), rec.dt, opts.k, w0).y;
         let mut lo = free.clone();
         let mut hi = free.clone();
         for (_, m) in members.iter().filter(|(_, m)| m.stable()) {
-            let s = m.simulate(&rec.u, rec.dt).y;
+            let s = m.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y;
             for t in 0..n {
                 if s[t].is_finite() {
                     lo[t] = lo[t].min(s[t]);
@@ -571,9 +597,9 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
                 }
             }
         }
-        let base = arx.as_ref().map(|a| a.simulate(&rec.u));
-        per_record.push((rec.name.clone(), Fit::of(&[(&rec.y, &free)])));
-        let skip = (o.na + o.nb + o.nk + 1).min(n);
+        let base = arx.as_ref().map(|a| a.simulate_from(&rec.u, &rec.y, w0));
+        per_record.push((rec.name.clone(), Fit::of(&[(&rec.y[w0..], &free[w0..])])));
+        let skip = (w0 + 1).min(n);
         residuals.extend(rec.y[skip..].iter().zip(&one[skip..]).map(|(a, b)| a - b));
         inputs.extend_from_slice(&rec.u[skip..]);
         series.push(Series {
@@ -587,7 +613,13 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
         });
     }
     let pairs = |f: &dyn Fn(&Series) -> &[f64]| -> Fit {
-        let v: Vec<(&[f64], &[f64])> = series.iter().map(|s| (s.y.as_slice(), f(s))).collect();
+        let v: Vec<(&[f64], &[f64])> = series
+            .iter()
+            .map(|s| {
+                let w0 = warm.min(s.y.len());
+                (&s.y[w0..], &f(s)[w0..])
+            })
+            .collect();
         Fit::of(&v)
     };
     let free_run = pairs(&|s| &s.free_run);
@@ -596,7 +628,10 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     let baseline = arx.as_ref().map(|_| {
         let v: Vec<(&[f64], &[f64])> = series
             .iter()
-            .filter_map(|s| s.baseline.as_ref().map(|b| (s.y.as_slice(), b.as_slice())))
+            .filter_map(|s| {
+                let w0 = warm.min(s.y.len());
+                s.baseline.as_ref().map(|b| (&s.y[w0..], &b[w0..]))
+            })
             .collect();
         Fit::of(&v)
     });

@@ -324,100 +324,322 @@ register_effect!(
     []
 );
 
-/// `u_t - u_{t-1}` (0 at the first sample).
-fn input_difference(u: &[f64]) -> Vec<f64> {
-    (0..u.len())
-        .map(|t| if t == 0 { 0.0 } else { u[t] - u[t - 1] })
-        .collect()
+/// Which velocity drives a friction term.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum Velocity {
+    /// Of the input: `u_t - u_{t-1}` (an imposed motion, a drive's command).
+    #[default]
+    Input,
+    /// Of the linear block's output, one sample late to stay causal: `x_{t-1} - x_{t-2}` (a
+    /// measured position). `x` is known as an interval (stage 2), so the velocity is too.
+    Output,
 }
 
-/// `sign(u_t - u_{t-1})`, 0 while the input moves by less than 1e-3 of its largest move (the
-/// friction of a drive at rest, or creeping to a level: the term vanishes at steady state, as
-/// stage 1 assumes, even under the filtered square wave).
-fn coulomb_column(u: &[f64]) -> Vec<f64> {
-    let d = input_difference(u);
-    let scale = d.iter().fold(0.0f64, |m, x| m.max(x.abs())) * 1e-3;
-    d.iter()
-        .map(|x| if x.abs() <= scale { 0.0 } else { x.signum() })
-        .collect()
+fn is_input(v: &Velocity) -> bool {
+    *v == Velocity::Input
 }
 
-/// Dry (Coulomb) friction driven by the input velocity: the term `c · sign(u_t - u_{t-1})`.
+/// The velocity at `t` as an interval.
+fn velocity_at(s: &Signals, v: Velocity, t: usize) -> Interval {
+    match v {
+        Velocity::Input => {
+            let d = if t == 0 { 0.0 } else { s.u[t] - s.u[t - 1] };
+            Interval::new(d, d)
+        }
+        Velocity::Output => match s.x {
+            Some(x) if t >= 2 && x.len() >= t => {
+                let (a, b) = (x[t - 1], x[t - 2]);
+                Interval::new(a.lo - b.hi, a.hi - b.lo)
+            }
+            _ => Interval::new(f64::NEG_INFINITY, f64::INFINITY),
+        },
+    }
+}
+
+/// `sign` over an interval: exact when the interval keeps one side of the dead band `±eps`
+/// (0 inside it), else the hull of the possible signs.
+fn sign_of(v: Interval, eps: f64) -> Interval {
+    let s = |x: f64| {
+        if x > eps {
+            1.0
+        } else if x < -eps {
+            -1.0
+        } else {
+            0.0
+        }
+    };
+    if !(v.lo.is_finite() && v.hi.is_finite()) {
+        return Interval::new(-1.0, 1.0);
+    }
+    Interval::new(s(v.lo), s(v.hi))
+}
+
+/// The largest input move of a record (the scale of its velocity dead band).
+fn largest_move(u: &[f64]) -> f64 {
+    u.windows(2).fold(0.0f64, |m, w| m.max((w[1] - w[0]).abs()))
+}
+
+/// Dry (Coulomb) friction: the term `c · sign(v_t)`. On the input velocity, 0 while it stays
+/// below 1e-3 of the largest input move per sample (a drive at rest or creeping to a level: the
+/// term vanishes at steady state, as stage 1 assumes, even under the filtered square wave). On
+/// the output velocity the sign is an interval where the output may not have moved.
 #[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CoulombFriction {
+    #[serde(default, skip_serializing_if = "is_input")]
+    pub velocity: Velocity,
     /// True coefficient (simulator only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<f64>,
 }
 
+impl CoulombFriction {
+    /// The velocity dead band: 1e-3 of the largest input move for the input velocity; none for
+    /// the output's (its interval already says where the output may not have moved).
+    fn eps(&self, s: &Signals) -> f64 {
+        match self.velocity {
+            Velocity::Input => 1e-3 * largest_move(s.u),
+            Velocity::Output => 0.0,
+        }
+    }
+    fn name(&self) -> &'static str {
+        match self.velocity {
+            Velocity::Input => "coulomb",
+            Velocity::Output => "coulomb_out",
+        }
+    }
+}
+
 #[typetag::serde(name = "coulomb_friction")]
 impl Effect for CoulombFriction {
     fn label(&self) -> String {
-        "Coulomb friction (input velocity)".into()
+        match self.velocity {
+            Velocity::Input => "Coulomb friction (input velocity)".into(),
+            Velocity::Output => "Coulomb friction (output velocity)".into(),
+        }
     }
     fn regressors(&self, s: &Signals) -> Vec<Column> {
+        let eps = self.eps(s);
         vec![Column {
-            name: "coulomb".into(),
-            values: coulomb_column(s.u),
+            name: self.name().into(),
+            values: (0..s.u.len())
+                .map(|t| sign_of(velocity_at(s, self.velocity, t), eps))
+                .collect(),
         }]
     }
+    fn regressors_at(&self, s: &Signals, t: usize) -> Vec<f64> {
+        vec![sign_of(velocity_at(s, self.velocity, t), self.eps(s)).center()]
+    }
+    fn uses_output(&self) -> bool {
+        self.velocity == Velocity::Output
+    }
     fn validate_plant(&self) -> Result<()> {
+        if self.velocity == Velocity::Output {
+            return Err(SmidError::invalid(
+                "velocity",
+                "the built-in simulator takes friction on the input velocity only",
+            ));
+        }
         need(self.value, "value").map(|_| ())
     }
     fn plant_equation(&self, s: &Signals) -> Option<Vec<f64>> {
         let c = self.value.unwrap_or(0.0);
-        Some(coulomb_column(s.u).iter().map(|v| c * v).collect())
+        Some(
+            self.regressors(s)[0]
+                .values
+                .iter()
+                .map(|v| c * v.center())
+                .collect(),
+        )
     }
     fn truth(&self) -> Vec<(String, f64)> {
-        opt("coulomb", self.value)
+        opt(self.name(), self.value)
     }
 }
 register_effect!(
     "coulomb_friction",
     CoulombFriction,
     30,
-    CoulombFriction { value: Some(-0.05) },
-    [CoulombFriction { value: None }]
+    CoulombFriction {
+        velocity: Velocity::Input,
+        value: Some(-0.05)
+    },
+    [
+        CoulombFriction {
+            velocity: Velocity::Input,
+            value: None
+        },
+        CoulombFriction {
+            velocity: Velocity::Output,
+            value: None
+        }
+    ]
 );
 
-/// Viscous friction driven by the input velocity: the term `c · (u_t - u_{t-1})/dt`.
+/// Viscous friction: the term `c · v_t / dt`.
 #[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ViscousFriction {
+    #[serde(default, skip_serializing_if = "is_input")]
+    pub velocity: Velocity,
     /// True coefficient (simulator only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<f64>,
 }
 
+impl ViscousFriction {
+    fn name(&self) -> &'static str {
+        match self.velocity {
+            Velocity::Input => "viscous",
+            Velocity::Output => "viscous_out",
+        }
+    }
+    fn at(&self, s: &Signals, t: usize) -> Interval {
+        let v = velocity_at(s, self.velocity, t);
+        Interval::new(v.lo / s.dt, v.hi / s.dt)
+    }
+}
+
 #[typetag::serde(name = "viscous_friction")]
 impl Effect for ViscousFriction {
     fn label(&self) -> String {
-        "viscous friction (input velocity)".into()
+        match self.velocity {
+            Velocity::Input => "viscous friction (input velocity)".into(),
+            Velocity::Output => "viscous friction (output velocity)".into(),
+        }
     }
     fn regressors(&self, s: &Signals) -> Vec<Column> {
         vec![Column {
-            name: "viscous".into(),
-            values: input_difference(s.u).iter().map(|v| v / s.dt).collect(),
+            name: self.name().into(),
+            values: (0..s.u.len()).map(|t| self.at(s, t)).collect(),
         }]
     }
+    fn regressors_at(&self, s: &Signals, t: usize) -> Vec<f64> {
+        vec![self.at(s, t).center()]
+    }
+    fn uses_output(&self) -> bool {
+        self.velocity == Velocity::Output
+    }
     fn validate_plant(&self) -> Result<()> {
+        if self.velocity == Velocity::Output {
+            return Err(SmidError::invalid(
+                "velocity",
+                "the built-in simulator takes friction on the input velocity only",
+            ));
+        }
         need(self.value, "value").map(|_| ())
     }
     fn plant_equation(&self, s: &Signals) -> Option<Vec<f64>> {
         let c = self.value.unwrap_or(0.0);
-        Some(input_difference(s.u).iter().map(|v| c * v / s.dt).collect())
+        Some((0..s.u.len()).map(|t| c * self.at(s, t).center()).collect())
     }
     fn truth(&self) -> Vec<(String, f64)> {
-        opt("viscous", self.value)
+        opt(self.name(), self.value)
     }
 }
 register_effect!(
     "viscous_friction",
     ViscousFriction,
     31,
-    ViscousFriction { value: Some(-0.05) },
-    [ViscousFriction { value: None }]
+    ViscousFriction {
+        velocity: Velocity::Input,
+        value: Some(-0.05)
+    },
+    [
+        ViscousFriction {
+            velocity: Velocity::Input,
+            value: None
+        },
+        ViscousFriction {
+            velocity: Velocity::Output,
+            value: None
+        }
+    ]
+);
+
+/// A constant term in the linear equation (a load, a bias of the actuator, an operating
+/// point): `c · 1`. It does not vanish at steady state, so it needs records without the
+/// designed steady-state experiment (stage 1 would be biased).
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Constant {
+    /// True value (simulator only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value: Option<f64>,
+}
+
+#[typetag::serde(name = "constant")]
+impl Effect for Constant {
+    fn label(&self) -> String {
+        "constant term (load, bias)".into()
+    }
+    fn regressors(&self, s: &Signals) -> Vec<Column> {
+        vec![Column::exact(
+            "constant",
+            std::iter::repeat_n(1.0, s.u.len()),
+        )]
+    }
+    fn vanishes_at_steady_state(&self) -> bool {
+        false
+    }
+    fn validate_plant(&self) -> Result<()> {
+        need(self.value, "value").map(|_| ())
+    }
+    fn plant_equation(&self, s: &Signals) -> Option<Vec<f64>> {
+        Some(vec![self.value.unwrap_or(0.0); s.u.len()])
+    }
+    fn truth(&self) -> Vec<(String, f64)> {
+        opt("constant", self.value)
+    }
+}
+register_effect!(
+    "constant",
+    Constant,
+    12,
+    Constant { value: Some(0.05) },
+    [Constant { value: None }]
+);
+
+/// A linear path of the input beside the nonlinearity: the term `c · u_t` (with a play
+/// `N(u)` in a Hammerstein model, `c·u + b_0·N(u)` is the elasto-plastic "stop" operator when
+/// `c ≈ -b_0`). It does not vanish at steady state.
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ParallelInput {
+    /// True coefficient (simulator only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value: Option<f64>,
+}
+
+#[typetag::serde(name = "parallel_input")]
+impl Effect for ParallelInput {
+    fn label(&self) -> String {
+        "parallel linear path of the input".into()
+    }
+    fn regressors(&self, s: &Signals) -> Vec<Column> {
+        vec![Column::exact("parallel", s.u.iter().copied())]
+    }
+    fn vanishes_at_steady_state(&self) -> bool {
+        false
+    }
+    fn validate_plant(&self) -> Result<()> {
+        need(self.value, "value").map(|_| ())
+    }
+    fn plant_equation(&self, s: &Signals) -> Option<Vec<f64>> {
+        let c = self.value.unwrap_or(0.0);
+        Some(s.u.iter().map(|v| c * v).collect())
+    }
+    fn truth(&self) -> Vec<(String, f64)> {
+        opt("parallel", self.value)
+    }
+}
+register_effect!(
+    "parallel_input",
+    ParallelInput,
+    40,
+    ParallelInput { value: Some(0.2) },
+    [ParallelInput { value: None }]
 );
 
 /// Make this crate part of a binary (so its effects are registered).
@@ -469,14 +691,52 @@ mod tests {
     #[test]
     fn equation_terms_vanish_at_steady_state_and_match_the_plant() {
         let u = [0.0, 1.0, 1.0, 1.0, -1.0, -1.0];
-        let s = Signals { u: &u, dt: 0.5 };
-        let c = CoulombFriction { value: Some(2.0) };
-        let col = &c.regressors(&s)[0].values;
-        assert_eq!(col, &vec![0.0, 1.0, 0.0, 0.0, -1.0, 0.0]);
+        let s = Signals::input(&u, 0.5);
+        let c = CoulombFriction {
+            velocity: Velocity::Input,
+            value: Some(2.0),
+        };
+        let col: Vec<f64> = c.regressors(&s)[0]
+            .values
+            .iter()
+            .map(|v| v.center())
+            .collect();
+        assert_eq!(col, vec![0.0, 1.0, 0.0, 0.0, -1.0, 0.0]);
         let p = c.plant_equation(&s).unwrap();
         assert_eq!(p, col.iter().map(|v| 2.0 * v).collect::<Vec<_>>());
-        let v = ViscousFriction { value: None };
-        assert_eq!(v.regressors(&s)[0].values[4], -4.0);
+        let v = ViscousFriction {
+            velocity: Velocity::Input,
+            value: None,
+        };
+        assert_eq!(v.regressors(&s)[0].values[4].center(), -4.0);
+        assert!(!Constant { value: None }.vanishes_at_steady_state());
+    }
+
+    #[test]
+    fn output_velocity_signs_are_intervals_holding_every_possible_sign() {
+        let u = [0.0; 5];
+        let x = [
+            Interval::new(0.0, 0.1),
+            Interval::new(0.5, 0.6),
+            Interval::new(0.55, 0.56),
+            Interval::new(0.0, 1.0),
+            Interval::new(0.0, 0.0),
+        ];
+        let s = Signals {
+            u: &u,
+            dt: 1.0,
+            x: Some(&x),
+        };
+        let c = CoulombFriction {
+            velocity: Velocity::Output,
+            value: None,
+        };
+        let col = &c.regressors(&s)[0].values;
+        assert_eq!(col[2], Interval::new(1.0, 1.0)); // x1 - x0 in [0.4, 0.6]
+        assert!(col[3].contains(-1.0) && col[3].contains(1.0)); // x2 - x1 in [-0.05, 0.06]
+        assert!(col[0].contains(-1.0) && col[0].contains(1.0)); // unknown at the start
+        assert!(c.uses_output());
+        assert_eq!(c.regressors_at(&s, 2), vec![1.0]);
     }
 
     #[test]

@@ -89,6 +89,19 @@ impl NonlinearityModel for GainModel {
     fn supports(&self, _structure: Structure) -> bool {
         true
     }
+    /// Any record, no steady-state data: `k` in a cell `[k0, k1]` (`k0 > 0`) is a gain set as
+    /// it stands; its inversion takes the extremes at the ends, valid for every `k` in the cell.
+    fn set_from_box(&self, cell: &[Interval]) -> Result<Box<dyn NonlinearitySet>> {
+        match cell {
+            [k] if k.lo > 0.0 && k.lo <= k.hi && k.hi.is_finite() => {
+                Ok(Box::new(GainSet { k: *k }))
+            }
+            _ => Err(SmidError::invalid(
+                "model.prior.k",
+                "expected one finite interval 0 < lo <= hi",
+            )),
+        }
+    }
 }
 
 #[typetag::serde(name = "example_gain")]

@@ -108,6 +108,14 @@ impl NonlinearityModel for InputBacklashModel {
     fn supports(&self, structure: Structure) -> bool {
         structure == Structure::Hammerstein
     }
+    /// A box of `(m_l, c_l, m_r, c_r)`: the branch images of the output backlash; the interval
+    /// simulation takes `L`, `R` over their vertices, so it holds for every member.
+    fn set_from_box(&self, cell: &[Interval]) -> Result<Box<dyn NonlinearitySet>> {
+        Ok(Box::new(InputBacklashSet {
+            polygons: smid_output_backlash::box_polygons(cell)?,
+            at_rest: self.at_rest,
+        }))
+    }
 }
 
 smid_core::register_nonlinearity!(

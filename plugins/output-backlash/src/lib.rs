@@ -157,6 +157,29 @@ impl NonlinearityModel for OutputBacklashModel {
     fn bound_steady_state(&self, data: &SteadyStateData) -> Result<Box<dyn NonlinearitySet>> {
         Ok(Box::new(branch_polygons(data)?))
     }
+    /// A box of `(m_l, c_l, m_r, c_r)`: each branch's exact image in `(m, m·c)`; the
+    /// vertex-based inversion then bounds `x` for every member (extremes at the corners).
+    fn set_from_box(&self, cell: &[Interval]) -> Result<Box<dyn NonlinearitySet>> {
+        Ok(Box::new(box_polygons(cell)?))
+    }
+}
+
+/// The branch polygons of a box `(m_l, c_l, m_r, c_r)` (see
+/// [`Polygon::from_slope_offset_box`]).
+pub fn box_polygons(cell: &[Interval]) -> Result<BacklashSet> {
+    if cell.len() != 4 {
+        return Err(SmidError::invalid(
+            "model.prior",
+            format!(
+                "expected 4 intervals (m_l, c_l, m_r, c_r), got {}",
+                cell.len()
+            ),
+        ));
+    }
+    Ok(BacklashSet {
+        left: Polygon::from_slope_offset_box(cell[0], cell[1])?,
+        right: Polygon::from_slope_offset_box(cell[2], cell[3])?,
+    })
 }
 
 impl BacklashSet {

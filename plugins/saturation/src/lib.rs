@@ -243,6 +243,28 @@ impl NonlinearityModel for SaturationModel {
     fn bound_steady_state(&self, data: &SteadyStateData) -> Result<Box<dyn NonlinearitySet>> {
         Ok(Box::new(staircases(data)?))
     }
+    /// A box of `(m_l, s_l, m_r, s_r)`: each branch a staircase with no disjunction (the box
+    /// itself); the inversion uses the slope interval and the smallest limit, so it holds for
+    /// every member.
+    fn set_from_box(&self, cell: &[Interval]) -> Result<Box<dyn NonlinearitySet>> {
+        if cell.len() != 4 || cell.iter().any(|i| !(i.lo > 0.0 && i.lo <= i.hi)) {
+            return Err(SmidError::invalid(
+                "model.prior",
+                "expected 4 intervals (m_l, s_l, m_r, s_r), each 0 < lo <= hi",
+            ));
+        }
+        let st = |m: Interval, s: Interval| Staircase {
+            lo_m: m.lo,
+            lo_s: s.lo,
+            m,
+            s,
+            steps: Vec::new(),
+        };
+        Ok(Box::new(SaturationSet {
+            left: st(cell[0], cell[1]),
+            right: st(cell[2], cell[3]),
+        }))
+    }
 }
 
 smid_core::register_nonlinearity!(
