@@ -346,9 +346,10 @@ pub fn write_validation(v: &Validation, dir: &Path, prefix: &str) -> Result<Vec<
 
 fn verdict_text(t: &diagnose::TrainVerdict) -> String {
     match t {
-        diagnose::TrainVerdict::Consistent { fit_percent } => {
-            format!("consistent, training free-run fit {}", pct(*fit_percent))
-        }
+        diagnose::TrainVerdict::Consistent { fit_percent, bound } => format!(
+            "consistent at bound {bound:.3e}, training free-run fit {}",
+            pct(*fit_percent)
+        ),
         diagnose::TrainVerdict::Falsified { stage, sample, .. } => {
             format!("falsified at sample {sample} ({stage})")
         }
@@ -514,7 +515,8 @@ pub fn write_diagnosis(
         .map_err(io(&json))?;
     out.push(json);
     let augmented = dir.join("augmented.yaml");
-    let s = diagnose::with_model(spec, &choice.after);
+    let mut s = diagnose::with_model(spec, &choice.after);
+    s.method = choice.method.clone();
     let text =
         serde_norway::to_string(&s).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
     std::fs::write(&augmented, text).map_err(io(&augmented))?;

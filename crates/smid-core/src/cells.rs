@@ -35,6 +35,9 @@ pub struct Budget {
     pub depth: u32,
     /// Cells tested at most (the final evaluation of the surviving cells comes on top).
     pub max_cells: usize,
+    /// Surviving cells finished at most: beyond it they are merged back into the cells they
+    /// were cut from (looser, still guaranteed).
+    pub max_leaves: usize,
 }
 
 /// A surviving cell.
@@ -52,7 +55,8 @@ pub struct Search<T> {
     /// Cells tested and finally evaluated.
     pub evaluated: usize,
     pub discarded: usize,
-    /// The budget stopped the bisection before the resolution was reached.
+    /// The budget stopped the bisection before the resolution was reached, or the leaves were
+    /// merged back to stay within `max_leaves`.
     pub budget_stopped: bool,
 }
 
@@ -131,6 +135,7 @@ pub fn search<T: Send + Sync>(
     let mut evaluated = 0usize;
     let mut discarded = 0usize;
     let mut budget_stopped = false;
+    let mut coarsened = false;
     let mut worst: Option<SmidError> = None;
     let note = |e: SmidError, worst: &mut Option<SmidError>| {
         *worst = Some(match worst.take() {
@@ -143,19 +148,22 @@ pub fn search<T: Send + Sync>(
     if prior.is_empty() {
         finals.push(Vec::new());
     } else {
-        let mut level = vec![(prior.to_vec(), vec![0u32; prior.len()])];
+        // Each cell carries the cells it was cut from (to coarsen the leaves if too many).
+        type Node = (Vec<Interval>, Vec<u32>, Vec<Vec<Interval>>);
+        let mut level: Vec<Node> = vec![(prior.to_vec(), vec![0u32; prior.len()], Vec::new())];
+        let mut tree: Vec<(Vec<Interval>, Vec<Vec<Interval>>)> = Vec::new();
         while !level.is_empty() {
             if evaluated + level.len() > budget.max_cells.max(1) {
                 budget_stopped = true;
-                finals.extend(level.into_iter().map(|(c, _)| c));
+                tree.extend(level.into_iter().map(|(c, _, a)| (c, a)));
                 break;
             }
             let verdicts: Vec<Result<Verdict<()>>> =
-                level.par_iter().map(|(c, _)| test(c)).collect();
+                level.par_iter().map(|(c, _, _)| test(c)).collect();
             evaluated += level.len();
             let mut next = Vec::new();
             let mut kept: Vec<Vec<Interval>> = Vec::new();
-            for ((cell, depth), v) in level.into_iter().zip(verdicts) {
+            for ((cell, depth, ancestors), v) in level.into_iter().zip(verdicts) {
                 if let Verdict::Infeasible(e) = v? {
                     discarded += 1;
                     note(e, &mut worst);
@@ -163,8 +171,14 @@ pub fn search<T: Send + Sync>(
                 }
                 kept.push(cell.clone());
                 match bisect(&cell, &depth, &budget) {
-                    Some(children) => next.extend(children),
-                    None => finals.push(cell),
+                    Some(children) => {
+                        for (c, d) in children {
+                            let mut a = ancestors.clone();
+                            a.push(cell.clone());
+                            next.push((c, d, a));
+                        }
+                    }
+                    None => tree.push((cell, ancestors)),
                 }
             }
             progress(&Progress {
@@ -175,6 +189,30 @@ pub fn search<T: Send + Sync>(
             });
             level = next;
         }
+        // Too many leaves to finish: replace them by the cells they were cut from (tested and
+        // kept, so still a cover), a level at a time.
+        while tree.len() > budget.max_leaves.max(1) {
+            let mut up: Vec<(Vec<Interval>, Vec<Vec<Interval>>)> = Vec::new();
+            let mut moved = false;
+            for (cell, mut anc) in tree {
+                let item = match anc.pop() {
+                    Some(parent) => {
+                        moved = true;
+                        (parent, anc)
+                    }
+                    None => (cell, anc),
+                };
+                if !up.iter().any(|(c, _)| *c == item.0) {
+                    up.push(item);
+                }
+            }
+            tree = up;
+            coarsened = true;
+            if !moved {
+                break;
+            }
+        }
+        finals = tree.into_iter().map(|(c, _)| c).collect();
     }
     let done: Vec<Result<Verdict<T>>> = finals.par_iter().map(|c| finish(c)).collect();
     evaluated += finals.len();
@@ -217,7 +255,7 @@ pub fn search<T: Send + Sync>(
         leaves,
         evaluated,
         discarded,
-        budget_stopped,
+        budget_stopped: budget_stopped || coarsened,
     })
 }
 
@@ -274,6 +312,7 @@ mod tests {
                 resolution: vec![4.0 / 64.0, 4.0 / 64.0],
                 depth: 30,
                 max_cells: 100_000,
+                max_leaves: 100_000,
             },
             &|c| {
                 eval(c).map(|v| match v {
@@ -310,6 +349,7 @@ mod tests {
                 resolution: vec![1e-9],
                 depth: 20,
                 max_cells: 10,
+                max_leaves: 100,
             },
             &|c| {
                 eval(c).map(|v| match v {
@@ -328,6 +368,37 @@ mod tests {
     }
 
     #[test]
+    fn too_many_leaves_are_merged_back_and_still_cover_the_set() {
+        // Feasible: the band |x - y| <= 0.3 in [0, 4]^2: many leaves at resolution 1/16.
+        let eval = |c: &[Interval]| -> Result<Verdict<()>> {
+            let (lo, hi) = (c[0].lo - c[1].hi, c[0].hi - c[1].lo);
+            Ok(if lo > 0.3 || hi < -0.3 {
+                Verdict::Infeasible(incons(0))
+            } else {
+                Verdict::Feasible(())
+            })
+        };
+        let budget = |max_leaves| Budget {
+            resolution: vec![1.0 / 16.0, 1.0 / 16.0],
+            depth: 30,
+            max_cells: 100_000,
+            max_leaves,
+        };
+        let prior = [Interval::new(0.0, 4.0), Interval::new(0.0, 4.0)];
+        let fine = search(&prior, budget(100_000), &eval, &eval, &|_| {}).unwrap();
+        let coarse = search(&prior, budget(20), &eval, &eval, &|_| {}).unwrap();
+        assert!(fine.leaves.len() > 20 && !fine.budget_stopped);
+        assert!(coarse.leaves.len() <= 20 && coarse.budget_stopped);
+        for l in &fine.leaves {
+            let c = [l.cell[0].center(), l.cell[1].center()];
+            assert!(coarse
+                .leaves
+                .iter()
+                .any(|k| k.cell[0].contains(c[0]) && k.cell[1].contains(c[1])));
+        }
+    }
+
+    #[test]
     fn all_discarded_is_an_inconsistency_and_errors_propagate() {
         let eval = |c: &[Interval]| -> Result<Verdict<()>> {
             Ok(Verdict::Infeasible(incons((c[0].lo * 10.0) as usize)))
@@ -338,6 +409,7 @@ mod tests {
                 resolution: vec![0.1],
                 depth: 3,
                 max_cells: 100,
+                max_leaves: 100,
             },
             &|c| {
                 eval(c).map(|v| match v {
@@ -356,6 +428,7 @@ mod tests {
                 resolution: vec![0.1],
                 depth: 3,
                 max_cells: 100,
+                max_leaves: 100,
             },
             &bad,
             &bad,
@@ -368,6 +441,7 @@ mod tests {
                 resolution: vec![0.1],
                 depth: 3,
                 max_cells: 100,
+                max_leaves: 100,
             },
             &|c| {
                 eval(c).map(|v| match v {
@@ -390,6 +464,7 @@ mod tests {
                 resolution: vec![0.0],
                 depth: 8,
                 max_cells: 100,
+                max_leaves: 100,
             },
             &|c| {
                 eval(c).map(|v| match v {
@@ -409,6 +484,7 @@ mod tests {
                 resolution: vec![],
                 depth: 8,
                 max_cells: 100,
+                max_leaves: 100,
             },
             &never,
             &eval,

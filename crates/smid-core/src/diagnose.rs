@@ -27,6 +27,10 @@ use crate::spec::{ModelSpec, Spec};
 use crate::validate::{self, Validation};
 use serde::Serialize;
 
+/// With an estimated noise bound, a candidate must lower the training bound to at most this
+/// fraction of the base model's per added parameter.
+pub const PER_PARAMETER: f64 = 0.9;
+
 /// Options of a diagnosis.
 #[derive(Debug, Clone)]
 pub struct Options {
@@ -54,8 +58,10 @@ impl Default for Options {
 pub enum TrainVerdict {
     /// A non-empty feasible set at the declared bound.
     Consistent {
-        /// Free-run fit % of the centre member on the training records.
+        /// Free-run fit % of the central member on the training records.
         fit_percent: f64,
+        /// The noise bound the model was identified with (estimated ones differ per model).
+        bound: f64,
     },
     /// The training data falsify the model.
     Falsified {
@@ -127,6 +133,9 @@ pub struct Choice {
     /// The after-model's set as identified during the choice (reused by the table).
     #[serde(skip)]
     pub after_set: Option<ModelSet>,
+    /// The stage options the diagnosis identified with (its cell budget).
+    #[serde(skip)]
+    pub method: crate::spec::MethodSpec,
 }
 
 impl Choice {
@@ -180,7 +189,14 @@ fn try_model(
     match identify(&s, data.clone(), &[]) {
         Ok(id) => {
             let fit = training_fit(&id.model).unwrap_or(f64::NEG_INFINITY);
-            (TrainVerdict::Consistent { fit_percent: fit }, Some(id))
+            let bound = id.model.delta;
+            (
+                TrainVerdict::Consistent {
+                    fit_percent: fit,
+                    bound,
+                },
+                Some(id),
+            )
         }
         Err(SmidError::Inconsistent {
             stage,
@@ -260,6 +276,62 @@ fn candidates(
             ));
         }
     }
+    // A model without a nonlinearity: every plugin that offers a default prior, on the side
+    // the structure has (Hammerstein-Wiener candidates are not offered).
+    if base.nonlinearity_tag() == "linear" && !steady {
+        for entry in crate::registry::models() {
+            if entry.tag == "linear"
+                || (!opts.only.is_empty() && !opts.only.iter().any(|t| t == entry.tag))
+            {
+                continue;
+            }
+            let plugin = (entry.example)();
+            if !plugin.supports(base.structure) {
+                continue;
+            }
+            let seen = match base.structure {
+                crate::nonlinearity::Structure::Hammerstein => scale.u_range,
+                crate::nonlinearity::Structure::Wiener => scale.y_range,
+            };
+            let names = crate::registry::parameter_names(entry.tag);
+            let Some(prior) = plugin.default_prior(base.structure, seen) else {
+                continue;
+            };
+            if prior.len() != names.len() {
+                continue;
+            }
+            let mut m = base.duplicate();
+            m.nonlinearity = plugin;
+            let mut given = Vec::new();
+            for (n, p) in names.iter().zip(&prior) {
+                m.prior.insert(n.clone(), [p.lo, p.hi]);
+                given.push((n.clone(), [p.lo, p.hi]));
+            }
+            if m.layout().is_err() {
+                continue;
+            }
+            out.push((
+                m,
+                Evidence {
+                    label: format!(
+                        "nonlinearity `{}` ({} side)",
+                        entry.tag,
+                        match base.structure {
+                            crate::nonlinearity::Structure::Hammerstein => "input",
+                            crate::nonlinearity::Structure::Wiener => "output",
+                        }
+                    ),
+                    tag: entry.tag.to_string(),
+                    added_parameters: prior.iter().filter(|p| p.hi > p.lo).count(),
+                    priors: given,
+                    train: TrainVerdict::Failed {
+                        message: "not tried".into(),
+                    },
+                    chosen: false,
+                },
+            ));
+        }
+    }
     out
 }
 
@@ -274,12 +346,28 @@ pub fn choose(
     let scale = data_scale(training);
     let before = spec.model.duplicate();
     let mut base = spec.model.duplicate();
+    // Candidates that bisect a nonlinearity's parameters get a diagnosis budget (coarser cells);
+    // the augmented spec keeps it, so its results reproduce.
+    let mut dspec = with_model(spec, &spec.model);
+    dspec.method.cells.nonlinearity_halvings = dspec.method.cells.nonlinearity_halvings.min(4);
+    dspec.method.cells.max_cells = dspec.method.cells.max_cells.min(2000);
+    dspec.method.cells.max_leaves = dspec.method.cells.max_leaves.min(64);
+    let spec = &dspec;
     let (mut base_train, first) = try_model(spec, &base, training);
     let mut base_set = first.map(|id| id.model);
     let mut rounds = Vec::new();
     let mut added = Vec::new();
-    let rule = "admissible (training data consistent with the declared noise bound) with the fewest added parameters; ties broken by the free-run fit on the training records; when none is admissible, the one whose first contradiction comes latest is extended in a further round".to_string();
-    while !base_train.admissible() && added.len() < opts.max_effects {
+    let estimated = spec.noise.estimated();
+    let rule = if estimated {
+        format!("the noise bound is estimated per model (the smallest bound consistent with the training records, × margin), so every model is admissible: a candidate is kept when its bound falls below {PER_PARAMETER} × the base model's bound per added parameter (an information criterion on the training data, in the ℓ∞ sense), the lowest bound first")
+    } else {
+        "admissible (training data consistent with the declared noise bound) with the fewest added parameters; ties broken by the free-run fit on the training records; when none is admissible, the one whose first contradiction comes latest is extended in a further round".to_string()
+    };
+    let bound_of = |t: &TrainVerdict| match t {
+        TrainVerdict::Consistent { bound, .. } => *bound,
+        _ => f64::INFINITY,
+    };
+    while (estimated || !base_train.admissible()) && added.len() < opts.max_effects {
         let mut cands = candidates(&base, &scale, opts, training.steady.is_some());
         let total = cands.len();
         let mut sets: Vec<Option<ModelSet>> = Vec::new();
@@ -295,7 +383,7 @@ pub fn choose(
             .filter(|(_, (_, e))| e.train.admissible())
             .min_by(|(_, (_, a)), (_, (_, b))| {
                 let fit = |e: &Evidence| match e.train {
-                    TrainVerdict::Consistent { fit_percent } => fit_percent,
+                    TrainVerdict::Consistent { fit_percent, .. } => fit_percent,
                     _ => f64::NEG_INFINITY,
                 };
                 a.added_parameters.cmp(&b.added_parameters).then(
@@ -305,6 +393,24 @@ pub fn choose(
                 )
             })
             .map(|(i, _)| i);
+        let best_admissible = if estimated {
+            let base_bound = bound_of(&base_train);
+            cands
+                .iter()
+                .enumerate()
+                .filter(|(_, (_, e))| {
+                    bound_of(&e.train)
+                        <= base_bound * PER_PARAMETER.powi(e.added_parameters.max(1) as i32)
+                })
+                .min_by(|(_, (_, a)), (_, (_, b))| {
+                    bound_of(&a.train)
+                        .total_cmp(&bound_of(&b.train))
+                        .then(a.added_parameters.cmp(&b.added_parameters))
+                })
+                .map(|(i, _)| i)
+        } else {
+            best_admissible
+        };
         let pick = best_admissible.or_else(|| {
             cands
                 .iter()
@@ -347,6 +453,7 @@ pub fn choose(
         after: base,
         after_admissible,
         after_set: if after_admissible { base_set } else { None },
+        method: dspec.method.clone(),
     })
 }
 
@@ -446,6 +553,9 @@ pub fn assess(
     holdout: &[Record],
     k: usize,
 ) -> Result<(Column, Column)> {
+    let mut dspec = with_model(spec, &spec.model);
+    dspec.method = choice.method.clone();
+    let spec = &dspec;
     let column = |model: &ModelSpec, known: Option<&ModelSet>| -> Result<Column> {
         let (m, inflated) = match known {
             Some(m) => (m.duplicate(), false),

@@ -89,6 +89,9 @@ pub struct DataScale {
     pub y_max: f64,
     /// Longest training record (samples), steady-state record included.
     pub length: usize,
+    /// Range of the outputs `[min y, max y]` and of the inputs.
+    pub y_range: (f64, f64),
+    pub u_range: (f64, f64),
 }
 
 /// One term of the model. Required: [`Effect::label`]; every capability defaults to "none".

@@ -220,6 +220,14 @@ pub trait NonlinearityModel: Debug + Send + Sync {
     fn supports(&self, structure: Structure) -> bool {
         structure == Structure::Wiener
     }
+    /// A prior box for the plugin's parameters from the range `seen` of the signal the plugin
+    /// sees in the training data (the input for Hammerstein, the output for Wiener), when a
+    /// diagnosis offers this plugin as a candidate for a model without a nonlinearity (slopes
+    /// fixed to 1: with a free linear gain they are not identifiable). `None` (default): not
+    /// offered.
+    fn default_prior(&self, _structure: Structure, _seen: (f64, f64)) -> Option<Vec<Interval>> {
+        None
+    }
     /// Identification from any record (no steady-state data): the set of **every** parameter
     /// vector in a box (one interval per parameter, in the order of
     /// [`Nonlinearity::parameters`] of the plugin's simulator), whose

@@ -163,6 +163,16 @@ pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<Experi
     let added = spec.noise.simulated()?;
     let ex = &spec.experiment;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(ex.seed);
+    if ex.steady_state.skip {
+        let name = format!("{} (seed {})", plant.name(), ex.seed);
+        let record = dynamic_record(spec, plant, &mut rng, ex.dynamic.length, name)?;
+        return Ok(ExperimentData {
+            steady: None,
+            steady_record: None,
+            records: vec![record],
+            filter: None,
+        });
+    }
     let filter = match ex.filter.pole {
         Some(a) => FilterDesign::given(a),
         None => experiment::design_filter_pole(plant, &ex.filter.bisection())?,
@@ -184,9 +194,19 @@ pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<Experi
 pub fn data_scale(data: &ExperimentData) -> DataScale {
     let mut y_max = 0.0f64;
     let mut length = 0usize;
+    let (mut y_range, mut u_range) = (
+        (f64::INFINITY, f64::NEG_INFINITY),
+        (f64::INFINITY, f64::NEG_INFINITY),
+    );
+    let widen = |r: &mut (f64, f64), v: f64| {
+        r.0 = r.0.min(v);
+        r.1 = r.1.max(v);
+    };
     for r in &data.records {
         y_max = y_max.max(r.y.iter().fold(0.0, |m, v| m.max(v.abs())));
         length = length.max(r.y.len());
+        r.y.iter().for_each(|&v| widen(&mut y_range, v));
+        r.u.iter().for_each(|&v| widen(&mut u_range, v));
     }
     if let Some(s) = &data.steady {
         y_max = y_max.max(s.points.iter().fold(0.0, |m, p| m.max(p.y.abs())));
@@ -198,9 +218,12 @@ pub fn data_scale(data: &ExperimentData) -> DataScale {
                 .map_or(0, |t| t + 1),
         );
     }
+    let fix = |r: (f64, f64)| if r.0 <= r.1 { r } else { (0.0, 0.0) };
     DataScale {
         y_max: if y_max > 0.0 { y_max } else { 1.0 },
         length: length.max(1),
+        y_range: fix(y_range),
+        u_range: fix(u_range),
     }
 }
 
@@ -631,7 +654,10 @@ pub fn consistent_at(spec: &Spec, data: &ExperimentData, d: f64) -> Result<bool>
         Budget {
             resolution,
             depth: spec.method.cells.depth,
-            max_cells: spec.method.cells.max_cells,
+            // A consistency test stopped early keeps its cells: it can only say "consistent"
+            // too soon, which lowers the estimate (raised again by the margin if needed).
+            max_cells: spec.method.cells.max_cells.min(500),
+            max_leaves: 500,
         },
         &test,
         &test,
@@ -818,6 +844,7 @@ pub fn identify_with(
             resolution,
             depth: method.cells.depth,
             max_cells: method.cells.max_cells,
+            max_leaves: method.cells.max_leaves,
         },
         &test,
         &eval,

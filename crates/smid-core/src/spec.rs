@@ -264,6 +264,10 @@ pub struct SteadySpec {
     /// ascending: time and amplitude decorrelate, so a sensor drift cannot pass for a slope.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub shuffle: bool,
+    /// No steady-state experiment (nor filter design): identification from the dynamic record
+    /// alone, the nonlinearity's parameters bisected over `model.prior`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub skip: bool,
 }
 impl Default for SteadySpec {
     fn default() -> Self {
@@ -273,6 +277,7 @@ impl Default for SteadySpec {
             max: 3.0,
             half_period: None,
             shuffle: false,
+            skip: false,
         }
     }
 }
@@ -425,10 +430,17 @@ pub struct CellSpec {
     /// halved down to `prior width / 2^nonlinearity_halvings`.
     #[serde(default = "d_nl_halvings")]
     pub nonlinearity_halvings: u32,
+    /// Surviving cells bounded at most; more are merged back into the cells they were cut from
+    /// (looser, still guaranteed).
+    #[serde(default = "d_max_leaves")]
+    pub max_leaves: usize,
 }
 
 fn d_nl_halvings() -> u32 {
     6
+}
+fn d_max_leaves() -> usize {
+    256
 }
 
 impl Default for CellSpec {
@@ -437,6 +449,7 @@ impl Default for CellSpec {
             depth: d_depth(),
             max_cells: d_max_cells(),
             nonlinearity_halvings: d_nl_halvings(),
+            max_leaves: d_max_leaves(),
         }
     }
 }
@@ -590,7 +603,7 @@ impl Spec {
             ));
         }
         let s = &self.experiment.steady_state;
-        if s.amplitudes < 2 {
+        if !s.skip && s.amplitudes < 2 {
             return Err(SmidError::invalid(
                 "experiment.steady_state.amplitudes",
                 "need at least 2 amplitudes (M >= 2)",

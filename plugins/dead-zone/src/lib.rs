@@ -190,6 +190,14 @@ impl NonlinearityModel for DeadZoneModel {
     fn supports(&self, _structure: Structure) -> bool {
         true
     }
+    /// Unit slopes; each break point within half the range seen on its side (0 when that side
+    /// is never seen).
+    fn default_prior(&self, _s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
+        let one = Interval::new(1.0, 1.0);
+        let cl = Interval::new(0.0, 0.5 * (-seen.0).max(0.0));
+        let cr = Interval::new(0.0, 0.5 * seen.1.max(0.0));
+        Some(vec![one, cl, one, cr])
+    }
     /// A box of `(m_l, c_l, m_r, c_r)`: each branch's exact image in `(m, m·c)`.
     fn set_from_box(&self, cell: &[Interval]) -> Result<Box<dyn NonlinearitySet>> {
         if cell.len() != 4 {

@@ -110,6 +110,12 @@ impl NonlinearityModel for InputBacklashModel {
     }
     /// A box of `(m_l, c_l, m_r, c_r)`: the branch images of the output backlash; the interval
     /// simulation takes `L`, `R` over their vertices, so it holds for every member.
+    /// Unit slopes, half-plays up to a quarter of the range seen.
+    fn default_prior(&self, _s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
+        let c = Interval::new(0.0, 0.25 * (seen.1 - seen.0).max(0.0));
+        let one = Interval::new(1.0, 1.0);
+        Some(vec![one, c, one, c])
+    }
     fn set_from_box(&self, cell: &[Interval]) -> Result<Box<dyn NonlinearitySet>> {
         Ok(Box::new(InputBacklashSet {
             polygons: smid_output_backlash::box_polygons(cell)?,

@@ -162,6 +162,12 @@ impl NonlinearityModel for OutputBacklashModel {
     fn set_from_box(&self, cell: &[Interval]) -> Result<Box<dyn NonlinearitySet>> {
         Ok(Box::new(box_polygons(cell)?))
     }
+    /// Unit slopes, half-plays up to a quarter of the range seen.
+    fn default_prior(&self, _s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
+        let c = Interval::new(0.0, 0.25 * (seen.1 - seen.0).max(0.0));
+        let one = Interval::new(1.0, 1.0);
+        Some(vec![one, c, one, c])
+    }
 }
 
 /// The branch polygons of a box `(m_l, c_l, m_r, c_r)` (see

@@ -243,6 +243,20 @@ impl NonlinearityModel for SaturationModel {
     fn bound_steady_state(&self, data: &SteadyStateData) -> Result<Box<dyn NonlinearitySet>> {
         Ok(Box::new(staircases(data)?))
     }
+    /// Unit slopes; each limit within [0.5, 2] × the largest output on its side, or fixed far
+    /// beyond the data when that side is never seen.
+    fn default_prior(&self, _s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
+        let one = Interval::new(1.0, 1.0);
+        let far = 4.0 * seen.0.abs().max(seen.1.abs()).max(f64::MIN_POSITIVE);
+        let side = |m: f64| {
+            if m > 0.0 {
+                Interval::new(0.5 * m, 2.0 * m)
+            } else {
+                Interval::new(far, far)
+            }
+        };
+        Some(vec![one, side(-seen.0), one, side(seen.1)])
+    }
     /// A box of `(m_l, s_l, m_r, s_r)`: each branch a staircase with no disjunction (the box
     /// itself); the inversion uses the slope interval and the smallest limit, so it holds for
     /// every member.
