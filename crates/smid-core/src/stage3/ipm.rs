@@ -403,7 +403,9 @@ impl<'a> Prepared<'a> {
                 .collect();
             certificate(self.lp, c, &lam, &mu, &tmu)
         };
-        let v = Ipm::new(self, &q).run(&cert);
+        // The primal objective in original units, c·z = c·lo + κ q·ẑ, for the stopping test.
+        let offset: f64 = c.iter().map(|&(j, v)| v * self.lp.boxes[j].lo).sum();
+        let v = Ipm::new(self, &q).run(&cert, offset, kappa);
         // Above the objective's own maximum over the boxes: the LP is empty.
         let top: f64 = c
             .iter()
@@ -507,6 +509,8 @@ struct Ipm<'p, 'a> {
     small_lu: Option<nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>>,
     /// The diagonal box terms of the current Hessian.
     dbox: Vec<f64>,
+    /// Steps of iterative refinement per Newton solve (more near the end).
+    refine: usize,
 }
 
 /// Maximum interior-point iterations per bound.
@@ -567,6 +571,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
             zmat: vec![0.0; neq * nt],
             small_lu: None,
             dbox: vec![0.0; n],
+            refine: 0,
         }
     }
 
@@ -751,7 +756,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
     fn solve(&self, r1: &[f64], r2: &[f64], r2t: &[f64]) -> Option<(Vec<f64>, Vec<f64>, Vec<f64>)> {
         let p = self.p;
         let (mut dz, mut dmu, mut dtmu) = self.solve_once(r1, r2, r2t)?;
-        for _ in 0..2 {
+        for _ in 0..self.refine {
             // Residual: r1 - H dz - Aᵀ dμ, r2 - A dz.
             let mut q1: Vec<f64> = (0..p.n).map(|j| r1[j] - self.dbox[j] * dz[j]).collect();
             for (i, row) in p.g.iter().enumerate() {
@@ -887,7 +892,12 @@ impl<'p, 'a> Ipm<'p, 'a> {
     /// Run to convergence (or the cap): the scaled dual point `(λ, μ, μ_gain)`.
     /// Run to convergence (or the cap), certifying the dual points near the end: the best
     /// certified bound (`cert` maps a scaled dual point to its bound).
-    fn run(mut self, cert: &dyn Fn(&[f64], &[f64], &[f64]) -> Option<f64>) -> Option<f64> {
+    fn run(
+        mut self,
+        cert: &dyn Fn(&[f64], &[f64], &[f64]) -> Option<f64>,
+        offset: f64,
+        kappa: f64,
+    ) -> Option<f64> {
         let p = self.p;
         let n = p.n;
         let mi = p.g.len();
@@ -938,13 +948,18 @@ impl<'p, 'a> Ipm<'p, 'a> {
             // Certify the dual point once it is close; stop when the bound stops improving.
             if mu_c < 1e-8 || ed < 1e-9 {
                 match cert(&self.lam, &self.mu, &self.tmu) {
-                    Some(v) if best.map_or(true, |b| v > b + 1e-13 * (1.0 + b.abs())) => {
+                    // An improvement below 1e-10 (relative) is a hundredth of the result pad.
+                    Some(v) if best.map_or(true, |b| v > b + 1e-10 * (1.0 + b.abs())) => {
                         best = Some(v);
                         stale = 0;
                     }
                     _ => stale += 1,
                 }
-                if stale >= 3 || mu_c < 1e-14 {
+                // Done when the certified bound is within 1e-11 (relative) of the primal
+                // objective (a thousandth of the result pad), or stops improving.
+                let obj = offset + kappa * (0..n).map(|j| self.q[j] * self.z[j]).sum::<f64>();
+                let close = best.is_some_and(|b| obj - b <= 1e-11 * (1.0 + b.abs()));
+                if close || stale >= 1 || mu_c < 1e-14 {
                     break;
                 }
             }
@@ -953,6 +968,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
                 eprintln!("it {_it} ep {ep:.2e} ed {ed:.2e} mu {mu_c:.2e} obj {obj:.12e}");
             }
 
+            self.refine = if mu_c < 1e-7 { 1 } else { 0 };
             if !self.factor() {
                 break;
             }
