@@ -479,6 +479,19 @@ impl Polytope {
         Ok(Some(LpOutcome::Bounds(out)))
     }
 
+    /// The optimum of `min c·θ` read at the simplex's optimal vertex: accurate but **not** a
+    /// guaranteed bound (for measurements such as the exact-grid inner hull). `Ok(None)` when
+    /// the polytope is empty, unbounded in that direction, or the simplex cannot conclude.
+    pub fn vertex_optimum(&self, c: &[f64]) -> Option<f64> {
+        match self.simplex(c) {
+            Simplex::Optimal { basis, .. } => {
+                let x = self.vertex(&basis)?;
+                Some(c.iter().zip(&x).map(|(a, b)| a * b).sum())
+            }
+            _ => None,
+        }
+    }
+
     /// Whether the polytope is non-empty: `false` is a proof (over the artificial box).
     pub fn feasible(&self) -> Result<bool> {
         match self.simplex(&vec![0.0; self.n]) {

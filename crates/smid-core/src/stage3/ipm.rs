@@ -383,6 +383,12 @@ impl<'a> Prepared<'a> {
 
     /// A guaranteed lower bound of `min c·z` over the LP (rows and boxes), `c` sparse.
     pub(crate) fn minimise(&self, c: &[(usize, f64)]) -> Bound {
+        self.minimise_at(c).0
+    }
+
+    /// [`Self::minimise`], and the θ values (original units, inside their boxes) of the last
+    /// primal iterate: an approximate optimiser, for searches that need one.
+    pub(crate) fn minimise_at(&self, c: &[(usize, f64)]) -> (Bound, Vec<f64>) {
         let (q, kappa) = self.objective(c);
         // The certificate of a scaled dual point, in the original rows: λ = κ λ̂ / ρ.
         let cert = |lam: &[f64], mu: &[f64], tmu: &[f64]| -> Option<f64> {
@@ -405,7 +411,15 @@ impl<'a> Prepared<'a> {
         };
         // The primal objective in original units, c·z = c·lo + κ q·ẑ, for the stopping test.
         let offset: f64 = c.iter().map(|&(j, v)| v * self.lp.boxes[j].lo).sum();
-        let v = Ipm::new(self, &q).run(&cert, offset, kappa);
+        let (v, zt) = Ipm::new(self, &q).run(&cert, offset, kappa);
+        let theta: Vec<f64> = zt
+            .iter()
+            .enumerate()
+            .map(|(j, &x)| {
+                let b = self.lp.boxes[j];
+                (b.lo + self.w[j] * x).clamp(b.lo, b.hi)
+            })
+            .collect();
         // Above the objective's own maximum over the boxes: the LP is empty.
         let top: f64 = c
             .iter()
@@ -414,10 +428,11 @@ impl<'a> Prepared<'a> {
                 (v * b.lo).max(v * b.hi)
             })
             .sum();
-        match v {
+        let bound = match v {
             Some(v) if v > top + 1e-12 * (1.0 + top.abs()) => Bound::Infeasible,
             v => Bound::Value(v),
-        }
+        };
+        (bound, theta)
     }
 }
 
@@ -897,7 +912,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
         cert: &dyn Fn(&[f64], &[f64], &[f64]) -> Option<f64>,
         offset: f64,
         kappa: f64,
-    ) -> Option<f64> {
+    ) -> (Option<f64>, Vec<f64>) {
         let p = self.p;
         let n = p.n;
         let mi = p.g.len();
@@ -1084,9 +1099,10 @@ impl<'p, 'a> Ipm<'p, 'a> {
             }
         }
         let last = cert(&self.lam, &self.mu, &self.tmu);
-        match (best, last) {
+        let v = match (best, last) {
             (Some(b), Some(l)) => Some(b.max(l)),
             (b, l) => b.or(l),
-        }
+        };
+        (v, self.z[..p.lp.nt].to_vec())
     }
 }
