@@ -383,12 +383,39 @@ impl<'a> Prepared<'a> {
 
     /// A guaranteed lower bound of `min c·z` over the LP (rows and boxes), `c` sparse.
     pub(crate) fn minimise(&self, c: &[(usize, f64)]) -> Bound {
-        self.minimise_at(c).0
+        self.minimise_at(c, None).0
+    }
+
+    /// A well-centred interior point of this LP (the zero objective's path at a moderate
+    /// barrier), from which every objective's run starts: fewer iterations than a cold start.
+    pub(crate) fn warm_start(&self) -> Option<Start> {
+        let mut ipm = Ipm::new(self, &vec![0.0; self.n]);
+        ipm.stop_at = Some(2e-2);
+        let (_, _) = ipm.run_mut(&|_: &[f64], _: &[f64], _: &[f64]| None, 0.0, 1.0);
+        let ok = ipm.z.iter().all(|v| v.is_finite() && *v > 0.0 && *v < 1.0)
+            && ipm
+                .s
+                .iter()
+                .chain(&ipm.lam)
+                .all(|v| v.is_finite() && *v > 0.0);
+        ok.then(|| Start {
+            z: ipm.z,
+            zl: ipm.zl,
+            zu: ipm.zu,
+            s: ipm.s,
+            lam: ipm.lam,
+            mu: ipm.mu,
+            tmu: ipm.tmu,
+        })
     }
 
     /// [`Self::minimise`], and the θ values (original units, inside their boxes) of the last
     /// primal iterate: an approximate optimiser, for searches that need one.
-    pub(crate) fn minimise_at(&self, c: &[(usize, f64)]) -> (Bound, Vec<f64>) {
+    pub(crate) fn minimise_at(
+        &self,
+        c: &[(usize, f64)],
+        start: Option<&Start>,
+    ) -> (Bound, Vec<f64>) {
         let (q, kappa) = self.objective(c);
         // The certificate of a scaled dual point, in the original rows: λ = κ λ̂ / ρ.
         let cert = |lam: &[f64], mu: &[f64], tmu: &[f64]| -> Option<f64> {
@@ -411,7 +438,18 @@ impl<'a> Prepared<'a> {
         };
         // The primal objective in original units, c·z = c·lo + κ q·ẑ, for the stopping test.
         let offset: f64 = c.iter().map(|&(j, v)| v * self.lp.boxes[j].lo).sum();
-        let (v, zt) = Ipm::new(self, &q).run(&cert, offset, kappa);
+        let mut ipm = Ipm::new(self, &q);
+        if let Some(st) = start {
+            ipm.z.clone_from(&st.z);
+            ipm.zl.clone_from(&st.zl);
+            ipm.zu.clone_from(&st.zu);
+            ipm.s.clone_from(&st.s);
+            ipm.mu.clone_from(&st.mu);
+            ipm.tmu.clone_from(&st.tmu);
+            // The multipliers of the zero objective, scaled to this one's magnitude.
+            ipm.lam.clone_from(&st.lam);
+        }
+        let (v, zt) = ipm.run_mut(&cert, offset, kappa);
         let theta: Vec<f64> = zt
             .iter()
             .enumerate()
@@ -502,6 +540,19 @@ fn certificate(
     v.is_finite().then_some(v)
 }
 
+/// An interior point to start from (scaled variables, slacks and multipliers): the same LP's
+/// path at a moderate barrier, shared by all objectives of one round.
+#[derive(Debug, Clone)]
+pub(crate) struct Start {
+    z: Vec<f64>,
+    zl: Vec<f64>,
+    zu: Vec<f64>,
+    s: Vec<f64>,
+    lam: Vec<f64>,
+    mu: Vec<f64>,
+    tmu: Vec<f64>,
+}
+
 /// One Mehrotra run on the scaled problem.
 struct Ipm<'p, 'a> {
     p: &'p Prepared<'a>,
@@ -526,6 +577,8 @@ struct Ipm<'p, 'a> {
     dbox: Vec<f64>,
     /// Steps of iterative refinement per Newton solve (more near the end).
     refine: usize,
+    /// Stop (without certifying) once the complementarity falls below this: a warm start.
+    stop_at: Option<f64>,
 }
 
 /// Maximum interior-point iterations per bound.
@@ -587,6 +640,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
             small_lu: None,
             dbox: vec![0.0; n],
             refine: 0,
+            stop_at: None,
         }
     }
 
@@ -907,8 +961,8 @@ impl<'p, 'a> Ipm<'p, 'a> {
     /// Run to convergence (or the cap): the scaled dual point `(λ, μ, μ_gain)`.
     /// Run to convergence (or the cap), certifying the dual points near the end: the best
     /// certified bound (`cert` maps a scaled dual point to its bound).
-    fn run(
-        mut self,
+    fn run_mut(
+        &mut self,
         cert: &dyn Fn(&[f64], &[f64], &[f64]) -> Option<f64>,
         offset: f64,
         kappa: f64,
@@ -961,7 +1015,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
             let inf = |v: &[f64]| v.iter().fold(0.0f64, |a, b| a.max(b.abs()));
             let (ep, ed) = (inf(&rp).max(inf(&rpt)).max(inf(&rg)), inf(&rd));
             // Certify the dual point once it is close; stop when the bound stops improving.
-            if mu_c < 1e-8 || ed < 1e-9 {
+            if mu_c < 1e-8 {
                 match cert(&self.lam, &self.mu, &self.tmu) {
                     // An improvement below 1e-10 (relative) is a hundredth of the result pad.
                     Some(v) if best.map_or(true, |b| v > b + 1e-10 * (1.0 + b.abs())) => {
@@ -983,6 +1037,9 @@ impl<'p, 'a> Ipm<'p, 'a> {
                 eprintln!("it {_it} ep {ep:.2e} ed {ed:.2e} mu {mu_c:.2e} obj {obj:.12e}");
             }
 
+            if self.stop_at.is_some_and(|t| mu_c < t) {
+                break;
+            }
             self.refine = if mu_c < 1e-7 { 1 } else { 0 };
             if !self.factor() {
                 break;

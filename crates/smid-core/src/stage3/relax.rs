@@ -427,11 +427,13 @@ pub(crate) fn bound_free(
         return bound_all(model, &mut lp.solver()?);
     };
     let nt = model.free.len();
+    let start = prep.warm_start();
     let found: Vec<Bound> = (0..2 * nt)
         .into_par_iter()
         .map(|i| {
             let (c, max) = (i / 2, i % 2 == 1);
-            prep.minimise(&[(c, if max { -1.0 } else { 1.0 })])
+            prep.minimise_at(&[(c, if max { -1.0 } else { 1.0 })], start.as_ref())
+                .0
         })
         .collect();
     let mut out = Vec::with_capacity(nt);
