@@ -26,6 +26,12 @@ pub enum Verdict<T> {
     Undecided,
 }
 
+/// Largest accepted `method.cells.depth` (halvings per parameter; 2^-60 of a prior box is
+/// below any resolution an effect asks for).
+pub const MAX_DEPTH: u32 = 60;
+/// Largest accepted `method.cells.max_cells` (each cell runs stages 1-2 and a stage-3 test).
+pub const MAX_CELLS: usize = 1_000_000;
+
 /// Budget of the search.
 #[derive(Debug, Clone)]
 pub struct Budget {

@@ -18,6 +18,20 @@ use serde::{Deserialize, Serialize};
 /// Pole used for the reference when `ā >= 1`.
 pub const QUASI_STATIC_POLE: f64 = 1.0 - 1e-4;
 
+/// Smallest accepted `experiment.filter.tol`: the Appendix bisection halves `[0, ā]` until
+/// the bracket is narrower than `tol`, so `tol` sets its number of steps (at most
+/// [`MAX_BISECTION_STEPS`]); below about 1e-15 the bracket stops shrinking in floating point.
+pub const MIN_FILTER_TOL: f64 = 1e-12;
+/// Cap on the Appendix bisection's steps (`log2(1/MIN_FILTER_TOL)` is 40): the search also
+/// stops when the midpoint no longer falls strictly inside the bracket.
+pub const MAX_BISECTION_STEPS: usize = 64;
+/// Largest accepted `experiment.filter.settle` (samples given to the plant to settle).
+pub const MAX_SETTLE: usize = 1_000_000;
+/// Largest number of samples one experiment may run through the plant (the steady-state
+/// square wave: `2 M` half-waves of `half_period` samples, or of the filter's settling time
+/// plus `settle`; the dynamic PRBS: `N`).
+pub const MAX_EXPERIMENT_SAMPLES: usize = 20_000_000;
+
 /// Options of the Appendix search.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct BisectionOptions {
@@ -78,7 +92,9 @@ struct StepRun {
 
 fn step_run(plant: &mut dyn Plant, pole: f64, step: f64, settle: usize) -> Result<StepRun> {
     let a = if pole >= 1.0 { QUASI_STATIC_POLE } else { pole };
-    let n = filter_settling(a) + settle;
+    let n = filter_settling(a)
+        .saturating_add(settle)
+        .min(MAX_EXPERIMENT_SAMPLES);
     let w = plant.run(&lowpass(a, &vec![step; n]))?;
     if let Some(i) = w.iter().position(|v| !v.is_finite()) {
         return Err(SmidError::Plant {
@@ -113,10 +129,16 @@ pub fn design_filter_pole(plant: &mut dyn Plant, o: &BisectionOptions) -> Result
             format!("expected 0 < ā <= 1, got {}", o.a_bar),
         ));
     }
-    if !(o.tol > 0.0 && o.tol < 1.0) {
+    if !(o.tol >= MIN_FILTER_TOL && o.tol < 1.0) {
         return Err(SmidError::invalid(
             "experiment.filter.tol",
-            format!("expected 0 < tol < 1, got {}", o.tol),
+            format!("expected {MIN_FILTER_TOL:e} <= tol < 1, got {:e}", o.tol),
+        ));
+    }
+    if o.settle > MAX_SETTLE {
+        return Err(SmidError::invalid(
+            "experiment.filter.settle",
+            format!("expected at most {MAX_SETTLE} samples, got {}", o.settle),
         ));
     }
     if !(o.epsilon > 0.0 && o.epsilon.is_finite()) {
@@ -136,7 +158,9 @@ pub fn design_filter_pole(plant: &mut dyn Plant, o: &BisectionOptions) -> Result
     let (mut a_u, mut a_l, mut a_star) = (o.a_bar, 0.0f64, 0.0f64);
     let mut trials = Vec::new();
     let mut passed_any = false;
-    loop {
+    // Bounded: `tol >= MIN_FILTER_TOL` needs at most 40 halvings; the cap and the midpoint
+    // test stop it in any case (the last pole that passed is kept).
+    for _ in 0..MAX_BISECTION_STEPS {
         let run = step_run(plant, a_star, o.step, o.settle)?;
         let overshoot = sign * (run.peak - w_ref);
         let passed = (w_ref - run.steady).abs() <= o.epsilon && overshoot <= o.epsilon;
@@ -151,8 +175,10 @@ pub fn design_filter_pole(plant: &mut dyn Plant, o: &BisectionOptions) -> Result
         } else {
             a_l = a_star;
         }
-        if (a_u - a_l).abs() >= o.tol {
-            a_star = 0.5 * (a_u + a_l);
+        let mid = 0.5 * (a_u + a_l);
+        let inside = mid > a_u.min(a_l) && mid < a_u.max(a_l);
+        if (a_u - a_l).abs() >= o.tol && inside {
+            a_star = mid;
         } else {
             break;
         }
@@ -236,11 +262,35 @@ pub fn steady_state_experiment(
             format!("expected 0 <= a < 1, got {pole}"),
         ));
     }
-    let half = o
-        .half_period
-        .unwrap_or_else(|| filter_settling(pole) + o.settle)
-        .max(2);
+    if o.settle > MAX_SETTLE {
+        return Err(SmidError::invalid(
+            "experiment.filter.settle",
+            format!("expected at most {MAX_SETTLE} samples, got {}", o.settle),
+        ));
+    }
+    let (half, field) = match o.half_period {
+        Some(h) => (h, "experiment.steady_state.half_period"),
+        None => (
+            filter_settling(pole).saturating_add(o.settle),
+            "experiment.filter.pole",
+        ),
+    };
+    let half = half.max(2);
     let m = o.amplitudes;
+    let total = half.saturating_mul(m).saturating_mul(2);
+    if total > MAX_EXPERIMENT_SAMPLES {
+        return Err(SmidError::invalid(
+            field,
+            format!(
+                "the square wave would run {total} samples (2 x {m} amplitudes x {half} per half-wave), more than {MAX_EXPERIMENT_SAMPLES}: {}",
+                if o.half_period.is_some() {
+                    "shorten the half period or use fewer amplitudes"
+                } else {
+                    "a pole this close to 1 settles too slowly; choose a faster filter"
+                }
+            ),
+        ));
+    }
     let mut r = Vec::with_capacity(2 * m * half);
     let mut samples = Vec::with_capacity(2 * m);
     let mut order: Vec<usize> = (0..m).collect();
@@ -332,10 +382,13 @@ pub struct DynamicOptions {
 
 /// The PRBS input for the dynamic experiment.
 pub fn dynamic_input(o: &DynamicOptions, rng: &mut impl Rng) -> Result<Vec<f64>> {
-    if o.length < 10 {
+    if !(10..=MAX_EXPERIMENT_SAMPLES).contains(&o.length) {
         return Err(SmidError::invalid(
             "experiment.dynamic.length",
-            format!("expected N >= 10, got {}", o.length),
+            format!(
+                "expected 10 <= N <= {MAX_EXPERIMENT_SAMPLES}, got {}",
+                o.length
+            ),
         ));
     }
     if !(o.amplitude.is_finite() && o.amplitude > 0.0) {
@@ -349,4 +402,84 @@ pub fn dynamic_input(o: &DynamicOptions, rng: &mut impl Rng) -> Result<Vec<f64>>
     } else {
         crate::signals::multilevel(o.length, o.amplitude, o.hold, o.levels / 2, rng)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A first-order lag with an overshooting second pole: `w_t = 1.2 w_{t-1} - 0.5 w_{t-2} + 0.3 u_{t-1}`.
+    struct Lag;
+    impl Plant for Lag {
+        fn run(&mut self, u: &[f64]) -> Result<Vec<f64>> {
+            let mut w = vec![0.0; u.len()];
+            for t in 2..u.len() {
+                w[t] = 1.2 * w[t - 1] - 0.5 * w[t - 2] + 0.3 * u[t - 1];
+            }
+            Ok(w)
+        }
+    }
+
+    fn opts(tol: f64) -> BisectionOptions {
+        BisectionOptions {
+            a_bar: 1.0,
+            tol,
+            epsilon: 1e-5,
+            step: 3.0,
+            settle: 100,
+        }
+    }
+
+    /// The bisection below floating-point resolution used to spin forever: a tolerance below
+    /// `MIN_FILTER_TOL` is an error naming the field; at the limit the search ends within the
+    /// cap, and the pole it keeps passed.
+    #[test]
+    fn the_filter_search_is_bounded() {
+        for tol in [1e-300, 0.0, -1.0, f64::NAN, 1.0] {
+            match design_filter_pole(&mut Lag, &opts(tol)) {
+                Err(SmidError::Invalid { field, .. }) => assert_eq!(field, "experiment.filter.tol"),
+                other => panic!("tol {tol}: expected an error, got {other:?}"),
+            }
+        }
+        let d = design_filter_pole(&mut Lag, &opts(MIN_FILTER_TOL)).unwrap();
+        assert!(d.trials.len() <= MAX_BISECTION_STEPS, "{}", d.trials.len());
+        assert!(d.trials.iter().any(|t| t.passed && t.pole == d.pole));
+        let mut o = opts(0.1);
+        o.settle = MAX_SETTLE + 1;
+        assert!(matches!(
+            design_filter_pole(&mut Lag, &o),
+            Err(SmidError::Invalid { field, .. }) if field == "experiment.filter.settle"
+        ));
+    }
+
+    /// A pole so close to 1 that the square wave would need more than `MAX_EXPERIMENT_SAMPLES`
+    /// samples is an error naming the pole (not an allocation failure); a huge half period
+    /// names its own field.
+    #[test]
+    fn the_square_wave_length_is_bounded() {
+        let o = SteadyStateOptions {
+            amplitudes: 50,
+            min: 0.6,
+            max: 3.0,
+            half_period: None,
+            settle: 500,
+            shuffle: None,
+        };
+        match steady_state_experiment(&mut Lag, 1.0 - 1e-15, &o) {
+            Err(SmidError::Invalid { field, .. }) => assert_eq!(field, "experiment.filter.pole"),
+            other => panic!("expected an error, got {:?}", other.map(|r| r.u.len())),
+        }
+        let long = SteadyStateOptions {
+            half_period: Some(usize::MAX),
+            ..o
+        };
+        match steady_state_experiment(&mut Lag, 0.8, &long) {
+            Err(SmidError::Invalid { field, .. }) => {
+                assert_eq!(field, "experiment.steady_state.half_period")
+            }
+            other => panic!("expected an error, got {:?}", other.map(|r| r.u.len())),
+        }
+        assert_eq!(crate::signals::filter_settling(1.0), usize::MAX);
+        assert_eq!(crate::signals::filter_settling(f64::NAN), usize::MAX);
+    }
 }

@@ -1,17 +1,40 @@
-//! The polytope/LP bounding engine: for a polytope `{θ : G θ <= h, E θ = f}` it computes, per
-//! coordinate, `min θ_k` and `max θ_k` by linear programming (good_lp modelling, clarabel
-//! interior-point backend). Infeasibility is an outcome ([`LpOutcome::Infeasible`]), not an error,
-//! as Clarabel's `SolverStatus` reports it.
+//! The polytope/LP bounding engine of the classical stage 3 ([`crate::stage3::classical`]): for
+//! a polytope `{θ ∈ R^n : G θ <= h, E θ = f}` with few variables (`n` = the free parameters,
+//! at most a few tens) and many rows (two per equation, so `m` grows with the record), it
+//! computes per coordinate `min θ_k` and `max θ_k`, or proves the polytope empty.
+//! Infeasibility is an outcome ([`LpOutcome::Infeasible`]), not an error.
 //!
-//! Guarantee: every inequality is relaxed outward by [`ROW_PAD`] before solving and every optimum
-//! is widened by [`RESULT_PAD`] afterwards, both far above the solver's tolerances (1e-10), so a
-//! reported interval contains the exact one.
+//! **Algorithm: a dense dual simplex in active-set form**, the low-dimensional LP of the
+//! issue's "cost linear in N". A basis is `n` rows (the equalities, data rows, and rows of an
+//! artificial box `|θ_j| <= THETA_MAX`) whose multipliers keep the objective's dual feasible;
+//! each iteration solves two `n × n` systems and scans the `m` rows once for the most violated
+//! one, which enters. A bound takes `n` to `3n` iterations, so its cost is `O(m n²)`: linear in
+//! the record. Each objective starts from the artificial box (no warm start is needed at this
+//! cost). An optimum that rests on the artificial box is [`SmidError::Unbounded`].
+//!
+//! **Guarantee, whatever the arithmetic of the iterations.** No bound is read from the
+//! vertex. Every row is first relaxed outward by [`ROW_PAD`]. From the final basis's
+//! multipliers `u` (inequalities clamped at `u >= 0`, equalities free), weak duality gives, for
+//! every θ of the polytope, `c·θ >= -u·h - u_E·f + r·θ` with the residual `r = c + Gᵀu + Eᵀu_E`
+//! (about 1e-16 of the terms). The sums are computed with a rigorous floating-point error bound
+//! (`(k+2)·ε·Σ|terms|`), and `r·θ` is bounded by a box that the certificates themselves imply:
+//! each gives `|θ_k| <= V + ρ max_j |θ_j|` with `ρ = max Σ_j |r_j|`, so every point of the
+//! polytope has `max_j |θ_j| <= V / (1 - ρ)` (when `ρ < 1/2`). The bound is then widened by
+//! [`RESULT_PAD`], as before. Emptiness is proven by a Farkas combination of `n + 1` rows whose
+//! value, with its residual bounded over the artificial box, is negative: "no θ with every
+//! `|θ_j| <= THETA_MAX` fits" (a parameter beyond 1e9 is outside every model smid considers;
+//! a bound that reaches the box is reported unbounded, never as a number).
+//!
+//! When the simplex cannot conclude (iteration cap, a singular basis, an emptiness it cannot
+//! prove) the polytope goes to the interior-point path (good_lp + clarabel) with the same pads,
+//! retried once with sturdier settings; a second failure is a [`SmidError::Solver`].
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
 use good_lp::{
     solvers::clarabel::clarabel, Expression, ProblemVariables, ResolutionError, Solution,
     SolverModel, Variable,
 };
+use nalgebra::{DMatrix, DVector};
 
 /// Relative outward relaxation of each right-hand side.
 pub const ROW_PAD: f64 = 1e-9;
@@ -19,15 +42,22 @@ pub const ROW_PAD: f64 = 1e-9;
 pub const RESULT_PAD: f64 = 1e-8;
 /// Factor on tolerances and pads when a numerical failure forced the sturdier retry.
 const STURDY: f64 = 100.0;
+/// The artificial box of the simplex, `|θ_j| <= THETA_MAX`: an optimum on it is reported
+/// unbounded, and emptiness is proven for the θ inside it.
+pub const THETA_MAX: f64 = 1e9;
 
-/// A polytope in `R^n` by inequalities and equalities.
+/// A polytope in `R^n` by inequalities and equalities (rows stored densely, row-major).
 #[derive(Debug, Clone, Default)]
 pub struct Polytope {
     pub n: usize,
-    /// Rows `g·θ <= h`, each tagged with a sample index for diagnostics.
-    pub le: Vec<(Vec<f64>, f64, usize)>,
+    /// Coefficients of the rows `g·θ <= h`, `n` per row.
+    g: Vec<f64>,
+    h: Vec<f64>,
+    /// Each inequality's sample index, for diagnostics.
+    tag: Vec<usize>,
     /// Rows `e·θ = f`.
-    pub eq: Vec<(Vec<f64>, f64)>,
+    e: Vec<f64>,
+    f: Vec<f64>,
 }
 
 /// Result of bounding a polytope.
@@ -39,9 +69,44 @@ pub enum LpOutcome {
     Infeasible,
 }
 
+#[derive(Clone, Copy)]
 enum Sense {
     Min,
     Max,
+}
+
+/// A row of the simplex basis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Row {
+    /// Inequality `i` of the polytope.
+    Data(usize),
+    /// Equality `j`.
+    Eq(usize),
+    /// The artificial box row `s·θ_j <= THETA_MAX`, `s = ±1`.
+    Box(usize, bool),
+}
+
+/// What the simplex concluded for one objective.
+enum Simplex {
+    /// Optimal basis with its multipliers (`u` per basis row).
+    Optimal { basis: Vec<Row>, u: Vec<f64> },
+    /// Emptiness proven over the artificial box.
+    Infeasible,
+    /// The optimum rests on the artificial box.
+    Unbounded,
+    /// No conclusion (cap, singular basis, unproven emptiness): use the interior-point path.
+    Unknown,
+}
+
+/// One certified side: `c·θ >= value - Σ_j resid_j |θ_j|` for every θ of the polytope.
+struct Certificate {
+    value: f64,
+    resid: Vec<f64>,
+}
+
+/// `(k + 2) ε`: a bound of the relative rounding error of a sum of `k` products.
+fn gamma(k: usize) -> f64 {
+    (k as f64 + 2.0) * f64::EPSILON
 }
 
 impl Polytope {
@@ -53,12 +118,422 @@ impl Polytope {
         }
     }
 
-    /// Solve; when clarabel fails numerically, retry once with sturdier settings (looser
-    /// tolerances, more regularisation), relaxing rows and widening the optimum 100 times more.
-    /// Returns the optimum and whether the retry was needed.
-    fn solve(&self, objective: Option<(usize, Sense)>) -> Result<Option<(f64, bool)>> {
-        match self.solve_once(objective.as_ref(), false) {
-            Err(SmidError::Solver(first)) => match self.solve_once(objective.as_ref(), true) {
+    /// Add `g·θ <= h` (tagged with a sample index for diagnostics).
+    pub fn push_le(&mut self, g: &[f64], h: f64, tag: usize) {
+        assert_eq!(g.len(), self.n, "row length");
+        self.g.extend_from_slice(g);
+        self.h.push(h);
+        self.tag.push(tag);
+    }
+
+    /// Add `e·θ = f`.
+    pub fn push_eq(&mut self, e: &[f64], f: f64) {
+        assert_eq!(e.len(), self.n, "row length");
+        self.e.extend_from_slice(e);
+        self.f.push(f);
+    }
+
+    /// Number of inequality rows.
+    pub fn rows(&self) -> usize {
+        self.h.len()
+    }
+
+    fn grow(&self, i: usize) -> &[f64] {
+        &self.g[i * self.n..(i + 1) * self.n]
+    }
+    fn erow(&self, j: usize) -> &[f64] {
+        &self.e[j * self.n..(j + 1) * self.n]
+    }
+
+    /// The padded right-hand side of inequality `i`.
+    fn hp(&self, i: usize, scale: f64) -> f64 {
+        let h = self.h[i];
+        h + ROW_PAD * scale * (1.0 + h.abs())
+    }
+
+    /// Coefficients and right-hand side of a basis row.
+    fn row(&self, r: Row) -> (Vec<f64>, f64) {
+        match r {
+            Row::Data(i) => (self.grow(i).to_vec(), self.hp(i, 1.0)),
+            Row::Eq(j) => (self.erow(j).to_vec(), self.f[j]),
+            Row::Box(j, neg) => {
+                let mut g = vec![0.0; self.n];
+                g[j] = if neg { -1.0 } else { 1.0 };
+                (g, THETA_MAX)
+            }
+        }
+    }
+
+    /// The dual simplex for `min c·θ` (`c = 0`: feasibility).
+    fn simplex(&self, c: &[f64]) -> Simplex {
+        let n = self.n;
+        let m = self.rows();
+        let q = self.f.len();
+        if n == 0 {
+            return self.simplex_trivial();
+        }
+        // Start: the equalities, completed to a basis by box rows on the coordinates that
+        // Gaussian elimination of E leaves without a pivot.
+        let mut basis: Vec<Row> = (0..q).map(Row::Eq).collect();
+        {
+            let mut a = DMatrix::<f64>::zeros(q, n);
+            for j in 0..q {
+                for k in 0..n {
+                    a[(j, k)] = self.e[j * n + k];
+                }
+            }
+            let mut pivoted = vec![false; n];
+            let mut r = 0;
+            for col in 0..n {
+                if r == q {
+                    break;
+                }
+                let (p, v) = (r..q)
+                    .map(|i| (i, a[(i, col)].abs()))
+                    .fold((r, 0.0), |b, x| if x.1 > b.1 { x } else { b });
+                if v <= 1e-12 {
+                    continue;
+                }
+                a.swap_rows(r, p);
+                for i in r + 1..q {
+                    let f = a[(i, col)] / a[(r, col)];
+                    for k in col..n {
+                        let t = a[(r, k)];
+                        a[(i, k)] -= f * t;
+                    }
+                }
+                pivoted[col] = true;
+                r += 1;
+            }
+            if r < q {
+                return Simplex::Unknown; // dependent equalities
+            }
+            basis.extend((0..n).filter(|&k| !pivoted[k]).map(|k| Row::Box(k, false)));
+        }
+        // Box signs so that the starting multipliers are >= 0.
+        let Some(mut u) = self.multipliers(&basis, c) else {
+            return Simplex::Unknown;
+        };
+        for (b, ub) in basis.iter_mut().zip(u.iter_mut()) {
+            if let Row::Box(k, neg) = *b {
+                if *ub < 0.0 {
+                    *b = Row::Box(k, !neg);
+                    *ub = -*ub;
+                }
+            }
+        }
+        let norms: Vec<f64> = (0..m)
+            .map(|i| self.grow(i).iter().map(|v| v * v).sum::<f64>().sqrt())
+            .collect();
+        let cap = 50 * n + 100;
+        for _ in 0..cap {
+            let Some(x) = self.vertex(&basis) else {
+                return Simplex::Unknown;
+            };
+            // The most violated row (normalised), data rows and then the box.
+            let mut best: Option<(Row, f64)> = None;
+            for i in 0..m {
+                let g = self.grow(i);
+                let hi = self.hp(i, 1.0);
+                let lhs: f64 = g.iter().zip(&x).map(|(a, b)| a * b).sum();
+                let viol = lhs - hi;
+                if norms[i] == 0.0 {
+                    if hi < 0.0 {
+                        // `0 <= h < 0`: empty, whatever θ.
+                        return Simplex::Infeasible;
+                    }
+                    continue;
+                }
+                let tol = 1e-12
+                    * (1.0 + hi.abs() + norms[i] * x.iter().fold(0.0f64, |a, v| a.max(v.abs())));
+                if viol > tol {
+                    let s = viol / norms[i];
+                    if best.map_or(true, |b| s > b.1) {
+                        best = Some((Row::Data(i), s));
+                    }
+                }
+            }
+            for (k, &xk) in x.iter().enumerate() {
+                if xk.abs() > THETA_MAX * (1.0 + 1e-9) {
+                    let s = xk.abs() - THETA_MAX;
+                    if best.map_or(true, |b| s > b.1) {
+                        best = Some((Row::Box(k, xk < 0.0), s));
+                    }
+                }
+            }
+            let Some((enter, _)) = best else {
+                // Primal feasible and dual feasible: optimal.
+                if basis
+                    .iter()
+                    .zip(&u)
+                    .any(|(b, &ub)| matches!(b, Row::Box(..)) && ub > 1e-9 * (1.0 + norm1(c)))
+                {
+                    return Simplex::Unbounded;
+                }
+                return Simplex::Optimal { basis, u };
+            };
+            // Express the entering row in the basis: G_Bᵀ v = g_enter.
+            let (ge, _) = self.row(enter);
+            let Some(v) = self.solve_t(&basis, &ge) else {
+                return Simplex::Unknown;
+            };
+            // Ratio test over the inequality rows of the basis.
+            let vmax = v.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+            let mut leave: Option<(usize, f64, f64)> = None;
+            for (idx, (&b, &vi)) in basis.iter().zip(&v).enumerate() {
+                if matches!(b, Row::Eq(_)) || vi <= 1e-12 * vmax.max(1.0) {
+                    continue;
+                }
+                let t = u[idx].max(0.0) / vi;
+                let better = match leave {
+                    None => true,
+                    Some((_, bt, bv)) => t < bt - 1e-15 * bt.abs() || (t <= bt && vi > bv),
+                };
+                if better {
+                    leave = Some((idx, t, vi));
+                }
+            }
+            match leave {
+                None => {
+                    // Farkas: g_enter - Σ v_i g_i = 0 with -v_i >= 0 on the inequalities.
+                    return if self.farkas_proves(&basis, &v, enter) {
+                        Simplex::Infeasible
+                    } else {
+                        Simplex::Unknown
+                    };
+                }
+                Some((idx, _, _)) => {
+                    basis[idx] = enter;
+                    match self.multipliers(&basis, c) {
+                        Some(nu) => u = nu,
+                        None => return Simplex::Unknown,
+                    }
+                    // Rounding may leave tiny negative multipliers: they are clamped in the
+                    // certificate (which accounts for the residual they leave).
+                }
+            }
+        }
+        Simplex::Unknown
+    }
+
+    /// `n = 0`: the polytope is `{()}` when every row holds, else empty.
+    fn simplex_trivial(&self) -> Simplex {
+        let ok = (0..self.rows()).all(|i| self.hp(i, 1.0) >= 0.0)
+            && self.f.iter().all(|f| f.abs() <= 1e-12);
+        if ok {
+            Simplex::Optimal {
+                basis: Vec::new(),
+                u: Vec::new(),
+            }
+        } else {
+            Simplex::Infeasible
+        }
+    }
+
+    fn basis_matrix(&self, basis: &[Row]) -> (DMatrix<f64>, DVector<f64>) {
+        let n = self.n;
+        let mut a = DMatrix::<f64>::zeros(n, n);
+        let mut b = DVector::<f64>::zeros(n);
+        for (r, &row) in basis.iter().enumerate() {
+            let (g, h) = self.row(row);
+            for k in 0..n {
+                a[(r, k)] = g[k];
+            }
+            b[r] = h;
+        }
+        (a, b)
+    }
+
+    /// The vertex of the basis: `G_B θ = h_B`.
+    fn vertex(&self, basis: &[Row]) -> Option<Vec<f64>> {
+        let (a, b) = self.basis_matrix(basis);
+        let x = a.lu().solve(&b)?;
+        x.iter()
+            .all(|v| v.is_finite())
+            .then(|| x.iter().copied().collect())
+    }
+
+    /// `G_Bᵀ y = rhs`.
+    fn solve_t(&self, basis: &[Row], rhs: &[f64]) -> Option<Vec<f64>> {
+        let (a, _) = self.basis_matrix(basis);
+        let y = a.transpose().lu().solve(&DVector::from_column_slice(rhs))?;
+        y.iter()
+            .all(|v| v.is_finite())
+            .then(|| y.iter().copied().collect())
+    }
+
+    /// The multipliers of the basis for `min c·θ`: `G_Bᵀ u = -c`.
+    fn multipliers(&self, basis: &[Row], c: &[f64]) -> Option<Vec<f64>> {
+        let neg: Vec<f64> = c.iter().map(|v| -v).collect();
+        self.solve_t(basis, &neg)
+    }
+
+    /// Whether the Farkas combination `g_enter - Σ v_i g_i` (weights `1`, `-v_i`) proves that no
+    /// θ in the artificial box satisfies the rows: its right-hand side, less the rounding of
+    /// the sums and the residual over the box, is negative.
+    fn farkas_proves(&self, basis: &[Row], v: &[f64], enter: Row) -> bool {
+        let n = self.n;
+        let mut weights: Vec<(Row, f64)> = vec![(enter, 1.0)];
+        for (&b, &vi) in basis.iter().zip(v) {
+            let w = -vi;
+            match b {
+                Row::Eq(_) => weights.push((b, w)),
+                _ => weights.push((b, w.max(0.0))),
+            }
+        }
+        let mut resid = vec![0.0; n];
+        let mut mag = vec![0.0; n];
+        let (mut rhs, mut rhs_mag) = (0.0, 0.0);
+        for &(row, w) in &weights {
+            let (g, h) = self.row(row);
+            for k in 0..n {
+                resid[k] += w * g[k];
+                mag[k] += (w * g[k]).abs();
+            }
+            rhs += w * h;
+            rhs_mag += (w * h).abs();
+        }
+        let k = weights.len();
+        let slack: f64 = (0..n)
+            .map(|j| (resid[j].abs() + gamma(k) * mag[j]) * THETA_MAX)
+            .sum::<f64>();
+        // Every θ of the box satisfying the rows has resid·θ <= rhs, and resid·θ >= -slack.
+        rhs + gamma(k) * rhs_mag + slack < 0.0
+    }
+
+    /// The certified lower bound of `min c·θ` from an optimal basis.
+    fn certify(&self, basis: &[Row], u: &[f64], c: &[f64]) -> Certificate {
+        let n = self.n;
+        let mut resid: Vec<f64> = c.to_vec();
+        let mut mag: Vec<f64> = c.iter().map(|v| v.abs()).collect();
+        let (mut dual, mut dual_mag) = (0.0, 0.0);
+        for (&b, &ub) in basis.iter().zip(u) {
+            let (g, h) = self.row(b);
+            let w = match b {
+                Row::Eq(_) => ub,
+                Row::Data(_) => ub.max(0.0),
+                // Box rows carry no multiplier at an optimum that is not unbounded.
+                Row::Box(..) => 0.0,
+            };
+            for k in 0..n {
+                resid[k] += w * g[k];
+                mag[k] += (w * g[k]).abs();
+            }
+            dual -= w * h;
+            dual_mag += (w * h).abs();
+        }
+        let k = basis.len() + 1;
+        Certificate {
+            value: dual - gamma(k) * dual_mag,
+            resid: (0..n).map(|j| resid[j].abs() + gamma(k) * mag[j]).collect(),
+        }
+    }
+
+    /// Bounds of every coordinate by the dual simplex: `None` when it cannot conclude.
+    fn simplex_bounds(&self) -> Result<Option<LpOutcome>> {
+        let n = self.n;
+        let mut certs: Vec<[Certificate; 2]> = Vec::with_capacity(n);
+        for k in 0..n {
+            let mut pair = Vec::with_capacity(2);
+            for sense in [Sense::Min, Sense::Max] {
+                let mut c = vec![0.0; n];
+                c[k] = match sense {
+                    Sense::Min => 1.0,
+                    Sense::Max => -1.0,
+                };
+                match self.simplex(&c) {
+                    Simplex::Optimal { basis, u } => pair.push(self.certify(&basis, &u, &c)),
+                    Simplex::Infeasible => return Ok(Some(LpOutcome::Infeasible)),
+                    Simplex::Unbounded => return Err(unbounded(k)),
+                    Simplex::Unknown => return Ok(None),
+                }
+            }
+            let hi = pair.pop().expect("two sides");
+            let lo = pair.pop().expect("two sides");
+            certs.push([lo, hi]);
+        }
+        // The box the certificates imply: |θ_k| <= V + ρ max_j |θ_j| for every point.
+        let v = certs
+            .iter()
+            .map(|[lo, hi]| lo.value.abs().max(hi.value.abs()))
+            .fold(0.0f64, f64::max);
+        let rho = certs
+            .iter()
+            .flat_map(|p| p.iter().map(|c| c.resid.iter().sum::<f64>()))
+            .fold(0.0f64, f64::max);
+        if !(v.is_finite() && rho < 0.5) {
+            return Ok(None);
+        }
+        let big = v / (1.0 - rho) * (1.0 + 4.0 * f64::EPSILON);
+        let mut out = Vec::with_capacity(n);
+        for [lo, hi] in &certs {
+            let dl = lo.resid.iter().sum::<f64>() * big;
+            let dh = hi.resid.iter().sum::<f64>() * big;
+            let l = lo.value - dl;
+            let h = -hi.value + dh;
+            let round = 4.0 * f64::EPSILON * (l.abs().max(h.abs()));
+            out.push(
+                Interval::new(l.min(h) - round, h.max(l) + round).widen(RESULT_PAD, RESULT_PAD),
+            );
+        }
+        Ok(Some(LpOutcome::Bounds(out)))
+    }
+
+    /// The optimum of `min c·θ` read at the simplex's optimal vertex: accurate but **not** a
+    /// guaranteed bound (for measurements such as the exact-grid inner hull). `Ok(None)` when
+    /// the polytope is empty, unbounded in that direction, or the simplex cannot conclude.
+    pub fn vertex_optimum(&self, c: &[f64]) -> Option<f64> {
+        match self.simplex(c) {
+            Simplex::Optimal { basis, .. } => {
+                let x = self.vertex(&basis)?;
+                Some(c.iter().zip(&x).map(|(a, b)| a * b).sum())
+            }
+            _ => None,
+        }
+    }
+
+    /// Whether the polytope is non-empty: `false` is a proof (over the artificial box).
+    pub fn feasible(&self) -> Result<bool> {
+        match self.simplex(&vec![0.0; self.n]) {
+            Simplex::Optimal { .. } | Simplex::Unbounded => Ok(true),
+            Simplex::Infeasible => Ok(false),
+            Simplex::Unknown => Ok(self.clarabel(None)?.is_some()),
+        }
+    }
+
+    /// Guaranteed bounds of every coordinate, or [`LpOutcome::Infeasible`].
+    pub fn bound(&self) -> Result<LpOutcome> {
+        if let Some(out) = self.simplex_bounds()? {
+            return Ok(out);
+        }
+        self.clarabel_bounds()
+    }
+
+    /// Bounds by the interior-point path (good_lp + clarabel), for what the simplex cannot
+    /// conclude.
+    pub fn clarabel_bounds(&self) -> Result<LpOutcome> {
+        let mut out = vec![Interval::entire(); self.n];
+        for k in 0..self.n {
+            let (lo, s1) = match self.clarabel(Some((k, Sense::Min)))? {
+                Some(v) => v,
+                None => return Ok(LpOutcome::Infeasible),
+            };
+            let (hi, s2) = match self.clarabel(Some((k, Sense::Max)))? {
+                Some(v) => v,
+                None => return Ok(LpOutcome::Infeasible),
+            };
+            let pad = RESULT_PAD * if s1 || s2 { STURDY } else { 1.0 };
+            out[k] = Interval::new(lo.min(hi), hi.max(lo)).widen(pad, pad);
+        }
+        Ok(LpOutcome::Bounds(out))
+    }
+
+    /// Solve by clarabel; when it fails numerically, retry once with sturdier settings
+    /// (looser tolerances, more regularisation), relaxing rows and widening the optimum 100
+    /// times more. Returns the optimum and whether the retry was needed.
+    fn clarabel(&self, objective: Option<(usize, Sense)>) -> Result<Option<(f64, bool)>> {
+        match self.clarabel_once(objective, false) {
+            Err(SmidError::Solver(first)) => match self.clarabel_once(objective, true) {
                 Ok(v) => Ok(v.map(|x| (x, true))),
                 Err(SmidError::Solver(second)) => Err(SmidError::Solver(format!(
                     "{first}; retried with sturdier settings: {second}"
@@ -69,13 +544,17 @@ impl Polytope {
         }
     }
 
-    fn solve_once(&self, objective: Option<&(usize, Sense)>, sturdy: bool) -> Result<Option<f64>> {
+    fn clarabel_once(
+        &self,
+        objective: Option<(usize, Sense)>,
+        sturdy: bool,
+    ) -> Result<Option<f64>> {
         let scale = if sturdy { STURDY } else { 1.0 };
         let mut vars = ProblemVariables::new();
         let th: Vec<Variable> = (0..self.n).map(|_| vars.add(good_lp::variable())).collect();
         let obj: Expression = match objective {
-            Some((k, Sense::Min)) => th[*k].into(),
-            Some((k, Sense::Max)) => -Expression::from(th[*k]),
+            Some((k, Sense::Min)) => th[k].into(),
+            Some((k, Sense::Max)) => -Expression::from(th[k]),
             None => Expression::from(0.0),
         };
         let lin = |coefs: &[f64]| -> Expression {
@@ -100,12 +579,11 @@ impl Polytope {
                 .static_regularization_constant(1e-7)
                 .equilibrate_max_iter(50);
         }
-        for (g, h, _) in &self.le {
-            let h = h + ROW_PAD * scale * (1.0 + h.abs());
-            problem = problem.with(lin(g).leq(h));
+        for i in 0..self.rows() {
+            problem = problem.with(lin(self.grow(i)).leq(self.hp(i, scale)));
         }
-        for (e, f) in &self.eq {
-            problem = problem.with(lin(e).eq(*f));
+        for j in 0..self.f.len() {
+            problem = problem.with(lin(self.erow(j)).eq(self.f[j]));
         }
         match problem.solve() {
             Ok(sol) => {
@@ -113,15 +591,16 @@ impl Polytope {
                 match sol.inner().status {
                     S::Solved | S::AlmostSolved => {}
                     S::DualInfeasible | S::AlmostDualInfeasible => {
-                        return Err(SmidError::Unbounded {
-                            parameter: objective.map(|(k, _)| format!("θ[{k}]")).unwrap_or_default(),
-                            message: "the linear program is unbounded: the data do not constrain this parameter".into(),
-                        })
+                        return Err(unbounded(objective.map_or(0, |(k, _)| k)))
                     }
-                    other => return Err(SmidError::Solver(format!("clarabel stopped with status {other:?}"))),
+                    other => {
+                        return Err(SmidError::Solver(format!(
+                            "clarabel stopped with status {other:?}"
+                        )))
+                    }
                 }
                 Ok(Some(match objective {
-                    Some((k, _)) => sol.value(th[*k]),
+                    Some((k, _)) => sol.value(th[k]),
                     None => 0.0,
                 }))
             }
@@ -129,56 +608,116 @@ impl Polytope {
             Err(e) => Err(SmidError::Solver(e.to_string())),
         }
     }
+}
 
-    /// Whether the polytope is non-empty.
-    pub fn feasible(&self) -> Result<bool> {
-        Ok(self.solve(None)?.is_some())
-    }
+fn norm1(c: &[f64]) -> f64 {
+    c.iter().map(|v| v.abs()).sum()
+}
 
-    /// Guaranteed bounds of every coordinate in `which` (others are left as the whole line).
-    pub fn bound(&self, which: &[usize]) -> Result<LpOutcome> {
-        let mut out = vec![Interval::entire(); self.n];
-        for &k in which {
-            let (lo, s1) = match self.solve(Some((k, Sense::Min)))? {
-                Some(v) => v,
-                None => return Ok(LpOutcome::Infeasible),
-            };
-            let (hi, s2) = match self.solve(Some((k, Sense::Max)))? {
-                Some(v) => v,
-                None => return Ok(LpOutcome::Infeasible),
-            };
-            let pad = RESULT_PAD * if s1 || s2 { STURDY } else { 1.0 };
-            out[k] = Interval::new(lo.min(hi), hi.max(lo)).widen(pad, pad);
-        }
-        Ok(LpOutcome::Bounds(out))
+fn unbounded(k: usize) -> SmidError {
+    SmidError::Unbounded {
+        parameter: format!("θ[{k}]"),
+        message: "the linear program is unbounded: the data do not constrain this parameter".into(),
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    fn tri() -> Polytope {
+        // 0 <= x, y <= 1, x + y <= 1.5, x - y = 0
+        let mut p = Polytope::new(2);
+        p.push_le(&[-1.0, 0.0], 0.0, 0);
+        p.push_le(&[0.0, -1.0], 0.0, 0);
+        p.push_le(&[1.0, 0.0], 1.0, 0);
+        p.push_le(&[0.0, 1.0], 1.0, 0);
+        p.push_le(&[1.0, 1.0], 1.5, 0);
+        p.push_eq(&[1.0, -1.0], 0.0);
+        p
+    }
+
     #[test]
     fn box_with_diagonal_cut() {
-        // 0 <= x, y <= 1, x + y <= 1.5
-        let mut p = Polytope::new(2);
-        p.le.push((vec![-1.0, 0.0], 0.0, 0));
-        p.le.push((vec![0.0, -1.0], 0.0, 0));
-        p.le.push((vec![1.0, 0.0], 1.0, 0));
-        p.le.push((vec![0.0, 1.0], 1.0, 0));
-        p.le.push((vec![1.0, 1.0], 1.5, 0));
-        p.eq.push((vec![1.0, -1.0], 0.0));
-        match p.bound(&[0, 1]).unwrap() {
-            LpOutcome::Bounds(b) => {
-                assert!(b[0].contains(0.0) && b[0].contains(0.75));
-                assert!(
-                    (b[0].hi - 0.75).abs() < 1e-6 && b[0].lo.abs() < 1e-6,
-                    "{b:?}"
-                );
+        let mut p = tri();
+        for out in [p.bound().unwrap(), p.clarabel_bounds().unwrap()] {
+            match out {
+                LpOutcome::Bounds(b) => {
+                    assert!(b[0].contains(0.0) && b[0].contains(0.75));
+                    assert!(
+                        (b[0].hi - 0.75).abs() < 1e-6 && b[0].lo.abs() < 1e-6,
+                        "{b:?}"
+                    );
+                }
+                LpOutcome::Infeasible => panic!("feasible"),
             }
-            LpOutcome::Infeasible => panic!("feasible"),
         }
-        p.le.push((vec![-1.0, 0.0], -2.0, 9));
-        assert_eq!(p.bound(&[0]).unwrap(), LpOutcome::Infeasible);
+        assert!(p.feasible().unwrap());
+        p.push_le(&[-1.0, 0.0], -2.0, 9);
+        assert_eq!(p.bound().unwrap(), LpOutcome::Infeasible);
         assert!(!p.feasible().unwrap());
+    }
+
+    #[test]
+    fn an_open_direction_is_unbounded_not_a_number() {
+        let mut p = Polytope::new(2);
+        p.push_le(&[-1.0, 0.0], 0.0, 0);
+        p.push_le(&[0.0, -1.0], 0.0, 0);
+        p.push_le(&[1.0, -1.0], 1.0, 0);
+        assert!(matches!(p.bound(), Err(SmidError::Unbounded { .. })));
+        assert!(p.feasible().unwrap());
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Random polytopes around a known point: the simplex's certified bounds contain the
+        /// point and agree with clarabel's to the pads.
+        #[test]
+        fn simplex_bounds_contain_the_point_and_agree_with_clarabel(
+            seed in any::<u64>(), n in 1usize..6, m in 4usize..60, eq in any::<bool>(),
+        ) {
+            use rand::{Rng, SeedableRng};
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let x0: Vec<f64> = (0..n).map(|_| rng.gen_range(-2.0..2.0)).collect();
+            let mut p = Polytope::new(n);
+            for _ in 0..m {
+                let g: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+                let h = g.iter().zip(&x0).map(|(a, b)| a * b).sum::<f64>() + rng.gen_range(0.0..0.5);
+                p.push_le(&g, h, 0);
+            }
+            // A bounding box so every LP is bounded.
+            for k in 0..n {
+                let mut g = vec![0.0; n];
+                g[k] = 1.0;
+                p.push_le(&g, x0[k] + 3.0, 0);
+                g[k] = -1.0;
+                p.push_le(&g, -x0[k] + 3.0, 0);
+            }
+            if eq && n > 1 {
+                let e: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+                let f = e.iter().zip(&x0).map(|(a, b)| a * b).sum::<f64>();
+                p.push_eq(&e, f);
+            }
+            // The simplex itself concludes (no fallback).
+            let (Some(LpOutcome::Bounds(s)), LpOutcome::Bounds(c)) =
+                (p.simplex_bounds().unwrap(), p.clarabel_bounds().unwrap())
+            else {
+                panic!("feasible by construction");
+            };
+            for k in 0..n {
+                prop_assert!(s[k].contains(x0[k]), "{:?} misses {}", s[k], x0[k]);
+                let tol = 1e-6 * (1.0 + c[k].lo.abs().max(c[k].hi.abs()));
+                prop_assert!((s[k].lo - c[k].lo).abs() < tol && (s[k].hi - c[k].hi).abs() < tol,
+                    "θ{}: simplex {:?} clarabel {:?}", k, s[k], c[k]);
+            }
+            // Cut the point off by far: proven empty.
+            let mut g = vec![0.0; n];
+            g[0] = 1.0;
+            p.push_le(&g, x0[0] - 10.0, 0);
+            prop_assert!(matches!(p.simplex(&vec![0.0; n]), Simplex::Infeasible));
+            prop_assert!(!p.feasible().unwrap());
+            prop_assert_eq!(p.bound().unwrap(), LpOutcome::Infeasible);
+        }
     }
 }

@@ -89,6 +89,26 @@ impl ModelSpec {
 
     /// Resolve the structure; errors name the field (`model.fixed.x`, `model.prior.x`).
     pub fn layout(&self) -> Result<Layout> {
+        // Orders bound every allocation below: check them (and each effect's share, from
+        // zero, so the sum cannot overflow) before anything is sized by them.
+        let limits = |o: Orders, field: &str| -> Result<()> {
+            if o.na > 8 || o.nb > 8 || o.nk > 1000 {
+                return Err(SmidError::invalid(
+                    field,
+                    format!(
+                        "orders na = {}, nb = {} (at most 8) and delay nk = {} (at most 1000) are out of range",
+                        o.na, o.nb, o.nk
+                    ),
+                ));
+            }
+            Ok(())
+        };
+        limits(self.base_orders(), "model.na")?;
+        for (i, e) in self.effects.iter().enumerate() {
+            let mut o = Orders { na: 0, nb: 0, nk: 0 };
+            e.orders(&mut o);
+            limits(o, &format!("model.effects[{i}]"))?;
+        }
         let orders = effect::augmented(self.base_orders(), &self.effects);
         let empty = Signals::input(&[], 1.0);
         let extra_names: Vec<String> = effect::regressors(&self.effects, &empty)

@@ -14,12 +14,16 @@ pub fn lowpass(a: f64, r: &[f64]) -> Vec<f64> {
     u
 }
 
-/// Samples after which `a^n * scale` falls below `1e-14 * scale`: the filter has settled.
+/// Samples after which `a^n * scale` falls below `1e-14 * scale`: the filter has settled
+/// (`usize::MAX` for a pole that never settles, `a >= 1` or NaN; callers cap their lengths).
 pub fn filter_settling(a: f64) -> usize {
     if a <= 0.0 {
         1
+    } else if !(a < 1.0) {
+        usize::MAX
     } else {
-        ((1e-14f64).ln() / a.ln()).ceil() as usize + 1
+        // `as` saturates: a pole within 1e-16 of 1 gives usize::MAX, not a wrap.
+        (((1e-14f64).ln() / a.ln()).ceil() as usize).saturating_add(1)
     }
 }
 

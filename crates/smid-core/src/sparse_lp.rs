@@ -126,6 +126,31 @@ impl SparseLp {
         self.le.len() + self.eq.len()
     }
 
+    /// The same LP as a dense [`crate::lp::Polytope`] (for the low-dimensional simplex), when
+    /// it has at most `max_n` variables.
+    pub fn dense(&self, max_n: usize) -> Option<crate::lp::Polytope> {
+        if self.n > max_n {
+            return None;
+        }
+        let mut p = crate::lp::Polytope::new(self.n);
+        let mut row = vec![0.0; self.n];
+        for (g, h) in &self.le {
+            row.iter_mut().for_each(|v| *v = 0.0);
+            for &(c, v) in g {
+                row[c] += v;
+            }
+            p.push_le(&row, *h, 0);
+        }
+        for (e, f) in &self.eq {
+            row.iter_mut().for_each(|v| *v = 0.0);
+            for &(c, v) in e {
+                row[c] += v;
+            }
+            p.push_eq(&row, *f);
+        }
+        Some(p)
+    }
+
     /// Set up the solver (one symbolic factorisation for all objectives).
     pub fn solver(&self) -> Result<LpSolver> {
         let m = self.le.len() + self.eq.len();

@@ -622,6 +622,7 @@ impl Spec {
                 format!("expected N >= 10, got {}", d.length),
             ));
         }
+        self.validate_budgets()?;
         if !(d.amplitude.is_finite() && d.amplitude > 0.0) {
             return Err(SmidError::invalid(
                 "experiment.dynamic.amplitude",
@@ -629,6 +630,71 @@ impl Spec {
             ));
         }
         Ok(())
+    }
+}
+
+impl Spec {
+    /// Ranges of every field that sets how long a loop runs or how much it allocates (the
+    /// Appendix bisection, the experiments' lengths, the branch and bound's budget): a value
+    /// outside is an error naming the field, so no user input can make a run spin.
+    fn validate_budgets(&self) -> Result<()> {
+        use crate::experiment::{MAX_EXPERIMENT_SAMPLES, MAX_SETTLE, MIN_FILTER_TOL};
+        let f = &self.experiment.filter;
+        let checks: [(bool, &str, String); 7] = [
+            (
+                f.pole.is_some() || (f.tol >= MIN_FILTER_TOL && f.tol < 1.0),
+                "experiment.filter.tol",
+                format!("expected {MIN_FILTER_TOL:e} <= tol < 1, got {:e}", f.tol),
+            ),
+            (
+                f.pole.is_some() || (f.a_bar > 0.0 && f.a_bar <= 1.0),
+                "experiment.filter.a_bar",
+                format!("expected 0 < ā <= 1, got {}", f.a_bar),
+            ),
+            (
+                f.settle <= MAX_SETTLE,
+                "experiment.filter.settle",
+                format!("expected at most {MAX_SETTLE} samples, got {}", f.settle),
+            ),
+            (
+                self.experiment.steady_state.amplitudes <= 100_000,
+                "experiment.steady_state.amplitudes",
+                format!(
+                    "expected at most 100000 amplitudes, got {}",
+                    self.experiment.steady_state.amplitudes
+                ),
+            ),
+            (
+                self.experiment.dynamic.length <= MAX_EXPERIMENT_SAMPLES,
+                "experiment.dynamic.length",
+                format!(
+                    "expected N <= {MAX_EXPERIMENT_SAMPLES}, got {}",
+                    self.experiment.dynamic.length
+                ),
+            ),
+            (
+                self.method.cells.depth <= crate::cells::MAX_DEPTH,
+                "method.cells.depth",
+                format!(
+                    "expected at most {} halvings per parameter, got {}",
+                    crate::cells::MAX_DEPTH,
+                    self.method.cells.depth
+                ),
+            ),
+            (
+                (1..=crate::cells::MAX_CELLS).contains(&self.method.cells.max_cells),
+                "method.cells.max_cells",
+                format!(
+                    "expected 1 <= max_cells <= {}, got {}",
+                    crate::cells::MAX_CELLS,
+                    self.method.cells.max_cells
+                ),
+            ),
+        ];
+        match checks.into_iter().find(|c| !c.0) {
+            Some((_, field, message)) => Err(SmidError::invalid(field, message)),
+            None => Ok(()),
+        }
     }
 }
 

@@ -79,7 +79,14 @@ fn uncertain_coefficients(prob: &EivProblem, times: &[usize]) -> Vec<usize> {
     out
 }
 
-fn polytope(prob: &EivProblem, times: &[usize], signs: &[(usize, f64)]) -> Polytope {
+/// The orthant's polytope over the free θ entries (columns in the order of `free`); fixed
+/// entries are constants of the rows.
+fn polytope(
+    prob: &EivProblem,
+    times: &[usize],
+    signs: &[(usize, f64)],
+    free: &[usize],
+) -> Polytope {
     let p = prob.p();
     let sign_of = |k: usize| {
         signs
@@ -88,101 +95,93 @@ fn polytope(prob: &EivProblem, times: &[usize], signs: &[(usize, f64)]) -> Polyt
             .map(|(_, s)| *s)
             .or_else(|| prior_sign(prob, k))
     };
-    let mut poly = Polytope::new(p);
+    let n = free.len();
+    let mut col = vec![usize::MAX; p];
+    for (c, &k) in free.iter().enumerate() {
+        col[k] = c;
+    }
+    let mut poly = Polytope::new(n);
+    let mut e = vec![0.0; n];
+    let mut s = vec![0.0; n];
+    let mut up = vec![0.0; n];
+    let mut dn = vec![0.0; n];
     for &t in times {
         // e_t(θ) = x^c_t + Σ a_i x^c_{t-i} - Σ b_j v^c_{t-j} - Σ c_k φ^c_k(t);
         // slack(θ) = Δx_t + Σ |a_i| Δx_{t-i} + Σ |b_j| Δv_{t-j} + Σ |c_k| Δφ_k(t),
         // |a| = s a in the orthant.
-        let mut e = vec![0.0; p];
-        let mut s = vec![0.0; p];
+        e.iter_mut().for_each(|v| *v = 0.0);
+        s.iter_mut().for_each(|v| *v = 0.0);
         let mut e0 = prob.output[t].interval.center();
         let mut s0 = prob.output[t].interval.radius();
-        for i in 1..=prob.na {
-            let xi = prob.output[t - i].interval;
-            let k = i - 1;
-            match prob.fixed[k] {
-                Some(a) => {
-                    e0 += a * xi.center();
-                    s0 += a.abs() * xi.radius();
-                }
-                None => {
-                    e[k] += xi.center();
-                    if xi.radius() > 0.0 {
-                        s[k] += sign_of(k).unwrap_or(1.0) * xi.radius();
+        let mut term =
+            |k: usize, sign: f64, iv: crate::interval::Interval, e0: &mut f64, s0: &mut f64| {
+                match prob.fixed[k] {
+                    Some(v) => {
+                        *e0 += sign * v * iv.center();
+                        *s0 += v.abs() * iv.radius();
+                    }
+                    None => {
+                        e[col[k]] += sign * iv.center();
+                        if iv.radius() > 0.0 {
+                            s[col[k]] += sign_of(k).unwrap_or(1.0) * iv.radius();
+                        }
                     }
                 }
-            }
+            };
+        for i in 1..=prob.na {
+            term(i - 1, 1.0, prob.output[t - i].interval, &mut e0, &mut s0);
         }
         for j in 0..=prob.nb {
-            let vj = prob.input[t - j];
-            let k = prob.na + j;
-            match prob.fixed[k] {
-                Some(b) => {
-                    e0 -= b * vj.center();
-                    s0 += b.abs() * vj.radius();
-                }
-                None => {
-                    e[k] -= vj.center();
-                    if vj.radius() > 0.0 {
-                        s[k] += sign_of(k).unwrap_or(1.0) * vj.radius();
-                    }
-                }
-            }
+            term(prob.na + j, -1.0, prob.input[t - j], &mut e0, &mut s0);
         }
         for (ex, r) in prob.extra.iter().enumerate() {
-            let phi = r.values[t];
-            let k = prob.n_ab() + ex;
-            match prob.fixed[k] {
-                Some(c) => {
-                    e0 -= c * phi.center();
-                    s0 += c.abs() * phi.radius();
-                }
-                None => {
-                    e[k] -= phi.center();
-                    if phi.radius() > 0.0 {
-                        s[k] += sign_of(k).unwrap_or(1.0) * phi.radius();
-                    }
-                }
-            }
+            term(prob.n_ab() + ex, -1.0, r.values[t], &mut e0, &mut s0);
         }
         // e0 + e·θ <= s0 + s·θ  and  -(e0 + e·θ) <= s0 + s·θ
-        let up: Vec<f64> = e.iter().zip(&s).map(|(a, b)| a - b).collect();
-        let dn: Vec<f64> = e.iter().zip(&s).map(|(a, b)| -a - b).collect();
-        poly.le.push((up, s0 - e0, t));
-        poly.le.push((dn, s0 + e0, t));
+        for c in 0..n {
+            up[c] = e[c] - s[c];
+            dn[c] = -e[c] - s[c];
+        }
+        poly.push_le(&up, s0 - e0, t);
+        poly.push_le(&dn, s0 + e0, t);
     }
+    let mut g = vec![0.0; n];
+    let unit = |c: usize, v: f64, g: &mut Vec<f64>| {
+        g.iter_mut().for_each(|x| *x = 0.0);
+        g[c] = v;
+    };
     for &(k, sgn) in signs {
-        let mut g = vec![0.0; p];
-        g[k] = -sgn; // s θ_k >= 0
-        poly.le.push((g, 0.0, usize::MAX));
+        unit(col[k], -sgn, &mut g); // s θ_k >= 0
+        poly.push_le(&g, 0.0, usize::MAX);
     }
-    for (k, f) in prob.fixed.iter().enumerate() {
-        match f {
-            Some(v) => {
-                let mut g = vec![0.0; p];
-                g[k] = 1.0;
-                poly.eq.push((g, *v));
-            }
-            None => {
-                // The prior box: θ_k <= hi, -θ_k <= -lo.
-                let b = prob.prior_of(k);
-                if b.hi.is_finite() {
-                    let mut g = vec![0.0; p];
-                    g[k] = 1.0;
-                    poly.le.push((g, b.hi, usize::MAX));
-                }
-                if b.lo.is_finite() {
-                    let mut g = vec![0.0; p];
-                    g[k] = -1.0;
-                    poly.le.push((g, -b.lo, usize::MAX));
-                }
-            }
+    for (c, &k) in free.iter().enumerate() {
+        // The prior box: θ_k <= hi, -θ_k <= -lo.
+        let b = prob.prior_of(k);
+        if b.hi.is_finite() {
+            unit(c, 1.0, &mut g);
+            poly.push_le(&g, b.hi, usize::MAX);
+        }
+        if b.lo.is_finite() {
+            unit(c, -1.0, &mut g);
+            poly.push_le(&g, -b.lo, usize::MAX);
         }
     }
     if prob.unit_gain {
-        // Σ b_j - Σ a_i = 1 (eq 8); the extras do not enter.
-        let g = (0..p).map(|k| prob.gain_sign(k)).collect();
-        poly.eq.push((g, 1.0));
+        // Σ b_j - Σ a_i = 1 (eq 8); the extras do not enter; fixed entries move to the right.
+        let mut row = vec![0.0; n];
+        let mut rhs = 1.0;
+        for k in 0..p {
+            match prob.fixed[k] {
+                Some(v) => rhs -= prob.gain_sign(k) * v,
+                None => row[col[k]] = prob.gain_sign(k),
+            }
+        }
+        if row.iter().any(|&v| v != 0.0) {
+            poly.push_eq(&row, rhs);
+        } else if rhs.abs() > 1e-9 {
+            // Every coefficient of the gain is fixed, and they miss it: the set is empty.
+            poly.push_le(&vec![0.0; n], -1.0, usize::MAX);
+        }
     }
     poly
 }
@@ -199,8 +198,9 @@ fn orthants(unc: &[usize]) -> Vec<Vec<(usize, f64)>> {
 }
 
 fn any_feasible(prob: &EivProblem, times: &[usize], unc: &[usize]) -> Result<bool> {
+    let free = free_of(prob);
     for signs in orthants(unc) {
-        if polytope(prob, times, &signs).feasible()? {
+        if polytope(prob, times, &signs, &free).feasible()? {
             return Ok(true);
         }
     }
@@ -217,12 +217,17 @@ pub fn feasible(prob: &EivProblem) -> Result<bool> {
     any_feasible(prob, &times, &unc)
 }
 
+/// The free θ entries, in θ order (the columns of the orthant polytopes).
+fn free_of(prob: &EivProblem) -> Vec<usize> {
+    (0..prob.p()).filter(|&k| prob.fixed[k].is_none()).collect()
+}
+
 /// Solve: per-parameter guaranteed bounds (union over orthants).
 pub fn solve(prob: &EivProblem) -> Result<EivResult> {
     let p = prob.p();
     let start = prob.start_box()?;
     let times = prob.equation_times();
-    let free: Vec<usize> = (0..p).filter(|&k| prob.fixed[k].is_none()).collect();
+    let free = free_of(prob);
     // Parameters the prior does not bound need the equations.
     let open = free.iter().filter(|&&k| !start[k].is_finite()).count();
     let n_eq = open.saturating_sub(usize::from(prob.unit_gain));
@@ -242,14 +247,14 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
     let mut feasible = 0;
     let names = prob.names();
     for signs in orthants(&unc) {
-        let bounded = polytope(prob, &times, &signs).bound(&free).map_err(|e| match e {
+        let bounded = polytope(prob, &times, &signs, &free).bound().map_err(|e| match e {
             SmidError::Unbounded { parameter, message } => SmidError::Unbounded {
                 parameter: parameter
                     .trim_start_matches("θ[")
                     .trim_end_matches(']')
                     .parse::<usize>()
                     .ok()
-                    .and_then(|k| names.get(k).cloned())
+                    .and_then(|c| free.get(c).and_then(|&k| names.get(k)).cloned())
                     .unwrap_or(parameter),
                 message: format!("{message} ({} usable equations; a longer or richer dynamic experiment helps)", times.len()),
             },
@@ -259,9 +264,9 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
             LpOutcome::Infeasible => {}
             LpOutcome::Bounds(b) => {
                 feasible += 1;
-                for &k in &free {
-                    lo[k] = lo[k].min(b[k].lo);
-                    hi[k] = hi[k].max(b[k].hi);
+                for (c, &k) in free.iter().enumerate() {
+                    lo[k] = lo[k].min(b[c].lo);
+                    hi[k] = hi[k].max(b[c].hi);
                 }
             }
         }

@@ -15,6 +15,7 @@
 //! guaranteed outer bound) and explored by best-first branch and bound per parameter and
 //! direction: a cell's relaxation contains its children's, so a cell whose bound cannot beat the
 //! current best never needs refining, and the result equals the hull over all finest cells.
+use super::ipm::{Bound, Prepared};
 use super::relax::SharedModel;
 use super::{EivMethod, EivProblem, EivResult, Stage3Method};
 use crate::error::{Result, SmidError, Stage};
@@ -182,6 +183,25 @@ impl Grid<'_, '_, '_> {
     /// (guaranteed bound in the natural sense, gridded values at the optimum).
     fn solve(&mut self, tb: &[Interval], col: usize, max: bool) -> Result<Optimum2> {
         self.lps += 1;
+        // The structured interior-point method (linear in the record); the sparse clarabel
+        // path where its block form does not apply.
+        let (blp, _) = self.model.block_lp(tb, &self.db, &self.model.times)?;
+        if let Some(prep) = Prepared::new(&blp) {
+            let (b, theta) = prep.minimise_at(&[(col, if max { -1.0 } else { 1.0 })], None);
+            let mut at = [0.0; 2];
+            for (d, &k) in self.dims.iter().enumerate() {
+                let c = self.model.col_theta[k].unwrap_or(0);
+                at[d] = theta[c].clamp(tb[k].lo, tb[k].hi);
+            }
+            return Ok(match b {
+                Bound::Infeasible => Optimum2::Infeasible,
+                Bound::Value(None) => Optimum2::Unknown,
+                Bound::Value(Some(v)) => {
+                    let pad = crate::lp::RESULT_PAD * (1.0 + v.abs());
+                    Optimum2::Value(if max { -v + pad } else { v - pad }, at)
+                }
+            });
+        }
         let lp = self.model.build(tb, &self.db, &self.model.times)?;
         let mut s = lp.solver()?;
         Ok(match s.optimise(col, max)? {
@@ -221,6 +241,9 @@ impl Grid<'_, '_, '_> {
         v
     }
 }
+
+/// Columns up to which the fixed-`a` LPs go to the dense simplex ([`crate::lp::Polytope`]).
+const DENSE_MAX: usize = 24;
 
 /// Margin of the consistency measure below which a point counts as inside the exact set for
 /// the inner hull (relative to the inner-signal error bounds; far above the LPs' pads).
@@ -370,6 +393,15 @@ impl AtA<'_, '_> {
     fn slack(&mut self, a: &[f64]) -> Result<f64> {
         self.lps += 1;
         let m = self.lp(a, true);
+        // A measurement, not a bound: the low-dimensional simplex's vertex value when the LP
+        // has few columns (long chains), else clarabel.
+        if let Some(p) = m.lp.dense(DENSE_MAX) {
+            let mut c = vec![0.0; m.lp.n];
+            c[m.s] = 1.0;
+            if let Some(v) = p.vertex_optimum(&c) {
+                return Ok(v);
+            }
+        }
         Ok(match m.lp.solver()?.minimise(m.s)? {
             Optimum::Value(v) => v,
             _ => f64::INFINITY,
@@ -387,6 +419,13 @@ impl AtA<'_, '_> {
             return Ok(self.prob.fixed[k]);
         };
         self.lps += 1;
+        if let Some(p) = m.lp.dense(DENSE_MAX) {
+            let mut c = vec![0.0; m.lp.n];
+            c[col] = if max { -1.0 } else { 1.0 };
+            if let Some(v) = p.vertex_optimum(&c) {
+                return Ok(Some(if max { -v } else { v }));
+            }
+        }
         Ok(match m.lp.solver()?.optimise(col, max)? {
             Optimum::Value(v) => {
                 let pad = crate::lp::RESULT_PAD * (1.0 + v.abs());

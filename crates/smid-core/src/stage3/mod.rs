@@ -29,6 +29,7 @@ use serde::{Deserialize, Serialize};
 
 pub mod classical;
 pub mod exact_grid;
+pub(crate) mod ipm;
 pub(crate) mod relax;
 pub mod sdp;
 pub mod shared;

@@ -11,10 +11,12 @@
 //! are plain coefficients. The McCormick envelopes over a box of `θ_k` and of `δ_s` contain
 //! every product of the box, so the LP's feasible set contains every `(θ, δ)` consistent with
 //! the data and its coordinate bounds are guaranteed.
+use super::ipm::{BlockLp, Bound, Prepared};
 use super::EivProblem;
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
-use crate::sparse_lp::{LpSolver, Optimum, SparseLp};
+use crate::lp::{RESULT_PAD, ROW_PAD};
+use crate::sparse_lp::{merge, LpSolver, Optimum, SparseLp};
 use std::collections::HashMap;
 
 /// Which signal a sample belongs to.
@@ -268,6 +270,208 @@ impl<'p, 'a> SharedModel<'p, 'a> {
             }
         }
         None
+    }
+}
+
+/// `a·b` over boxes, widened outward by a rounding pad.
+pub(crate) fn mul(a: Interval, b: Interval) -> Interval {
+    let p = [a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi];
+    let lo = p.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = p.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    Interval::new(lo, hi).widen(1e-15, 1e-300)
+}
+
+impl SharedModel<'_, '_> {
+    /// The LP of [`SharedModel::build`] in block form for the interior-point method
+    /// ([`super::ipm`]): θ columns first (as in `build`), then one block per `δ` holding `δ`
+    /// and its products; the `δ` and θ boxes are variable boxes instead of rows. Returns the
+    /// LP and the global index of each model column.
+    pub fn block_lp(
+        &self,
+        tb: &[Interval],
+        db: &[Interval],
+        times: &[usize],
+    ) -> Result<(BlockLp, Vec<usize>)> {
+        let nt = self.free.len();
+        let mut of_delta: Vec<Vec<usize>> = vec![Vec::new(); self.deltas.len()];
+        for (w, &(_, d)) in self.products.iter().enumerate() {
+            of_delta[d].push(w);
+        }
+        let mut glob = vec![0usize; self.n_cols()];
+        let mut boxes = Vec::with_capacity(self.n_cols());
+        for (c, &k) in self.free.iter().enumerate() {
+            glob[c] = c;
+            boxes.push(tb[k]);
+        }
+        let mut lp = BlockLp {
+            nt,
+            ..Default::default()
+        };
+        for (d, ws) in of_delta.iter().enumerate() {
+            let start = boxes.len();
+            glob[self.col_delta(d)] = start;
+            boxes.push(db[d]);
+            for &w in ws {
+                glob[self.col_product(w)] = boxes.len();
+                let k = self.products[w].0;
+                boxes.push(mul(tb[k], db[d]));
+            }
+            lp.blocks.push((start, boxes.len()));
+            let r0 = lp.ineq.len();
+            for &w in ws {
+                let k = self.products[w].0;
+                let (l, u) = (tb[k].lo, tb[k].hi);
+                let (dl, du) = (db[d].lo, db[d].hi);
+                if !(l.is_finite() && u.is_finite()) {
+                    return Err(SmidError::Unbounded {
+                        parameter: self.prob.name(k),
+                        message: "the shared-error relaxation needs a bounded start box".into(),
+                    });
+                }
+                let (ct, cd, cw) = (
+                    self.col_theta[k].unwrap_or(0),
+                    glob[self.col_delta(d)],
+                    glob[self.col_product(w)],
+                );
+                // McCormick envelopes of w = θ δ over [l, u] x [dl, du].
+                lp.ineq
+                    .push((merge(vec![(cd, l), (ct, dl), (cw, -1.0)]), l * dl));
+                lp.ineq
+                    .push((merge(vec![(cd, u), (ct, du), (cw, -1.0)]), u * du));
+                lp.ineq
+                    .push((merge(vec![(cw, 1.0), (cd, -u), (ct, -dl)]), -u * dl));
+                lp.ineq
+                    .push((merge(vec![(cw, 1.0), (cd, -l), (ct, -du)]), -l * du));
+            }
+            lp.ineq_of.push((r0, lp.ineq.len()));
+        }
+        for &t in times {
+            let (row, c0) = self.equation(t);
+            let row: Vec<(usize, f64)> = row.into_iter().map(|(c, v)| (glob[c], v)).collect();
+            // c0 + row·z = 0, allowed the pad of the two inequalities it stands for.
+            lp.eq.push((merge(row), -c0, ROW_PAD * (1.0 + c0.abs())));
+        }
+        if let Some((row, rhs)) = self.gain_row() {
+            lp.theta_eq
+                .push((merge(row), rhs, 4.0 * f64::EPSILON * (1.0 + rhs.abs())));
+        }
+        lp.boxes = boxes;
+        Ok((lp, glob))
+    }
+
+    /// Equation `t` as `c0 + row·z = 0` over the model's columns.
+    fn equation(&self, t: usize) -> (Vec<(usize, f64)>, f64) {
+        let mut row: Vec<(usize, f64)> = Vec::new();
+        let mut c0 = 0.0;
+        for (k, sign, side, s) in self.terms(t) {
+            let iv = self.signal(side, s);
+            let d = self.delta_of.get(&(side, s)).copied();
+            match k.map(|k| (k, self.prob.fixed[k])) {
+                None => {
+                    c0 += iv.center();
+                    if let Some(d) = d {
+                        row.push((self.col_delta(d), 1.0));
+                    }
+                }
+                Some((_, Some(v))) => {
+                    c0 += sign * v * iv.center();
+                    if let Some(d) = d {
+                        row.push((self.col_delta(d), sign * v));
+                    }
+                }
+                Some((k, None)) => {
+                    row.push((self.col_theta[k].unwrap_or(0), sign * iv.center()));
+                    if let Some(d) = d {
+                        let w = self.product_of[&(k, d)];
+                        row.push((self.col_product(w), sign));
+                    }
+                }
+            }
+        }
+        (row, c0)
+    }
+
+    /// The unit gain `Σ b_j - Σ a_i = 1` (eq 8) over the free columns, when imposed.
+    fn gain_row(&self) -> Option<(Vec<(usize, f64)>, f64)> {
+        if !self.prob.unit_gain {
+            return None;
+        }
+        let mut row = Vec::new();
+        let mut rhs = 1.0;
+        for k in 0..self.prob.n_ab() {
+            let s = self.prob.gain_sign(k);
+            match self.prob.fixed[k] {
+                Some(v) => rhs -= s * v,
+                None => row.push((self.col_theta[k].unwrap_or(0), s)),
+            }
+        }
+        Some((row, rhs))
+    }
+}
+
+/// Bound every free θ of the LP over boxes `tb`, `db` and the equations `times`, by the
+/// structured interior-point method ([`super::ipm`]), the objectives in parallel. `None`
+/// when a bound proves the LP empty; `(None, _)` entries where no finite bound came out. When
+/// the block form does not apply (a box not finite, an equation without an uncertain sample),
+/// the sparse clarabel path answers.
+pub(crate) fn bound_free(
+    model: &SharedModel,
+    tb: &[Interval],
+    db: &[Interval],
+    times: &[usize],
+) -> Result<Option<Vec<(Option<f64>, Option<f64>)>>> {
+    use rayon::prelude::*;
+    let (blp, _) = model.block_lp(tb, db, times)?;
+    let Some(prep) = Prepared::new(&blp) else {
+        let lp = model.build(tb, db, times)?;
+        return bound_all(model, &mut lp.solver()?);
+    };
+    let nt = model.free.len();
+    let start = prep.warm_start();
+    let found: Vec<Bound> = (0..2 * nt)
+        .into_par_iter()
+        .map(|i| {
+            let (c, max) = (i / 2, i % 2 == 1);
+            prep.minimise_at(&[(c, if max { -1.0 } else { 1.0 })], start.as_ref())
+                .0
+        })
+        .collect();
+    let mut out = Vec::with_capacity(nt);
+    for c in 0..nt {
+        let side = |b: Bound, max: bool| match b {
+            Bound::Infeasible => Err(()),
+            Bound::Value(v) => Ok(v.map(|v| {
+                let pad = RESULT_PAD * (1.0 + v.abs());
+                if max {
+                    -v + pad
+                } else {
+                    v - pad
+                }
+            })),
+        };
+        match (side(found[2 * c], false), side(found[2 * c + 1], true)) {
+            (Ok(lo), Ok(hi)) => out.push((lo, hi)),
+            _ => return Ok(None),
+        }
+    }
+    Ok(Some(out))
+}
+
+/// Whether the LP over `times` is non-empty: `false` is proven; `true` when not proven empty.
+pub(crate) fn feasible_free(
+    model: &SharedModel,
+    tb: &[Interval],
+    db: &[Interval],
+    times: &[usize],
+) -> Result<bool> {
+    let (blp, _) = model.block_lp(tb, db, times)?;
+    match Prepared::new(&blp) {
+        Some(prep) if !model.free.is_empty() => Ok(prep.minimise(&[(0, 1.0)]) != Bound::Infeasible),
+        _ => Ok(model
+            .build(tb, db, times)?
+            .solver()?
+            .feasible()?
+            .unwrap_or(true)),
     }
 }
 

@@ -13,7 +13,7 @@
 //! shrinks the θ box, tightens the `δ` boxes by interval propagation through the equations, and
 //! repeats until the radii stop improving. As the θ box shrinks the envelopes become exact, so
 //! the result approaches the exact feasible set (see [`super::exact_grid`]).
-use super::relax::{bound_all, tighten, SharedModel};
+use super::relax::{bound_free, feasible_free, tighten, SharedModel};
 use super::{EivMethod, EivProblem, EivResult, Stage3Method};
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
@@ -71,9 +71,7 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
                 return Err(inconsistent(t));
             }
         }
-        let lp = model.build(&tb, &db, &model.times)?;
-        let mut solver = lp.solver()?;
-        let Some(found) = bound_all(&model, &mut solver)? else {
+        let Some(found) = bound_free(&model, &tb, &db, &model.times)? else {
             return Err(inconsistent(locate(&model, &tb, &db)?));
         };
         let mut gain: f64 = 0.0;
@@ -119,11 +117,7 @@ fn locate(model: &SharedModel, tb: &[Interval], db: &[Interval]) -> Result<usize
     let (mut good, mut bad) = (0usize, times.len());
     while bad - good > 1 {
         let mid = (good + bad) / 2;
-        let feasible = model
-            .build(tb, db, &times[..mid])?
-            .solver()?
-            .feasible()?
-            .unwrap_or(true);
+        let feasible = feasible_free(model, tb, db, &times[..mid])?;
         if feasible {
             good = mid;
         } else {
