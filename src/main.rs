@@ -77,6 +77,11 @@ enum Command {
         /// Stage-3 method (classical, shared, sdp, exact-grid; default: the spec default).
         #[arg(long)]
         method: Option<String>,
+        /// Identification from any record: no steady-state experiment, a PRBS of 400 samples,
+        /// the nonlinearity bisected over a random prior box around the truth (stage 3
+        /// classical unless --method).
+        #[arg(long)]
+        any_record: bool,
         /// Trials run in parallel (default: the number of cores).
         #[arg(long)]
         jobs: Option<usize>,
@@ -225,6 +230,7 @@ fn real_main() -> Result<()> {
             first_seed,
             ref plugin,
             ref method,
+            any_record,
             jobs,
         } => {
             let method = method.as_deref().map(parse_method).transpose()?;
@@ -234,10 +240,24 @@ fn real_main() -> Result<()> {
                 first_seed,
                 trials,
                 method,
+                any_record,
                 jobs_or_cores(jobs),
                 || pb.inc(1),
             )?;
-            println!("stage-3 method: {}", method.unwrap_or_default().name());
+            let default = if any_record {
+                smid::core::spec::EivMethod::Classical
+            } else {
+                Default::default()
+            };
+            println!(
+                "stage-3 method: {}{}",
+                method.unwrap_or(default).name(),
+                if any_record {
+                    "; from any record (no steady-state data, N = 400, prior box around the truth)"
+                } else {
+                    ""
+                }
+            );
             pb.finish_and_clear();
             print!("{}", smid::plugin_check::report(plugin, &s));
             anyhow::ensure!(

@@ -224,6 +224,28 @@ impl Trial {
     }
 }
 
+impl Trial {
+    /// Run this trial from one dynamic record, the backlash bisected over a random prior box
+    /// around the truth ([`crate::plugin_check::any_record`]); stage 3 by `method` (default
+    /// classical).
+    pub fn run_any(&self, method: Option<smid_core::spec::EivMethod>) -> Result<Identification> {
+        use smid_core::nonlinearity::Nonlinearity;
+        let mut spec = self.spec();
+        crate::plugin_check::any_record(&mut spec, &self.backlash.parameters(), self.seed);
+        if let Some(m) = method {
+            spec.method.eiv = m;
+        }
+        let mut plant = SimulatedPlant {
+            linear: self.linear.clone(),
+            nonlinearity: &self.backlash,
+            structure: Default::default(),
+            effects: &[],
+            dt: 1.0,
+        };
+        pipeline::run_with_plant(&spec, &mut plant)
+    }
+}
+
 /// Like [`run`], with stage 3 by `method`, on `jobs` threads.
 pub fn run_method(
     first: u64,

@@ -6,6 +6,11 @@
 //! search, `M = 20` steady-state amplitudes and a PRBS of `N = 100` samples (the paper's `N`),
 //! with orders `na = nb = 2` and `b0 = 0` fixed. `output_backlash` is the original check
 //! of [`crate::montecarlo`]; the others are defined here.
+//!
+//! `--any-record` checks the general method of [`smid_core::cells`] instead: no steady-state
+//! experiment, a PRBS of `N = 400` samples, and every nonlinearity parameter bisected over a
+//! random prior box that contains the truth ([`any_record`]); stage 3 classical unless
+//! `--method` says otherwise (the branch and bound calls it per cell).
 use crate::montecarlo::{self, backlash_is_physical, random_backlash, random_linear, Summary};
 use rand::{Rng, SeedableRng};
 use smid_core::linear::LinearModel;
@@ -183,10 +188,15 @@ impl PluginTrial {
         (spec, self.nonlinearity, self.linear)
     }
 
-    /// Run the whole pipeline on this trial, stage 3 by `method` (`None`: the spec default).
-    pub fn run(self, method: Option<EivMethod>) -> Result<Identification> {
+    /// Run the whole pipeline on this trial, stage 3 by `method` (`None`: the spec default),
+    /// from the designed experiment or, with `any`, from one dynamic record ([`any_record`]).
+    pub fn run(self, method: Option<EivMethod>, any: bool) -> Result<Identification> {
         let structure = self.structure;
+        let seed = self.seed;
         let (mut spec, nl, linear) = self.spec();
+        if any {
+            any_record(&mut spec, &nl.parameters(), seed);
+        }
         if let Some(m) = method {
             spec.method.eiv = m;
         }
@@ -201,17 +211,51 @@ impl PluginTrial {
     }
 }
 
+/// Turn a trial's spec into identification from any record: no steady-state experiment, a PRBS
+/// of 400 samples, classical stage 3, and a prior box per nonlinearity parameter drawn from the
+/// trial's seed so that it contains the true value: a width of 20-100 % of the value (at least
+/// 0.05) placed at random around it; slopes (`m_*`) keep at least a fifth of their value,
+/// half-plays and levels stay non-negative.
+pub fn any_record(spec: &mut Spec, truth: &[(String, f64)], seed: u64) {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_a11c_0de5);
+    spec.experiment.steady_state.skip = true;
+    spec.experiment.dynamic.length = 400;
+    spec.method.eiv = EivMethod::Classical;
+    for (name, v) in truth {
+        let w = v.abs().max(0.05) * rng.gen_range(0.2..1.0);
+        let f: f64 = rng.gen_range(0.0..1.0);
+        let (mut lo, hi) = (v - w * f, v + w * (1.0 - f));
+        if name.starts_with('m') {
+            lo = lo.max(0.2 * v);
+        } else if *v >= 0.0 {
+            lo = lo.max(0.0);
+        }
+        spec.model.prior.insert(name.clone(), [lo, hi]);
+    }
+}
+
 /// Run `n` trials of `plugin` with seeds `first..first+n`, calling `tick` after each.
-/// Stage 3 by `method` (`None`: the spec default), on `jobs` threads.
+/// Stage 3 by `method` (`None`: the spec default, classical with `any`), on `jobs` threads;
+/// with `any`, identification from one dynamic record ([`any_record`]).
 pub fn run(
     plugin: &str,
     first: u64,
     n: usize,
     method: Option<EivMethod>,
+    any: bool,
     jobs: usize,
     tick: impl Fn() + Sync,
 ) -> Result<Summary> {
     let plugin = plugin_name(plugin)?;
+    if any {
+        return Ok(montecarlo::run_seeds(first, n, jobs, tick, |seed| {
+            if plugin == "output_backlash" {
+                montecarlo::Trial::random(seed).run_any(method)
+            } else {
+                PluginTrial::random(plugin, seed)?.run(method, true)
+            }
+        }));
+    }
     if plugin == "output_backlash" {
         return Ok(montecarlo::run_method(
             first,
@@ -222,7 +266,7 @@ pub fn run(
         ));
     }
     Ok(montecarlo::run_seeds(first, n, jobs, tick, |seed| {
-        PluginTrial::random(plugin, seed)?.run(method)
+        PluginTrial::random(plugin, seed)?.run(method, false)
     }))
 }
 

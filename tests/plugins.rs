@@ -60,7 +60,22 @@ fn cases() -> u32 {
 /// would mean a bound excluded the truth, so `Inconsistent` fails too. Other errors (too few
 /// informative samples) give no bound and are allowed.
 fn check(plugin: &str, seed: u64) -> std::result::Result<(), TestCaseError> {
-    match PluginTrial::random(plugin, seed).unwrap().run(None) {
+    check_from(plugin, seed, false)
+}
+
+/// The same trial from one dynamic record: the nonlinearity bisected over a random prior box
+/// around the truth (`smid check --any-record`).
+fn check_any(plugin: &str, seed: u64) -> std::result::Result<(), TestCaseError> {
+    check_from(plugin, seed, true)
+}
+
+fn check_from(plugin: &str, seed: u64, any: bool) -> std::result::Result<(), TestCaseError> {
+    let outcome = match (plugin, any) {
+        ("output_backlash", true) => smid::montecarlo::Trial::random(seed).run_any(None),
+        ("output_backlash", false) => smid::montecarlo::Trial::random(seed).run(),
+        _ => PluginTrial::random(plugin, seed).unwrap().run(None, any),
+    };
+    match outcome {
         Ok(id) => {
             prop_assert_eq!(
                 id.all_contain_truth(),
@@ -89,6 +104,16 @@ proptest! {
     fn dead_zone_output_contains_truth(seed in 1u64..1_000_000) { check("dead_zone_output", seed)?; }
     #[test]
     fn saturation_contains_truth(seed in 1u64..1_000_000) { check("saturation", seed)?; }
+    #[test]
+    fn output_backlash_from_any_record_contains_truth(seed in 1u64..1_000_000) { check_any("output_backlash", seed)?; }
+    #[test]
+    fn input_backlash_from_any_record_contains_truth(seed in 1u64..1_000_000) { check_any("input_backlash", seed)?; }
+    #[test]
+    fn dead_zone_input_from_any_record_contains_truth(seed in 1u64..1_000_000) { check_any("dead_zone_input", seed)?; }
+    #[test]
+    fn dead_zone_output_from_any_record_contains_truth(seed in 1u64..1_000_000) { check_any("dead_zone_output", seed)?; }
+    #[test]
+    fn saturation_from_any_record_contains_truth(seed in 1u64..1_000_000) { check_any("saturation", seed)?; }
 }
 
 fn example_text(name: &str) -> String {
@@ -166,12 +191,12 @@ fn plugin_trials_honour_the_stage3_method() {
     use smid_core::spec::EivMethod;
     let trial = || PluginTrial::random("dead_zone_input", 3).unwrap();
     assert!(matches!(
-        trial().run(Some(EivMethod::ExactGrid)),
+        trial().run(Some(EivMethod::ExactGrid), false),
         Err(SmidError::Unsupported { .. })
     ));
     let (Ok(classical), Ok(shared)) = (
-        trial().run(Some(EivMethod::Classical)),
-        trial().run(Some(EivMethod::Shared)),
+        trial().run(Some(EivMethod::Classical), false),
+        trial().run(Some(EivMethod::Shared), false),
     ) else {
         panic!("seed 3 identifies with both methods");
     };

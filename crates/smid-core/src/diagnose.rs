@@ -276,11 +276,13 @@ fn candidates(
             ));
         }
     }
-    // A model without a nonlinearity: every plugin that offers a default prior, on the side
-    // the structure has (Hammerstein-Wiener candidates are not offered).
-    if base.nonlinearity_tag() == "linear" && !steady {
+    // A model without a nonlinearity (a plugin with no parameters): every plugin that offers a
+    // default prior, on the side the structure has (Hammerstein-Wiener candidates are not
+    // offered).
+    let no_parameters = |tag: &str| crate::registry::parameter_names(tag).is_empty();
+    if no_parameters(&base.nonlinearity_tag()) && !steady {
         for entry in crate::registry::models() {
-            if entry.tag == "linear"
+            if no_parameters(entry.tag)
                 || (!opts.only.is_empty() && !opts.only.iter().any(|t| t == entry.tag))
             {
                 continue;

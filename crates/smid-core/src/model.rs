@@ -105,7 +105,11 @@ impl ModelSpec {
         };
         limits(self.base_orders(), "model.na")?;
         for (i, e) in self.effects.iter().enumerate() {
-            let mut o = Orders { na: 0, nb: 0, nk: 0 };
+            let mut o = Orders {
+                na: 0,
+                nb: 0,
+                nk: 0,
+            };
             e.orders(&mut o);
             limits(o, &format!("model.effects[{i}]"))?;
         }
