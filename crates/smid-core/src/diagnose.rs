@@ -31,6 +31,10 @@ use serde::Serialize;
 /// fraction of the base model's per added parameter.
 pub const PER_PARAMETER: f64 = 0.9;
 
+/// With an estimated noise bound, a candidate's free-run fit on the training records may fall
+/// below the base model's by at most this many percentage points.
+pub const FIT_SLACK: f64 = 1.0;
+
 /// Options of a diagnosis.
 #[derive(Debug, Clone)]
 pub struct Options {
@@ -361,9 +365,13 @@ pub fn choose(
     let mut added = Vec::new();
     let estimated = spec.noise.estimated();
     let rule = if estimated {
-        format!("the noise bound is estimated per model (the smallest bound consistent with the training records, × margin), so every model is admissible: a candidate is kept when its bound falls below {PER_PARAMETER} × the base model's bound per added parameter (an information criterion on the training data, in the ℓ∞ sense), the lowest bound first")
+        format!("the noise bound is estimated per model (the smallest bound consistent with the training records, × margin), so every model is admissible: a candidate is kept when its bound falls below {PER_PARAMETER} × the base model's bound per added parameter (an information criterion on the training data, in the ℓ∞ sense) and its free-run fit on the training records is no worse than the base model's (by more than {FIT_SLACK} points: a candidate that explains samples away, as a saturation that swallows the worst ones, does not simulate better), the lowest bound first")
     } else {
         "admissible (training data consistent with the declared noise bound) with the fewest added parameters; ties broken by the free-run fit on the training records; when none is admissible, the one whose first contradiction comes latest is extended in a further round".to_string()
+    };
+    let fit_of = |t: &TrainVerdict| match t {
+        TrainVerdict::Consistent { fit_percent, .. } => *fit_percent,
+        _ => f64::NEG_INFINITY,
     };
     let bound_of = |t: &TrainVerdict| match t {
         TrainVerdict::Consistent { bound, .. } => *bound,
@@ -403,6 +411,7 @@ pub fn choose(
                 .filter(|(_, (_, e))| {
                     bound_of(&e.train)
                         <= base_bound * PER_PARAMETER.powi(e.added_parameters.max(1) as i32)
+                        && fit_of(&e.train) >= fit_of(&base_train) - FIT_SLACK
                 })
                 .min_by(|(_, (_, a)), (_, (_, b))| {
                     bound_of(&a.train)
