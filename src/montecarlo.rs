@@ -127,15 +127,30 @@ impl Trial {
 
     /// Run the whole pipeline on this trial.
     pub fn run(&self) -> Result<Identification> {
-        let spec = self.spec();
-        let mut plant = SimulatedPlant {
-            linear: self.linear.clone(),
-            nonlinearity: &self.backlash,
-            structure: Default::default(),
-            effects: &[],
-            dt: 1.0,
-        };
-        pipeline::run_with_plant(&spec, &mut plant)
+        self.run_spec(&self.spec())
+    }
+}
+
+/// Turn a trial's spec into identification from any record: no steady-state experiment, a PRBS
+/// of 400 samples, classical stage 3, and a prior box per nonlinearity parameter drawn from the
+/// trial's seed so that it contains the true value: a width of 20-100 % of the value (at least
+/// 0.05) placed at random around it; slopes (`m_*`) keep at least a fifth of their value,
+/// half-plays and levels stay non-negative.
+pub fn any_record(spec: &mut Spec, truth: &[(String, f64)], seed: u64) {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_a11c_0de5);
+    spec.experiment.steady_state.skip = true;
+    spec.experiment.dynamic.length = 400;
+    spec.method.eiv = smid_core::spec::EivMethod::Classical;
+    for (name, v) in truth {
+        let w = v.abs().max(0.05) * rng.gen_range(0.2..1.0);
+        let f: f64 = rng.gen_range(0.0..1.0);
+        let (mut lo, hi) = (v - w * f, v + w * (1.0 - f));
+        if name.starts_with('m') {
+            lo = lo.max(0.2 * v);
+        } else if *v >= 0.0 {
+            lo = lo.max(0.0);
+        }
+        spec.model.prior.insert(name.clone(), [lo, hi]);
     }
 }
 
@@ -213,6 +228,11 @@ impl Trial {
     pub fn run_method(&self, method: smid_core::spec::EivMethod) -> Result<Identification> {
         let mut spec = self.spec();
         spec.method.eiv = method;
+        self.run_spec(&spec)
+    }
+
+    /// Run `spec` on this trial's plant.
+    fn run_spec(&self, spec: &Spec) -> Result<Identification> {
         let mut plant = SimulatedPlant {
             linear: self.linear.clone(),
             nonlinearity: &self.backlash,
@@ -220,29 +240,22 @@ impl Trial {
             effects: &[],
             dt: 1.0,
         };
-        pipeline::run_with_plant(&spec, &mut plant)
+        pipeline::run_with_plant(spec, &mut plant)
     }
 }
 
 impl Trial {
     /// Run this trial from one dynamic record, the backlash bisected over a random prior box
-    /// around the truth ([`crate::plugin_check::any_record`]); stage 3 by `method` (default
+    /// around the truth ([`any_record`]); stage 3 by `method` (default
     /// classical).
     pub fn run_any(&self, method: Option<smid_core::spec::EivMethod>) -> Result<Identification> {
         use smid_core::nonlinearity::Nonlinearity;
         let mut spec = self.spec();
-        crate::plugin_check::any_record(&mut spec, &self.backlash.parameters(), self.seed);
+        any_record(&mut spec, &self.backlash.parameters(), self.seed);
         if let Some(m) = method {
             spec.method.eiv = m;
         }
-        let mut plant = SimulatedPlant {
-            linear: self.linear.clone(),
-            nonlinearity: &self.backlash,
-            structure: Default::default(),
-            effects: &[],
-            dt: 1.0,
-        };
-        pipeline::run_with_plant(&spec, &mut plant)
+        self.run_spec(&spec)
     }
 }
 

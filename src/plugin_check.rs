@@ -9,9 +9,11 @@
 //!
 //! `--any-record` checks the general method of [`smid_core::cells`] instead: no steady-state
 //! experiment, a PRBS of `N = 400` samples, and every nonlinearity parameter bisected over a
-//! random prior box that contains the truth ([`any_record`]); stage 3 classical unless
+//! random prior box that contains the truth ([`montecarlo::any_record`]); stage 3 classical unless
 //! `--method` says otherwise (the branch and bound calls it per cell).
-use crate::montecarlo::{self, backlash_is_physical, random_backlash, random_linear, Summary};
+use crate::montecarlo::{
+    self, any_record, backlash_is_physical, random_backlash, random_linear, Summary,
+};
 use rand::{Rng, SeedableRng};
 use smid_core::linear::LinearModel;
 use smid_core::noise::NoiseSpec;
@@ -208,29 +210,6 @@ impl PluginTrial {
             dt: 1.0,
         };
         pipeline::run_with_plant(&spec, &mut plant)
-    }
-}
-
-/// Turn a trial's spec into identification from any record: no steady-state experiment, a PRBS
-/// of 400 samples, classical stage 3, and a prior box per nonlinearity parameter drawn from the
-/// trial's seed so that it contains the true value: a width of 20-100 % of the value (at least
-/// 0.05) placed at random around it; slopes (`m_*`) keep at least a fifth of their value,
-/// half-plays and levels stay non-negative.
-pub fn any_record(spec: &mut Spec, truth: &[(String, f64)], seed: u64) {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_a11c_0de5);
-    spec.experiment.steady_state.skip = true;
-    spec.experiment.dynamic.length = 400;
-    spec.method.eiv = EivMethod::Classical;
-    for (name, v) in truth {
-        let w = v.abs().max(0.05) * rng.gen_range(0.2..1.0);
-        let f: f64 = rng.gen_range(0.0..1.0);
-        let (mut lo, hi) = (v - w * f, v + w * (1.0 - f));
-        if name.starts_with('m') {
-            lo = lo.max(0.2 * v);
-        } else if *v >= 0.0 {
-            lo = lo.max(0.0);
-        }
-        spec.model.prior.insert(name.clone(), [lo, hi]);
     }
 }
 
