@@ -180,33 +180,7 @@ impl<'p, 'a> SharedModel<'p, 'a> {
             lp.le(vec![(cw, 1.0), (cd, -l), (ct, -du)], -l * du);
         }
         for &t in times {
-            let mut row: Vec<(usize, f64)> = Vec::new();
-            let mut c0 = 0.0;
-            for (k, sign, side, s) in self.terms(t) {
-                let iv = self.signal(side, s);
-                let d = self.delta_of.get(&(side, s)).copied();
-                match k.map(|k| (k, self.prob.fixed[k])) {
-                    None => {
-                        c0 += iv.center();
-                        if let Some(d) = d {
-                            row.push((self.col_delta(d), 1.0));
-                        }
-                    }
-                    Some((_, Some(v))) => {
-                        c0 += sign * v * iv.center();
-                        if let Some(d) = d {
-                            row.push((self.col_delta(d), sign * v));
-                        }
-                    }
-                    Some((k, None)) => {
-                        row.push((self.col_theta[k].unwrap_or(0), sign * iv.center()));
-                        if let Some(d) = d {
-                            let w = self.product_of[&(k, d)];
-                            row.push((self.col_product(w), sign));
-                        }
-                    }
-                }
-            }
+            let (row, c0) = self.equation(t);
             // c0 + row·z = 0, as two padded inequalities.
             let neg: Vec<(usize, f64)> = row.iter().map(|&(c, v)| (c, -v)).collect();
             lp.le(row, -c0);
