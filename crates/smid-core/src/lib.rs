@@ -51,8 +51,9 @@ pub mod prelude {
     pub use crate::interval::Interval;
     pub use crate::inversion::{check_outputs, invert_branch, InnerBound, InnerKind};
     pub use crate::nonlinearity::{
-        two_branch_regions, two_branches_contain, Nonlinearity, NonlinearityModel, NonlinearitySet,
-        ParameterBound, Region, SteadyPoint, SteadyStateData, Structure,
+        two_branch_polygons, two_branch_regions, two_branches_contain, Nonlinearity,
+        NonlinearityModel, NonlinearitySet, ParameterBound, Region, SteadyPoint, SteadyStateData,
+        Structure,
     };
     pub use crate::polygon::{Polygon, Strip};
 }

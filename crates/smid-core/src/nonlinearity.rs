@@ -127,6 +127,25 @@ impl SteadyStateData {
     }
 }
 
+/// The two branch polygons of a cell `(m_l, c_l, m_r, c_r)` of a two-branch plugin (backlash,
+/// dead zone): each branch's exact image in `(m, m·c)` ([`Polygon::from_slope_offset_box`]);
+/// any other number of intervals is an error naming `model.prior`.
+pub fn two_branch_polygons(cell: &[Interval]) -> Result<(Polygon, Polygon)> {
+    let [m_l, c_l, m_r, c_r] = <[Interval; 4]>::try_from(cell).map_err(|_| {
+        SmidError::invalid(
+            "model.prior",
+            format!(
+                "expected 4 intervals (m_l, c_l, m_r, c_r), got {}",
+                cell.len()
+            ),
+        )
+    })?;
+    Ok((
+        Polygon::from_slope_offset_box(m_l, c_l)?,
+        Polygon::from_slope_offset_box(m_r, c_r)?,
+    ))
+}
+
 /// Plot regions of a nonlinearity with two linear branches parameterised as
 /// `(m_l, c_l, m_r, c_r)` and held as polygons in `(m, m·c)` coordinates (output backlash, dead
 /// zone); `truth` in report order.

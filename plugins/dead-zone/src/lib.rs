@@ -200,19 +200,8 @@ impl NonlinearityModel for DeadZoneModel {
     }
     /// A box of `(m_l, c_l, m_r, c_r)`: each branch's exact image in `(m, m·c)`.
     fn set_from_box(&self, cell: &[Interval]) -> Result<Box<dyn NonlinearitySet>> {
-        if cell.len() != 4 {
-            return Err(SmidError::invalid(
-                "model.prior",
-                format!(
-                    "expected 4 intervals (m_l, c_l, m_r, c_r), got {}",
-                    cell.len()
-                ),
-            ));
-        }
-        Ok(Box::new(DeadZoneSet {
-            left: Polygon::from_slope_offset_box(cell[0], cell[1])?,
-            right: Polygon::from_slope_offset_box(cell[2], cell[3])?,
-        }))
+        let (left, right) = two_branch_polygons(cell)?;
+        Ok(Box::new(DeadZoneSet { left, right }))
     }
 }
 

@@ -173,19 +173,8 @@ impl NonlinearityModel for OutputBacklashModel {
 /// The branch polygons of a box `(m_l, c_l, m_r, c_r)` (see
 /// [`Polygon::from_slope_offset_box`]).
 pub fn box_polygons(cell: &[Interval]) -> Result<BacklashSet> {
-    if cell.len() != 4 {
-        return Err(SmidError::invalid(
-            "model.prior",
-            format!(
-                "expected 4 intervals (m_l, c_l, m_r, c_r), got {}",
-                cell.len()
-            ),
-        ));
-    }
-    Ok(BacklashSet {
-        left: Polygon::from_slope_offset_box(cell[0], cell[1])?,
-        right: Polygon::from_slope_offset_box(cell[2], cell[3])?,
-    })
+    let (left, right) = two_branch_polygons(cell)?;
+    Ok(BacklashSet { left, right })
 }
 
 impl BacklashSet {
