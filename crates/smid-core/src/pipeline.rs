@@ -387,16 +387,15 @@ pub fn stage2(
     Ok(out)
 }
 
-/// Stage 3 on stage-2 signals, with an optional prior box on `θ`. An inconsistency names the
-/// sample in the concatenation (see [`relabel`]).
-pub fn stage3(
+/// The stage-3 problem of stage-2 signals, with an optional prior box on `θ`.
+fn eiv_problem<'a>(
     model: &ModelSpec,
     layout: &Layout,
     method: &MethodSpec,
-    sig: &StageSignals,
-    prior: Option<&[Interval]>,
-) -> Result<EivResult> {
-    let problem = EivProblem {
+    sig: &'a StageSignals,
+    prior: Option<&'a [Interval]>,
+) -> EivProblem<'a> {
+    EivProblem {
         na: layout.orders.na,
         nb: layout.orders.nb,
         fixed: layout.fixed.clone(),
@@ -406,7 +405,19 @@ pub fn stage3(
         extra: &sig.extra,
         prior,
         use_band_samples: method.use_band_samples(),
-    };
+    }
+}
+
+/// Stage 3 on stage-2 signals, with an optional prior box on `θ`. An inconsistency names the
+/// sample in the concatenation (see [`relabel`]).
+pub fn stage3(
+    model: &ModelSpec,
+    layout: &Layout,
+    method: &MethodSpec,
+    sig: &StageSignals,
+    prior: Option<&[Interval]>,
+) -> Result<EivResult> {
+    let problem = eiv_problem(model, layout, method, sig, prior);
     match crate::stage3::solve(method.eiv, &problem) {
         // Solver trouble: another method's outer bound is as guaranteed.
         Err(SmidError::Solver(first)) => {
@@ -926,9 +937,8 @@ pub fn identify_with(
         &rep.cell,
         &training.records,
     )?;
-    let equations = stage3(model, &layout, method, &sig, None)
-        .map(|r| r.equations)
-        .unwrap_or_default();
+    // The equations stage 3 used (every method uses every usable one): listed, not re-solved.
+    let equations = eiv_problem(model, &layout, method, &sig, None).equation_times();
     let first_len = training.records[0].y.len();
     // The inner signal: the nonlinearity's input (Wiener) or output (Hammerstein).
     let inner: Vec<InnerBound> = match model.structure {
