@@ -39,6 +39,9 @@ pub enum FmuErrorKind {
     /// No binary for this platform.
     #[error("no binary for this platform: expected `{expected}` in the archive")]
     NoBinary { expected: String },
+    /// A unit exported from Python (PythonFMU) and no usable Python runtime to host it.
+    #[error("{0}")]
+    PythonRuntime(String),
     /// The binary could not be loaded or instantiated.
     #[error("cannot load or instantiate the binary: {0}")]
     Load(String),

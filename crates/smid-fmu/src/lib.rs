@@ -24,11 +24,13 @@
 //! // A unit-gain block behind a backlash of slope about 0.25: the output settles near 0.25.
 //! assert!(w[49] > 0.2 && w[49] < 0.3);
 //! ```
-#![forbid(unsafe_code)]
+// Unsafe only in `python` (loading the Python runtime for PythonFMU units); denied elsewhere.
+#![deny(unsafe_code)]
 
 pub mod error;
 mod logcap;
 pub mod plant;
+mod python;
 
 pub use error::{FmuError, FmuErrorKind};
 pub use plant::{resolve_path, FmuConfig, FmuPlant};

@@ -124,6 +124,10 @@ impl FmuPlant {
                 expected: lib.display().to_string(),
             }));
         }
+        // A PythonFMU unit needs the Python runtime's symbols in the process (python.rs).
+        if crate::python::is_python_fmu(md.generation_tool.as_deref(), import.archive_path()) {
+            crate::python::ensure_runtime().map_err(|e| err(FmuErrorKind::PythonRuntime(e)))?;
+        }
 
         let find = |role: &'static str, name: Option<&String>, want: Causality| {
             let candidates: Vec<&fmi::schema::fmi2::ScalarVariable> = md
