@@ -85,6 +85,20 @@ enum Command {
         /// Trials run in parallel (default: the number of cores).
         #[arg(long)]
         jobs: Option<usize>,
+        /// Run shard K of M (1-based) of the trials: every M-th seed from the K-th, for
+        /// machines or workers of a distributed engine; join the shards with `check-merge`.
+        #[arg(long, value_parser = parse_shard)]
+        shard: Option<(usize, usize)>,
+        /// Also write the summary (counts, missed seeds, errors) as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Join the `--json` summaries of the shards of one `check` run into its table, the same as
+    /// one machine's run of all the seeds; exit code 1 when a trial missed the truth.
+    CheckMerge {
+        /// The shard summaries (`smid check --shard K/M --json FILE`).
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
     },
     /// Validate the model set of a run spec (identified now) or of a `result.json` on fresh
     /// records: set-membership verdict, smallest consistent noise bound (PASS/FAIL), free-run
@@ -182,6 +196,49 @@ fn cell_progress(pb: &ProgressBar, p: &smid::core::cells::Progress) {
     ));
 }
 
+/// One `smid check` run (or shard): what was checked and the outcome, as `--json` writes it.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct CheckRun {
+    plugin: String,
+    method: String,
+    any_record: bool,
+    summary: smid::montecarlo::Summary,
+}
+
+/// The table `smid check` prints; an error when a trial missed the truth.
+fn report_check(run: &CheckRun) -> anyhow::Result<()> {
+    println!(
+        "stage-3 method: {}{}",
+        run.method,
+        if run.any_record {
+            "; from any record (no steady-state data, N = 400, prior box around the truth)"
+        } else {
+            ""
+        }
+    );
+    print!("{}", smid::plugin_check::report(&run.plugin, &run.summary));
+    anyhow::ensure!(
+        run.summary.missed.is_empty(),
+        "{} trials missed the truth",
+        run.summary.missed.len()
+    );
+    Ok(())
+}
+
+/// `--shard K/M`: 1 <= K <= M.
+fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("`{s}`: expected K/M with 1 <= K <= M, e.g. 2/4");
+    let (k, m) = s.split_once('/').ok_or_else(bad)?;
+    let (k, m): (usize, usize) = (
+        k.trim().parse().map_err(|_| bad())?,
+        m.trim().parse().map_err(|_| bad())?,
+    );
+    if k == 0 || k > m {
+        return Err(bad());
+    }
+    Ok((k, m))
+}
+
 /// `--jobs`, else the number of cores.
 fn jobs_or_cores(jobs: Option<usize>) -> usize {
     jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
@@ -232,13 +289,15 @@ fn real_main() -> Result<()> {
             ref method,
             any_record,
             jobs,
+            shard,
+            ref json,
         } => {
             let method = method.as_deref().map(parse_method).transpose()?;
-            let pb = progress(trials, plugin);
+            let seeds = smid::montecarlo::shard_seeds(first_seed, trials, shard);
+            let pb = progress(seeds.len(), plugin);
             let s = smid::plugin_check::run(
                 plugin,
-                first_seed,
-                trials,
+                &seeds,
                 method,
                 any_record,
                 jobs_or_cores(jobs),
@@ -249,22 +308,47 @@ fn real_main() -> Result<()> {
             } else {
                 Default::default()
             };
-            println!(
-                "stage-3 method: {}{}",
-                method.unwrap_or(default).name(),
-                if any_record {
-                    "; from any record (no steady-state data, N = 400, prior box around the truth)"
-                } else {
-                    ""
-                }
-            );
+            let run = CheckRun {
+                plugin: plugin.clone(),
+                method: method.unwrap_or(default).name().to_string(),
+                any_record,
+                summary: s,
+            };
             pb.finish_and_clear();
-            print!("{}", smid::plugin_check::report(plugin, &s));
-            anyhow::ensure!(
-                s.missed.is_empty(),
-                "{} trials missed the truth",
-                s.missed.len()
-            );
+            if let Some(path) = json {
+                std::fs::write(path, serde_json::to_string_pretty(&run)?)
+                    .with_context(|| format!("writing {}", path.display()))?;
+            }
+            report_check(&run)?;
+        }
+        Command::CheckMerge { files } => {
+            let mut runs: Vec<CheckRun> = Vec::new();
+            for f in &files {
+                let text = std::fs::read_to_string(f)
+                    .with_context(|| format!("reading {}", f.display()))?;
+                let run: CheckRun = serde_json::from_str(&text).with_context(|| {
+                    format!("{}: not a `smid check --json` summary", f.display())
+                })?;
+                if let Some(first) = runs.first() {
+                    anyhow::ensure!(
+                        (&first.plugin, &first.method, first.any_record)
+                            == (&run.plugin, &run.method, run.any_record),
+                        "{}: a shard of another check ({} / {} / any_record {}), expected {} / {} / any_record {}",
+                        f.display(),
+                        run.plugin,
+                        run.method,
+                        run.any_record,
+                        first.plugin,
+                        first.method,
+                        first.any_record
+                    );
+                }
+                runs.push(run);
+            }
+            let parts: Vec<_> = runs.iter().map(|r| r.summary.clone()).collect();
+            let mut all = runs.swap_remove(0);
+            all.summary = smid::montecarlo::Summary::merge(&parts);
+            report_check(&all)?;
         }
         Command::Validate {
             spec,

@@ -154,8 +154,9 @@ pub fn any_record(spec: &mut Spec, truth: &[(String, f64)], seed: u64) {
     }
 }
 
-/// Outcome counts of a Monte Carlo run.
-#[derive(Debug, Default, Clone, serde::Serialize)]
+/// Outcome counts of a Monte Carlo run (or of one shard of it: `smid check --shard K/M --json`;
+/// [`Summary::merge`] joins shards into the summary of the whole run).
+#[derive(Debug, Default, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Summary {
     pub trials: usize,
     pub contained: usize,
@@ -165,20 +166,50 @@ pub struct Summary {
     pub errors: Vec<(u64, String)>,
 }
 
-/// Run `n` trials with seeds `first..first+n`, calling `tick` after each.
-pub fn run(first: u64, n: usize, tick: impl Fn() + Sync) -> Summary {
-    run_seeds(first, n, 1, tick, |seed| Trial::random(seed).run())
+impl Summary {
+    /// The summary of the trials of all `parts` (shards of one run): counts added, seeds in
+    /// order, so merging the shards of a run gives exactly the one-machine summary.
+    pub fn merge(parts: &[Summary]) -> Summary {
+        let mut s = Summary::default();
+        for p in parts {
+            s.trials += p.trials;
+            s.contained += p.contained;
+            s.missed.extend(&p.missed);
+            s.errors.extend(p.errors.iter().cloned());
+        }
+        s.missed.sort_unstable();
+        s.errors.sort_by_key(|e| e.0);
+        s
+    }
 }
 
-/// Run `trial` for seeds `first..first+n` on `jobs` threads (seeds dealt round-robin), calling
-/// `tick` after each; the summary lists seeds in order whatever the thread timing.
+/// The seeds of shard `k` of `m` (1-based) of the run with seeds `first..first+n`: every m-th
+/// seed from the k-th, so the shards are disjoint, cover the run and take about equal time.
+/// `None`: the whole run.
+pub fn shard_seeds(first: u64, n: usize, shard: Option<(usize, usize)>) -> Vec<u64> {
+    let (k, m) = shard.unwrap_or((1, 1));
+    (0..n)
+        .filter(|i| m == 0 || i % m == k.saturating_sub(1))
+        .map(|i| first + i as u64)
+        .collect()
+}
+
+/// Run `n` trials with seeds `first..first+n`, calling `tick` after each.
+pub fn run(first: u64, n: usize, tick: impl Fn() + Sync) -> Summary {
+    run_seeds(&shard_seeds(first, n, None), 1, tick, |seed| {
+        Trial::random(seed).run()
+    })
+}
+
+/// Run `trial` for each of `seeds` on `jobs` threads (seeds dealt round-robin), calling `tick`
+/// after each; the summary lists seeds in order whatever the thread timing.
 pub fn run_seeds(
-    first: u64,
-    n: usize,
+    seeds: &[u64],
     jobs: usize,
     tick: impl Fn() + Sync,
     trial: impl Fn(u64) -> Result<Identification> + Sync,
 ) -> Summary {
+    let n = seeds.len();
     let jobs = jobs.clamp(1, n.max(1));
     let mut outcomes: Vec<(u64, std::result::Result<bool, String>)> = std::thread::scope(|sc| {
         let handles: Vec<_> = (0..jobs)
@@ -186,15 +217,13 @@ pub fn run_seeds(
                 let (tick, trial) = (&tick, &trial);
                 sc.spawn(move || {
                     let mut v = Vec::new();
-                    let mut seed = first + j as u64;
-                    while seed < first + n as u64 {
+                    for &seed in seeds.iter().skip(j).step_by(jobs) {
                         let o = match trial(seed) {
                             Ok(id) => Ok(id.all_contain_truth() == Some(true)),
                             Err(e) => Err(e.to_string()),
                         };
                         v.push((seed, o));
                         tick();
-                        seed += jobs as u64;
                     }
                     v
                 })
@@ -261,13 +290,12 @@ impl Trial {
 
 /// Like [`run`], with stage 3 by `method`, on `jobs` threads.
 pub fn run_method(
-    first: u64,
-    n: usize,
+    seeds: &[u64],
     method: smid_core::spec::EivMethod,
     jobs: usize,
     tick: impl Fn() + Sync,
 ) -> Summary {
-    run_seeds(first, n, jobs, tick, |seed| {
+    run_seeds(seeds, jobs, tick, |seed| {
         Trial::random(seed).run_method(method)
     })
 }

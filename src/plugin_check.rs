@@ -213,13 +213,12 @@ impl PluginTrial {
     }
 }
 
-/// Run `n` trials of `plugin` with seeds `first..first+n`, calling `tick` after each.
+/// Run the trials of `plugin` with `seeds` ([`montecarlo::shard_seeds`]), calling `tick` after each.
 /// Stage 3 by `method` (`None`: the spec default, classical with `any`), on `jobs` threads;
 /// with `any`, identification from one dynamic record ([`any_record`]).
 pub fn run(
     plugin: &str,
-    first: u64,
-    n: usize,
+    seeds: &[u64],
     method: Option<EivMethod>,
     any: bool,
     jobs: usize,
@@ -227,7 +226,7 @@ pub fn run(
 ) -> Result<Summary> {
     let plugin = plugin_name(plugin)?;
     if any {
-        return Ok(montecarlo::run_seeds(first, n, jobs, tick, |seed| {
+        return Ok(montecarlo::run_seeds(seeds, jobs, tick, |seed| {
             if plugin == "output_backlash" {
                 montecarlo::Trial::random(seed).run_any(method)
             } else {
@@ -237,14 +236,13 @@ pub fn run(
     }
     if plugin == "output_backlash" {
         return Ok(montecarlo::run_method(
-            first,
-            n,
+            seeds,
             method.unwrap_or_default(),
             jobs,
             tick,
         ));
     }
-    Ok(montecarlo::run_seeds(first, n, jobs, tick, |seed| {
+    Ok(montecarlo::run_seeds(seeds, jobs, tick, |seed| {
         PluginTrial::random(plugin, seed)?.run(method, false)
     }))
 }
