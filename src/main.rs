@@ -202,6 +202,10 @@ struct CheckRun {
     plugin: String,
     method: String,
     any_record: bool,
+    /// The whole run's seeds `first_seed..first_seed + trials`, and this shard `(K, M)`.
+    first_seed: u64,
+    trials: usize,
+    shard: (usize, usize),
     summary: smid::montecarlo::Summary,
 }
 
@@ -312,6 +316,9 @@ fn real_main() -> Result<()> {
                 plugin: plugin.clone(),
                 method: method.unwrap_or(default).name().to_string(),
                 any_record,
+                first_seed,
+                trials,
+                shard: shard.unwrap_or((1, 1)),
                 summary: s,
             };
             pb.finish_and_clear();
@@ -330,21 +337,53 @@ fn real_main() -> Result<()> {
                     format!("{}: not a `smid check --json` summary", f.display())
                 })?;
                 if let Some(first) = runs.first() {
+                    let key = |r: &CheckRun| {
+                        (
+                            r.plugin.clone(),
+                            r.method.clone(),
+                            r.any_record,
+                            r.first_seed,
+                            r.trials,
+                            r.shard.1,
+                        )
+                    };
                     anyhow::ensure!(
-                        (&first.plugin, &first.method, first.any_record)
-                            == (&run.plugin, &run.method, run.any_record),
-                        "{}: a shard of another check ({} / {} / any_record {}), expected {} / {} / any_record {}",
+                        key(first) == key(&run),
+                        "{}: a shard of another check ({} / {} / any_record {} / seeds {}.. x {} / {} shards), expected {} / {} / any_record {} / seeds {}.. x {} / {} shards",
                         f.display(),
                         run.plugin,
                         run.method,
                         run.any_record,
+                        run.first_seed,
+                        run.trials,
+                        run.shard.1,
                         first.plugin,
                         first.method,
-                        first.any_record
+                        first.any_record,
+                        first.first_seed,
+                        first.trials,
+                        first.shard.1
+                    );
+                    anyhow::ensure!(
+                        runs.iter().all(|r| r.shard.0 != run.shard.0),
+                        "{}: shard {}/{} is given twice",
+                        f.display(),
+                        run.shard.0,
+                        run.shard.1
                     );
                 }
                 runs.push(run);
             }
+            let m = runs[0].shard.1;
+            let missing: Vec<String> = (1..=m)
+                .filter(|k| !runs.iter().any(|r| r.shard.0 == *k))
+                .map(|k| format!("{k}/{m}"))
+                .collect();
+            anyhow::ensure!(
+                missing.is_empty(),
+                "shard(s) {} missing: the merged table would not be the whole run's",
+                missing.join(", ")
+            );
             let parts: Vec<_> = runs.iter().map(|r| r.summary.clone()).collect();
             let mut all = runs.swap_remove(0);
             all.summary = smid::montecarlo::Summary::merge(&parts);

@@ -94,6 +94,19 @@ fn a_shard_of_another_check_and_a_bad_shard_are_refused() {
         err.contains("b.json") && err.contains("another check"),
         "{err}"
     );
+    // The same shard twice, or a missing shard: the merge would not be the whole run.
+    let twice = smid(&["check-merge", "a.json", "a.json"], d);
+    let err = String::from_utf8_lossy(&twice.stderr);
+    assert!(
+        !twice.status.success() && err.contains("given twice"),
+        "{err}"
+    );
+    let alone = smid(&["check-merge", "a.json"], d);
+    let err = String::from_utf8_lossy(&alone.stderr);
+    assert!(
+        !alone.status.success() && err.contains("2/2 missing"),
+        "{err}"
+    );
     let bad = smid(&["check", "--shard", "3/2"], d);
     assert!(!bad.status.success());
     let err = String::from_utf8_lossy(&bad.stderr);
