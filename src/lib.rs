@@ -25,6 +25,7 @@ pub mod montecarlo;
 pub mod plugin_check;
 pub mod reproduce;
 pub mod simulate;
+pub mod sweep;
 
 use smid_core::pipeline::{self, Identification};
 use smid_core::spec::Spec;

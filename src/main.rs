@@ -53,9 +53,14 @@ enum Command {
         /// Number of seeds per noise level.
         #[arg(long, default_value_t = 20)]
         seeds: usize,
-        /// Also write the medians as JSON.
+        /// Also write the medians as JSON (with `--shard`: the shard's runs, for
+        /// `reproduce-merge`).
         #[arg(long)]
         json: Option<PathBuf>,
+        /// Run shard K of M (1-based) of the seeds (every M-th seed from the K-th) and write its
+        /// runs with `--json`; join the shards with `reproduce-merge`.
+        #[arg(long, value_parser = parse_shard, requires = "json", conflicts_with = "methods")]
+        shard: Option<(usize, usize)>,
         /// Also compare stage-3 methods on the same data (comma-separated: classical, shared,
         /// sdp, exact-grid): a radius table per method and n_bit, with the ratio to the exact set.
         #[arg(long, value_delimiter = ',')]
@@ -97,6 +102,13 @@ enum Command {
     /// one machine's run of all the seeds; exit code 1 when a trial missed the truth.
     CheckMerge {
         /// The shard summaries (`smid check --shard K/M --json FILE`).
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+    },
+    /// Join the `--json` files of the shards of one `reproduce paper --shard K/M` run into
+    /// Tables I-II, the same as one machine's run of all the seeds.
+    ReproduceMerge {
+        /// The shard files (`smid reproduce paper --seeds S --shard K/M --json FILE`).
         #[arg(required = true)]
         files: Vec<PathBuf>,
     },
@@ -196,31 +208,9 @@ fn cell_progress(pb: &ProgressBar, p: &smid::core::cells::Progress) {
     ));
 }
 
-/// One `smid check` run (or shard): what was checked and the outcome, as `--json` writes it.
-#[derive(serde::Serialize, serde::Deserialize)]
-struct CheckRun {
-    plugin: String,
-    method: String,
-    any_record: bool,
-    /// The whole run's seeds `first_seed..first_seed + trials`, and this shard `(K, M)`.
-    first_seed: u64,
-    trials: usize,
-    shard: (usize, usize),
-    summary: smid::montecarlo::Summary,
-}
-
 /// The table `smid check` prints; an error when a trial missed the truth.
-fn report_check(run: &CheckRun) -> anyhow::Result<()> {
-    println!(
-        "stage-3 method: {}{}",
-        run.method,
-        if run.any_record {
-            "; from any record (no steady-state data, N = 400, prior box around the truth)"
-        } else {
-            ""
-        }
-    );
-    print!("{}", smid::plugin_check::report(&run.plugin, &run.summary));
+fn report_check(run: &smid::sweep::CheckRun) -> anyhow::Result<()> {
+    print!("{}", smid::sweep::format_check(run));
     anyhow::ensure!(
         run.summary.missed.is_empty(),
         "{} trials missed the truth",
@@ -297,30 +287,18 @@ fn real_main() -> Result<()> {
             ref json,
         } => {
             let method = method.as_deref().map(parse_method).transpose()?;
-            let seeds = smid::montecarlo::shard_seeds(first_seed, trials, shard);
-            let pb = progress(seeds.len(), plugin);
-            let s = smid::plugin_check::run(
-                plugin,
-                &seeds,
-                method,
-                any_record,
-                jobs_or_cores(jobs),
-                || pb.inc(1),
-            )?;
-            let default = if any_record {
-                smid::core::spec::EivMethod::Classical
-            } else {
-                Default::default()
-            };
-            let run = CheckRun {
+            let opts = smid::sweep::CheckOptions {
                 plugin: plugin.clone(),
-                method: method.unwrap_or(default).name().to_string(),
+                method,
                 any_record,
                 first_seed,
                 trials,
-                shard: shard.unwrap_or((1, 1)),
-                summary: s,
+                shard,
+                jobs: jobs_or_cores(jobs),
             };
+            let n = smid::montecarlo::shard_seeds(first_seed, trials, shard).len();
+            let pb = progress(n, plugin);
+            let run = smid::sweep::check(&opts, || pb.inc(1))?;
             pb.finish_and_clear();
             if let Some(path) = json {
                 std::fs::write(path, serde_json::to_string_pretty(&run)?)
@@ -329,65 +307,36 @@ fn real_main() -> Result<()> {
             report_check(&run)?;
         }
         Command::CheckMerge { files } => {
-            let mut runs: Vec<CheckRun> = Vec::new();
+            let mut shards = Vec::new();
             for f in &files {
                 let text = std::fs::read_to_string(f)
                     .with_context(|| format!("reading {}", f.display()))?;
-                let run: CheckRun = serde_json::from_str(&text).with_context(|| {
-                    format!("{}: not a `smid check --json` summary", f.display())
-                })?;
-                if let Some(first) = runs.first() {
-                    let key = |r: &CheckRun| {
-                        (
-                            r.plugin.clone(),
-                            r.method.clone(),
-                            r.any_record,
-                            r.first_seed,
-                            r.trials,
-                            r.shard.1,
-                        )
-                    };
-                    anyhow::ensure!(
-                        key(first) == key(&run),
-                        "{}: a shard of another check ({} / {} / any_record {} / seeds {}.. x {} / {} shards), expected {} / {} / any_record {} / seeds {}.. x {} / {} shards",
-                        f.display(),
-                        run.plugin,
-                        run.method,
-                        run.any_record,
-                        run.first_seed,
-                        run.trials,
-                        run.shard.1,
-                        first.plugin,
-                        first.method,
-                        first.any_record,
-                        first.first_seed,
-                        first.trials,
-                        first.shard.1
-                    );
-                    anyhow::ensure!(
-                        runs.iter().all(|r| r.shard.0 != run.shard.0),
-                        "{}: shard {}/{} is given twice",
-                        f.display(),
-                        run.shard.0,
-                        run.shard.1
-                    );
-                }
-                runs.push(run);
+                let run: smid::sweep::CheckRun =
+                    serde_json::from_str(&text).with_context(|| {
+                        format!("{}: not a `smid check --json` summary", f.display())
+                    })?;
+                shards.push((f.display().to_string(), run));
             }
-            let m = runs[0].shard.1;
-            let missing: Vec<String> = (1..=m)
-                .filter(|k| !runs.iter().any(|r| r.shard.0 == *k))
-                .map(|k| format!("{k}/{m}"))
-                .collect();
-            anyhow::ensure!(
-                missing.is_empty(),
-                "shard(s) {} missing: the merged table would not be the whole run's",
-                missing.join(", ")
+            report_check(&smid::sweep::merge_checks(&shards)?)?;
+        }
+        Command::ReproduceMerge { files } => {
+            let mut shards = Vec::new();
+            for f in &files {
+                let text = std::fs::read_to_string(f)
+                    .with_context(|| format!("reading {}", f.display()))?;
+                let s: smid::sweep::PaperShard =
+                    serde_json::from_str(&text).with_context(|| {
+                        format!(
+                            "{}: not a `smid reproduce paper --shard K/M --json` file",
+                            f.display()
+                        )
+                    })?;
+                shards.push((f.display().to_string(), s));
+            }
+            print!(
+                "{}",
+                smid::reproduce::format_tables(&smid::sweep::merge_paper(&shards)?)
             );
-            let parts: Vec<_> = runs.iter().map(|r| r.summary.clone()).collect();
-            let mut all = runs.swap_remove(0);
-            all.summary = smid::montecarlo::Summary::merge(&parts);
-            report_check(&all)?;
         }
         Command::Validate {
             spec,
@@ -573,6 +522,7 @@ fn real_main() -> Result<()> {
             what,
             seeds,
             json,
+            shard,
             methods,
         } => {
             anyhow::ensure!(
@@ -580,6 +530,22 @@ fn real_main() -> Result<()> {
                 "unknown reproduction `{what}`; expected one of: paper"
             );
             anyhow::ensure!(seeds >= 1, "--seeds must be at least 1");
+            if let (Some(shard), Some(path)) = (shard, &json) {
+                let n = smid::montecarlo::shard_seeds(1, seeds, Some(shard)).len();
+                let pb = progress(n * smid::reproduce::BITS.len(), "paper Section 6 (shard)");
+                let s = smid::sweep::paper_shard(seeds, Some(shard), || pb.inc(1))?;
+                pb.finish_and_clear();
+                std::fs::write(path, serde_json::to_string_pretty(&s)?)
+                    .with_context(|| format!("writing {}", path.display()))?;
+                println!(
+                    "shard {}/{}: {} runs; wrote {}",
+                    shard.0,
+                    shard.1,
+                    s.runs.len(),
+                    path.display()
+                );
+                return Ok(());
+            }
             let pb = progress(seeds * smid::reproduce::BITS.len(), "paper Section 6");
             let r = smid::reproduce::reproduce(seeds, || pb.inc(1))?;
             pb.finish_and_clear();

@@ -1,7 +1,7 @@
 //! `smid reproduce paper`: Section 6 of the paper for `n_bit` in {15, 12, 10, 8} over several
 //! seeds, laid out like Tables I and II with the paper's values beside the medians over seeds and
 //! the count of runs whose bounds contain the truth.
-use smid_core::pipeline::{self, Identification};
+use smid_core::pipeline;
 use smid_core::spec::Spec;
 use smid_core::Result;
 use std::fmt::Write as _;
@@ -101,24 +101,91 @@ pub fn median(v: &mut [f64]) -> f64 {
     }
 }
 
-/// Run the paper for every bit count and seeds `1..=seeds`, calling `tick` after each run.
-pub fn reproduce(seeds: usize, mut tick: impl FnMut()) -> Result<Reproduction> {
+/// One identification of the reproduction: Section 6 at one bit count and seed.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PaperRun {
+    pub bits: u32,
+    pub seed: u64,
+    /// `Err`: the message of a run that ended in an error.
+    pub outcome: std::result::Result<PaperBounds, String>,
+}
+
+/// The figures Tables I-II take from one identification.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PaperBounds {
+    pub snr_db: f64,
+    /// (name, truth, center, radius) of each parameter of the tables.
+    pub parameters: Vec<(String, Option<f64>, f64, f64)>,
+    /// Every bound contains the truth.
+    pub contained: bool,
+}
+
+/// The names of the tables' parameters, in table order.
+fn table_names() -> Vec<&'static str> {
+    let mut names: Vec<&str> = Vec::new();
+    for n in TABLE_I
+        .iter()
+        .map(|r| r.1)
+        .chain(TABLE_II.iter().map(|r| r.2))
+    {
+        if !names.contains(&n) {
+            names.push(n);
+        }
+    }
+    names
+}
+
+/// Identify Section 6 for every bit count and each of `seeds`, calling `tick` after each run.
+pub fn runs(seeds: &[u64], tick: &mut dyn FnMut()) -> Result<Vec<PaperRun>> {
+    let names = table_names();
+    let mut out = Vec::new();
+    for bits in BITS {
+        for &seed in seeds {
+            let spec = paper_spec(bits, seed)?;
+            let outcome = match pipeline::run(&spec, Path::new(".")) {
+                Ok(id) => Ok(PaperBounds {
+                    snr_db: id.snr_db,
+                    parameters: names
+                        .iter()
+                        .filter_map(|n| {
+                            id.parameter(n)
+                                .map(|p| (n.to_string(), p.truth, p.center, p.radius))
+                        })
+                        .collect(),
+                    contained: id.all_contain_truth() == Some(true),
+                }),
+                Err(e) => Err(e.to_string()),
+            };
+            out.push(PaperRun {
+                bits,
+                seed,
+                outcome,
+            });
+            tick();
+        }
+    }
+    Ok(out)
+}
+
+/// Tables I-II (medians over the runs of each bit count) from the runs of seeds `1..=seeds`,
+/// in any order: the runs are taken in seed order, so shards merge into the one-machine tables.
+pub fn tables(seeds: usize, runs: &[PaperRun]) -> Reproduction {
+    let mut sorted: Vec<&PaperRun> = runs.iter().collect();
+    sorted.sort_by_key(|r| (r.bits, r.seed));
     let mut rows = Vec::new();
     let mut snr = Vec::new();
     let mut errors = Vec::new();
     for bits in BITS {
-        let mut runs: Vec<Identification> = Vec::new();
-        for seed in 1..=seeds as u64 {
-            let spec = paper_spec(bits, seed)?;
-            match pipeline::run(&spec, Path::new(".")) {
-                Ok(id) => runs.push(id),
-                Err(e) => errors.push((bits, seed, e.to_string())),
+        let mut ok: Vec<&PaperBounds> = Vec::new();
+        for r in sorted.iter().filter(|r| r.bits == bits) {
+            match &r.outcome {
+                Ok(b) => ok.push(b),
+                Err(e) => errors.push((bits, r.seed, e.clone())),
             }
-            tick();
         }
         snr.push((
             bits,
-            median(&mut runs.iter().map(|r| r.snr_db).collect::<Vec<_>>()),
+            median(&mut ok.iter().map(|r| r.snr_db).collect::<Vec<_>>()),
         ));
         let paper: Vec<(&str, f64, f64)> = TABLE_I
             .iter()
@@ -132,29 +199,35 @@ pub fn reproduce(seeds: usize, mut tick: impl FnMut()) -> Result<Reproduction> {
             )
             .collect();
         for (name, pc, pr) in paper {
-            let ps: Vec<_> = runs.iter().filter_map(|r| r.parameter(name)).collect();
+            let ps: Vec<_> = ok
+                .iter()
+                .filter_map(|r| r.parameters.iter().find(|p| p.0 == name))
+                .collect();
             rows.push(Row {
                 bits,
                 name: name.to_string(),
-                truth: ps.first().and_then(|p| p.truth).unwrap_or(f64::NAN),
+                truth: ps.first().and_then(|p| p.1).unwrap_or(f64::NAN),
                 paper_center: pc,
                 paper_radius: pr,
-                median_center: median(&mut ps.iter().map(|p| p.center).collect::<Vec<_>>()),
-                median_radius: median(&mut ps.iter().map(|p| p.radius).collect::<Vec<_>>()),
-                contained: runs
-                    .iter()
-                    .filter(|r| r.all_contain_truth() == Some(true))
-                    .count(),
+                median_center: median(&mut ps.iter().map(|p| p.2).collect::<Vec<_>>()),
+                median_radius: median(&mut ps.iter().map(|p| p.3).collect::<Vec<_>>()),
+                contained: ok.iter().filter(|r| r.contained).count(),
                 runs: seeds,
             });
         }
     }
-    Ok(Reproduction {
+    Reproduction {
         seeds,
         rows,
         snr,
         errors,
-    })
+    }
+}
+
+/// Run the paper for every bit count and seeds `1..=seeds`, calling `tick` after each run.
+pub fn reproduce(seeds: usize, mut tick: impl FnMut()) -> Result<Reproduction> {
+    let all: Vec<u64> = (1..=seeds as u64).collect();
+    Ok(tables(seeds, &runs(&all, &mut tick)?))
 }
 
 /// Tables I and II side by side with the paper.

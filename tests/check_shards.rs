@@ -112,3 +112,56 @@ fn a_shard_of_another_check_and_a_bad_shard_are_refused() {
     let err = String::from_utf8_lossy(&bad.stderr);
     assert!(err.contains("--shard") && err.contains("K/M"), "{err}");
 }
+
+/// `smid reproduce paper --shard K/M --json` and `reproduce-merge`: Tables I-II from the shards
+/// are the tables of one machine's run of all the seeds, whatever the order of the files; a
+/// missing shard is refused.
+#[test]
+fn paper_reproduction_shards_merge_into_the_one_machine_tables() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let whole = smid(&["reproduce", "paper", "--seeds", "3"], d);
+    assert!(
+        whole.status.success(),
+        "{}",
+        String::from_utf8_lossy(&whole.stderr)
+    );
+    let mut runs = 0;
+    for k in 1..=2 {
+        let (shard, file) = (format!("{k}/2"), format!("p{k}.json"));
+        let o = smid(
+            &[
+                "reproduce",
+                "paper",
+                "--seeds",
+                "3",
+                "--shard",
+                &shard,
+                "--json",
+                &file,
+            ],
+            d,
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join(&file)).unwrap()).unwrap();
+        runs += v["runs"].as_array().unwrap().len();
+    }
+    assert_eq!(runs, 3 * 4, "every seed at every bit count, once");
+    let merged = smid(&["reproduce-merge", "p2.json", "p1.json"], d);
+    assert!(
+        merged.status.success(),
+        "{}",
+        String::from_utf8_lossy(&merged.stderr)
+    );
+    assert_eq!(text(&merged), text(&whole));
+    assert!(
+        text(&whole).contains("medians over 3 seeds"),
+        "{}",
+        text(&whole)
+    );
+    let missing = smid(&["reproduce-merge", "p1.json"], d);
+    assert!(!missing.status.success());
+    let err = String::from_utf8_lossy(&missing.stderr);
+    assert!(err.contains("2/2") && err.contains("missing"), "{err}");
+}

@@ -1,0 +1,221 @@
+//! Sweeps over seeds, split into shards: the containment check (`smid check`) and the paper's
+//! Tables I-II (`smid reproduce paper`). Shard K of M runs every M-th seed from the K-th
+//! ([`montecarlo::shard_seeds`]); merging the shards of one run gives, bit for bit, what one
+//! machine computes for all the seeds, because every trial depends on its seed alone and the
+//! merge orders by seed. The CLI (`--shard K/M --json`, `check-merge`, `reproduce-merge`) and the
+//! Python package's Dask runner both go through this module.
+use crate::montecarlo::{self, Summary};
+use crate::reproduce::{self, PaperRun, Reproduction};
+use smid_core::spec::EivMethod;
+use smid_core::{Result, SmidError};
+
+/// What one containment check runs (the whole run's seeds, and which shard of them).
+#[derive(Debug, Clone)]
+pub struct CheckOptions {
+    /// A plugin name of [`crate::plugin_check::PLUGINS`].
+    pub plugin: String,
+    /// Stage-3 method (`None`: the spec default; classical with `any_record`).
+    pub method: Option<EivMethod>,
+    /// Identification from one dynamic record (no steady-state experiment).
+    pub any_record: bool,
+    pub first_seed: u64,
+    pub trials: usize,
+    /// `(K, M)`, 1-based; `None` is the whole run.
+    pub shard: Option<(usize, usize)>,
+    /// Threads on this machine.
+    pub jobs: usize,
+}
+
+/// One `smid check` run (or shard): what was checked and the outcome, as `--json` writes it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CheckRun {
+    pub plugin: String,
+    pub method: String,
+    pub any_record: bool,
+    /// The whole run's seeds `first_seed..first_seed + trials`, and this shard `(K, M)`.
+    pub first_seed: u64,
+    pub trials: usize,
+    pub shard: (usize, usize),
+    pub summary: Summary,
+}
+
+/// Check that a shard `(K, M)` is well formed.
+pub fn check_shard(shard: Option<(usize, usize)>) -> Result<()> {
+    match shard {
+        Some((k, m)) if k == 0 || k > m => Err(SmidError::invalid(
+            "shard",
+            format!("{k}/{m}: expected K/M with 1 <= K <= M"),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Run the trials of one check (or shard), calling `tick` after each trial.
+pub fn check(opts: &CheckOptions, tick: impl Fn() + Sync) -> Result<CheckRun> {
+    check_shard(opts.shard)?;
+    let seeds = montecarlo::shard_seeds(opts.first_seed, opts.trials, opts.shard);
+    let summary = crate::plugin_check::run(
+        &opts.plugin,
+        &seeds,
+        opts.method,
+        opts.any_record,
+        opts.jobs.max(1),
+        tick,
+    )?;
+    let default = if opts.any_record {
+        EivMethod::Classical
+    } else {
+        EivMethod::default()
+    };
+    Ok(CheckRun {
+        plugin: opts.plugin.clone(),
+        method: opts.method.unwrap_or(default).name().to_string(),
+        any_record: opts.any_record,
+        first_seed: opts.first_seed,
+        trials: opts.trials,
+        shard: opts.shard.unwrap_or((1, 1)),
+        summary,
+    })
+}
+
+/// Join the shards of one check, each with a name for errors (its file): refused when a shard
+/// belongs to another run (plugin, method, any-record, seeds, M), is given twice, or is missing.
+pub fn merge_checks(shards: &[(String, CheckRun)]) -> Result<CheckRun> {
+    let Some((_, first)) = shards.first() else {
+        return Err(SmidError::invalid("shards", "no shard to merge"));
+    };
+    let key = |r: &CheckRun| {
+        (
+            r.plugin.clone(),
+            r.method.clone(),
+            r.any_record,
+            r.first_seed,
+            r.trials,
+            r.shard.1,
+        )
+    };
+    let describe = |r: &CheckRun| {
+        format!(
+            "{} / {} / any_record {} / seeds {}.. x {} / {} shards",
+            r.plugin, r.method, r.any_record, r.first_seed, r.trials, r.shard.1
+        )
+    };
+    for (i, (name, run)) in shards.iter().enumerate() {
+        if key(run) != key(first) {
+            return Err(SmidError::invalid(
+                name.clone(),
+                format!(
+                    "a shard of another check ({}), expected {}",
+                    describe(run),
+                    describe(first)
+                ),
+            ));
+        }
+        if shards[..i].iter().any(|(_, r)| r.shard.0 == run.shard.0) {
+            return Err(SmidError::invalid(
+                name.clone(),
+                format!("shard {}/{} is given twice", run.shard.0, run.shard.1),
+            ));
+        }
+    }
+    let m = first.shard.1;
+    let missing: Vec<String> = (1..=m)
+        .filter(|k| !shards.iter().any(|(_, r)| r.shard.0 == *k))
+        .map(|k| format!("{k}/{m}"))
+        .collect();
+    if !missing.is_empty() {
+        return Err(SmidError::invalid(
+            "shards",
+            format!(
+                "shard(s) {} missing: the merged table would not be the whole run's",
+                missing.join(", ")
+            ),
+        ));
+    }
+    let parts: Vec<Summary> = shards.iter().map(|(_, r)| r.summary.clone()).collect();
+    Ok(CheckRun {
+        shard: (1, 1),
+        summary: Summary::merge(&parts),
+        ..first.clone()
+    })
+}
+
+/// The table `smid check` prints for a run.
+pub fn format_check(run: &CheckRun) -> String {
+    format!(
+        "stage-3 method: {}{}\n{}",
+        run.method,
+        if run.any_record {
+            "; from any record (no steady-state data, N = 400, prior box around the truth)"
+        } else {
+            ""
+        },
+        crate::plugin_check::report(&run.plugin, &run.summary)
+    )
+}
+
+/// A shard of `smid reproduce paper --seeds S`: its runs, as `--shard K/M --json` writes them.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PaperShard {
+    pub seeds: usize,
+    pub shard: (usize, usize),
+    pub runs: Vec<PaperRun>,
+}
+
+/// Run shard `shard` of the reproduction with seeds `1..=seeds` (every bit count for each of
+/// its seeds), calling `tick` after each identification.
+pub fn paper_shard(
+    seeds: usize,
+    shard: Option<(usize, usize)>,
+    mut tick: impl FnMut(),
+) -> Result<PaperShard> {
+    check_shard(shard)?;
+    let runs = reproduce::runs(&montecarlo::shard_seeds(1, seeds, shard), &mut tick)?;
+    Ok(PaperShard {
+        seeds,
+        shard: shard.unwrap_or((1, 1)),
+        runs,
+    })
+}
+
+/// Join the shards of one reproduction (each named for errors) into its tables: refused when
+/// a shard has other seeds or M, is given twice or is missing.
+pub fn merge_paper(shards: &[(String, PaperShard)]) -> Result<Reproduction> {
+    let Some((_, first)) = shards.first() else {
+        return Err(SmidError::invalid("shards", "no shard to merge"));
+    };
+    for (i, (name, s)) in shards.iter().enumerate() {
+        if (s.seeds, s.shard.1) != (first.seeds, first.shard.1) {
+            return Err(SmidError::invalid(
+                name.clone(),
+                format!(
+                    "a shard of another reproduction ({} seeds, {} shards), expected {} seeds, {} shards",
+                    s.seeds, s.shard.1, first.seeds, first.shard.1
+                ),
+            ));
+        }
+        if shards[..i].iter().any(|(_, r)| r.shard.0 == s.shard.0) {
+            return Err(SmidError::invalid(
+                name.clone(),
+                format!("shard {}/{} is given twice", s.shard.0, s.shard.1),
+            ));
+        }
+    }
+    let m = first.shard.1;
+    let missing: Vec<String> = (1..=m)
+        .filter(|k| !shards.iter().any(|(_, r)| r.shard.0 == *k))
+        .map(|k| format!("{k}/{m}"))
+        .collect();
+    if !missing.is_empty() {
+        return Err(SmidError::invalid(
+            "shards",
+            format!(
+                "shard(s) {} missing: the merged tables would not be the whole run's",
+                missing.join(", ")
+            ),
+        ));
+    }
+    let mut runs: Vec<PaperRun> = shards.iter().flat_map(|(_, s)| s.runs.clone()).collect();
+    runs.sort_by_key(|r| r.seed);
+    Ok(reproduce::tables(first.seeds, &runs))
+}
