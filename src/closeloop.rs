@@ -34,11 +34,17 @@ pub fn load_source(path: &Path) -> Result<Source> {
             model: None,
         });
     }
-    crate::link_plugins();
     let text = std::fs::read_to_string(path).map_err(|source| SmidError::Io {
         path: path.to_path_buf(),
         source,
     })?;
+    source_from_json(&text, path)
+}
+
+/// A source from the text of a `result.json` (`path` names it in errors and is the fallback
+/// directory of relative paths when the file stores none).
+pub fn source_from_json(text: &str, path: &Path) -> Result<Source> {
+    crate::link_plugins();
     let bad = |field: &str, message: String| SmidError::Spec {
         file: path.to_path_buf(),
         line: None,
@@ -46,7 +52,7 @@ pub fn load_source(path: &Path) -> Result<Source> {
         message,
     };
     let v: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| bad("", format!("not JSON: {e}")))?;
+        serde_json::from_str(text).map_err(|e| bad("", format!("not JSON: {e}")))?;
     let model: ModelSet = serde_json::from_value(v.get("model").cloned().ok_or_else(|| {
         bad(
             "model",
@@ -123,11 +129,7 @@ pub fn fresh_records(
     length: usize,
     count: usize,
 ) -> Result<Vec<Record>> {
-    // Validation bounds fresh records by the model's own Δη; an estimated one is not known here.
-    let delta = match spec.noise.delta() {
-        Err(_) if spec.noise.estimated() => 1.0,
-        d => d?,
-    };
+    let delta = fresh_bound(spec)?;
     if !csvs.is_empty() {
         let (template, dt) = match &spec.plant.data {
             Some(d) => (d.dynamic.items()[0].clone(), d.dt.unwrap_or(1.0)),
@@ -160,6 +162,34 @@ pub fn fresh_records(
             .map(|k| pipeline::fresh_record(spec, plant, seed + k, length))
             .collect()
     })
+}
+
+/// The noise bound a fresh record gets when read: the spec's Δη (validation bounds fresh
+/// records by the model's own Δη; an estimated one is not known here, so 1 stands in).
+fn fresh_bound(spec: &Spec) -> Result<f64> {
+    match spec.noise.delta() {
+        Err(_) if spec.noise.estimated() => Ok(1.0),
+        d => d,
+    }
+}
+
+/// Fresh records from arrays `(name, u, y)` (the Python package's way in), with the noise
+/// bound and sample time the CSV records of the spec would get; lengths and values checked,
+/// errors naming the record and sample.
+pub fn records_from_arrays(
+    spec: &Spec,
+    arrays: Vec<(String, Vec<f64>, Vec<f64>)>,
+) -> Result<Vec<Record>> {
+    let delta = fresh_bound(spec)?;
+    let dt = spec.plant.data.as_ref().and_then(|d| d.dt).unwrap_or(1.0);
+    arrays
+        .into_iter()
+        .map(|(name, u, y)| {
+            let r = Record::measured(name, u, y, delta, dt);
+            r.validate()?;
+            Ok(r)
+        })
+        .collect()
 }
 
 /// `PATH@START..END`: the data rows `[START, END)` of a CSV file (a held-out stretch of a long

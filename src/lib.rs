@@ -95,9 +95,31 @@ pub fn run_spec(
     })
 }
 
-/// Write the outputs of `smid run` into `dir`: `result.json` (with the spec and its directory,
-/// so `smid validate result.json` and `smid diagnose result.json` can rebuild everything),
-/// `data.csv`, SVG plots.
+/// Parse a spec from text (`label` names it in errors: a file, or "<string>") with every
+/// bundled plugin registered.
+pub fn parse_spec(text: &str, label: &Path) -> Result<Spec> {
+    link_plugins();
+    Spec::parse(text, label)
+}
+
+/// The content of `result.json`: the identification, its spec and the spec's directory (so
+/// `smid validate result.json` and `smid diagnose result.json` can rebuild everything).
+pub fn result_value(id: &Identification, spec: &Spec, spec_dir: &Path) -> Result<serde_json::Value> {
+    let mut v = smid_core::report::result_json(id);
+    v["spec"] =
+        serde_json::to_value(spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
+    let spec_dir = if spec_dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        spec_dir
+    };
+    let spec_dir = std::fs::canonicalize(spec_dir).unwrap_or_else(|_| spec_dir.to_path_buf());
+    v["spec_dir"] = serde_json::json!(spec_dir);
+    Ok(v)
+}
+
+/// Write the outputs of `smid run` into `dir`: `result.json` ([`result_value`]), `data.csv`,
+/// SVG plots.
 pub fn write_run(
     id: &Identification,
     spec: &Spec,
@@ -106,21 +128,7 @@ pub fn write_run(
 ) -> Result<Vec<std::path::PathBuf>> {
     let files = smid_core::report::write_all(id, dir)?;
     let path = dir.join("result.json");
-    let mut v = smid_core::report::result_json(id);
-    v["spec"] =
-        serde_json::to_value(spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
-    let spec_dir = spec_path
-        .parent()
-        .map(|p| {
-            if p.as_os_str().is_empty() {
-                Path::new(".")
-            } else {
-                p
-            }
-        })
-        .unwrap_or(Path::new("."));
-    let spec_dir = std::fs::canonicalize(spec_dir).unwrap_or_else(|_| spec_dir.to_path_buf());
-    v["spec_dir"] = serde_json::json!(spec_dir);
+    let v = result_value(id, spec, spec_path.parent().unwrap_or(Path::new(".")))?;
     std::fs::write(&path, serde_json::to_string_pretty(&v).unwrap_or_default()).map_err(
         |source| SmidError::Io {
             path: path.clone(),

@@ -251,6 +251,68 @@ pub fn axis_members(set: &ModelSet) -> Vec<(String, ModelPoint)> {
     out
 }
 
+/// The envelope `(lower, upper)` of `centre_y` and the runs of the stable `members`
+/// (`run` gives a member's output; non-finite samples of a run are left out).
+pub fn envelope(
+    centre_y: &[f64],
+    members: &[(String, ModelPoint)],
+    run: impl Fn(&ModelPoint) -> Vec<f64>,
+) -> (Vec<f64>, Vec<f64>) {
+    let mut lo = centre_y.to_vec();
+    let mut hi = centre_y.to_vec();
+    for (_, m) in members.iter().filter(|(_, m)| m.stable()) {
+        for (t, v) in run(m).into_iter().enumerate().take(lo.len()) {
+            if v.is_finite() {
+                lo[t] = lo[t].min(v);
+                hi[t] = hi[t].max(v);
+            }
+        }
+    }
+    (lo, hi)
+}
+
+/// The free run from rest of a model set on an input: the central member's output, inner
+/// signal and nonlinearity output, and the envelope over the stable axis members (indicative,
+/// not a guarantee: see [`axis_members`]).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SetSimulation {
+    pub y: Vec<f64>,
+    pub x: Vec<f64>,
+    pub w: Vec<f64>,
+    pub lower: Vec<f64>,
+    pub upper: Vec<f64>,
+    /// Stable members in the envelope, and all axis members.
+    pub stable_members: usize,
+    pub members: usize,
+}
+
+/// Simulate a model set from rest on the input `u` (sample time `dt`): see [`SetSimulation`].
+/// Non-finite inputs are an error naming the sample.
+pub fn simulate_set(set: &ModelSet, u: &[f64], dt: f64) -> Result<SetSimulation> {
+    if let Some(t) = u.iter().position(|v| !v.is_finite()) {
+        return Err(SmidError::invalid(
+            format!("input sample {t}"),
+            format!("{} is not a finite number", u[t]),
+        ));
+    }
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(SmidError::invalid("dt", format!("{dt}: expected a positive sample time")));
+    }
+    let c = centre(set)?;
+    let sim = c.simulate(u, dt);
+    let members = axis_members(set);
+    let (lower, upper) = envelope(&sim.y, &members, |m| m.simulate(u, dt).y);
+    Ok(SetSimulation {
+        stable_members: members.iter().filter(|(_, m)| m.stable()).count(),
+        members: members.len(),
+        y: sim.y,
+        x: sim.x,
+        w: sim.w,
+        lower,
+        upper,
+    })
+}
+
 /// A member with the given parameter values (by name; missing ones at the centre).
 pub fn point(set: &ModelSet, values: &[(String, f64)]) -> Result<ModelPoint> {
     let layout = set.model.layout()?;

@@ -586,17 +586,9 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
         let free = centre.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y;
         let one = centre.predict(&rec.u, Some(&xd), rec.dt, 1, w0).y;
         let kst = centre.predict(&rec.u, Some(&xd), rec.dt, opts.k, w0).y;
-        let mut lo = free.clone();
-        let mut hi = free.clone();
-        for (_, m) in members.iter().filter(|(_, m)| m.stable()) {
-            let s = m.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y;
-            for t in 0..n {
-                if s[t].is_finite() {
-                    lo[t] = lo[t].min(s[t]);
-                    hi[t] = hi[t].max(s[t]);
-                }
-            }
-        }
+        let (lo, hi) = members::envelope(&free, &members, |m| {
+            m.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y
+        });
         let base = arx.as_ref().map(|a| a.simulate_from(&rec.u, &rec.y, w0));
         per_record.push((rec.name.clone(), Fit::of(&[(&rec.y[w0..], &free[w0..])])));
         let skip = (w0 + 1).min(n);
