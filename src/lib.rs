@@ -104,7 +104,11 @@ pub fn parse_spec(text: &str, label: &Path) -> Result<Spec> {
 
 /// The content of `result.json`: the identification, its spec and the spec's directory (so
 /// `smid validate result.json` and `smid diagnose result.json` can rebuild everything).
-pub fn result_value(id: &Identification, spec: &Spec, spec_dir: &Path) -> Result<serde_json::Value> {
+pub fn result_value(
+    id: &Identification,
+    spec: &Spec,
+    spec_dir: &Path,
+) -> Result<serde_json::Value> {
     let mut v = smid_core::report::result_json(id);
     v["spec"] =
         serde_json::to_value(spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;

@@ -69,15 +69,25 @@ pub fn simulate_spec_file(
     seed: Option<u64>,
 ) -> Result<SimulatedRecord> {
     let spec = crate::load_spec(path)?;
-    let base = path.parent().unwrap_or(Path::new("."));
+    simulate_spec(&spec, path.parent().unwrap_or(Path::new(".")), length, seed)
+}
+
+/// Simulate a parsed spec's plant (relative FMU paths against `base`): see
+/// [`simulate_spec_file`].
+pub fn simulate_spec(
+    spec: &Spec,
+    base: &Path,
+    length: Option<usize>,
+    seed: Option<u64>,
+) -> Result<SimulatedRecord> {
     if spec.plant.fmu.is_some() {
         let step = spec.plant.step.unwrap_or(1.0);
-        return crate::with_fmu_plant(&spec, base, |plant| {
-            simulate_with_plant(&spec, plant, length, seed, step)
+        return crate::with_fmu_plant(spec, base, |plant| {
+            simulate_with_plant(spec, plant, length, seed, step)
         });
     }
-    match pipeline::builtin_plant(&spec) {
-        Some(mut plant) => simulate_with_plant(&spec, &mut plant, length, seed, 1.0),
+    match pipeline::builtin_plant(spec) {
+        Some(mut plant) => simulate_with_plant(spec, &mut plant, length, seed, 1.0),
         None => Err(SmidError::invalid(
             "plant",
             "measured data cannot be simulated; give a `simulator` or an `fmu` plant",

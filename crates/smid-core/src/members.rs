@@ -296,7 +296,10 @@ pub fn simulate_set(set: &ModelSet, u: &[f64], dt: f64) -> Result<SetSimulation>
         ));
     }
     if !(dt.is_finite() && dt > 0.0) {
-        return Err(SmidError::invalid("dt", format!("{dt}: expected a positive sample time")));
+        return Err(SmidError::invalid(
+            "dt",
+            format!("{dt}: expected a positive sample time"),
+        ));
     }
     let c = centre(set)?;
     let sim = c.simulate(u, dt);

@@ -1,0 +1,238 @@
+"""Tests of the Python package (issue 15): the same results as the CLI to the last bit,
+specs as path / YAML string / dict, arrays in and out, falsification as a result, located
+errors as exceptions, validation, simulation, diagnosis, and sharded sweeps that merge into
+the one-machine table (also on a local Dask cluster)."""
+import json
+import math
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import smid
+from smid import distributed, sweeps
+
+ROOT = Path(__file__).resolve().parents[2]
+PAPER = ROOT / "examples" / "paper.yaml"
+
+
+def cli() -> str:
+    """The CLI binary: $SMID_CLI (scripts/test sets it to the one `cargo test` built), else a
+    build in target/."""
+    env = os.environ.get("SMID_CLI")
+    if env:
+        return env
+    for p in (ROOT / "target" / "release" / "smid", ROOT / "target" / "debug" / "smid"):
+        if p.is_file():
+            return str(p)
+    pytest.fail("no smid CLI binary: set SMID_CLI or run `cargo build` (scripts/test does)")
+
+
+def run_cli(*args, cwd):
+    r = subprocess.run([cli(), *map(str, args)], cwd=cwd, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return r.stdout
+
+
+def same_bits(a, b, path="$"):
+    """Structural equality with floats compared bit for bit (NaN == NaN)."""
+    if isinstance(a, float) or isinstance(b, float):
+        assert isinstance(a, (int, float)) and isinstance(b, (int, float)), f"{path}: {a!r} vs {b!r}"
+        fa, fb = float(a), float(b)
+        assert fa.hex() == fb.hex() or (math.isnan(fa) and math.isnan(fb)), f"{path}: {fa!r} != {fb!r}"
+    elif isinstance(a, dict):
+        assert isinstance(b, dict) and sorted(a) == sorted(b), f"{path}: keys {sorted(a)} vs {sorted(b)}"
+        for k in a:
+            same_bits(a[k], b[k], f"{path}.{k}")
+    elif isinstance(a, list):
+        assert isinstance(b, list) and len(a) == len(b), f"{path}: lengths"
+        for i, (x, y) in enumerate(zip(a, b)):
+            same_bits(x, y, f"{path}[{i}]")
+    else:
+        assert a == b, f"{path}: {a!r} != {b!r}"
+
+
+def test_import_and_version():
+    assert smid.__version__
+    assert "properties" in smid.schema()
+
+
+def test_identify_equals_the_cli_result_json_to_the_last_bit(tmp_path):
+    run_cli("run", PAPER, "--out", tmp_path / "cli", cwd=ROOT)
+    cli_result = json.loads((tmp_path / "cli" / "result.json").read_text())
+    r = smid.identify(PAPER, out=tmp_path / "py")
+    assert r.consistent and r.truth_inside
+    same_bits(r.result, cli_result)
+    # The files written by the package are the CLI's.
+    same_bits(json.loads((tmp_path / "py" / "result.json").read_text()), cli_result)
+    assert (tmp_path / "py" / "data.csv").read_text() == (tmp_path / "cli" / "data.csv").read_text()
+    # Arrays out: guaranteed bounds around the truth.
+    truth = {p["name"]: p["truth"] for p in cli_result["parameters"]}
+    for name, lo, hi in zip(r.names, r.lower, r.upper):
+        assert lo <= truth[name] <= hi
+    inner = r.inner
+    assert inner.lower.shape == inner.upper.shape == (cli_result["inner_signal"]["samples"],)
+    assert np.all(inner.lower <= inner.upper)
+    assert {x["name"] for x in r.regions} == {"left_branch", "right_branch"}
+
+
+def test_spec_as_yaml_string_and_dict_give_the_same_bounds():
+    text = PAPER.read_text()
+    by_path = smid.identify(PAPER)
+    by_text = smid.identify(text, base=PAPER.parent)
+    spec = json.loads(json.dumps(by_path.result["spec"]))
+    by_dict = smid.identify(spec, base=PAPER.parent)
+    for other in (by_text, by_dict):
+        same_bits(other.result["parameters"], by_path.result["parameters"])
+
+
+def test_spec_errors_are_exceptions_with_located_messages(tmp_path):
+    bad = PAPER.read_text().replace("na: 2", "na: two")
+    with pytest.raises(smid.SpecError) as e:
+        smid.identify(bad)
+    assert "model.na" in str(e.value) and "<string>" in str(e.value)
+    with pytest.raises(smid.SpecError, match="no such spec file"):
+        smid.identify(tmp_path / "missing.yaml")
+    with pytest.raises(smid.SmidError):
+        smid.identify({"name": "x"})
+
+
+def simulated_linear(n=300, seed=3, delta=0.01):
+    """y = x + η, x_t = 0.9 x_{t-1} - 0.3 x_{t-2} + 0.5 u_{t-1} + 0.25 u_{t-2} (stable), |η| <= delta.
+    smid names the input coefficients from the delay nk: b0 multiplies u_{t-nk}."""
+    rng = np.random.default_rng(seed)
+    u = np.sign(rng.standard_normal(n))
+    a1, a2, b1, b2 = -0.9, 0.3, 0.5, 0.25
+    x = np.zeros(n)
+    for t in range(n):
+        x[t] = (-a1 * x[t - 1] - a2 * x[t - 2] if t >= 2 else 0.0) + (b1 * u[t - 1] + b2 * u[t - 2] if t >= 2 else 0.0)
+    y = x + rng.uniform(-delta, delta, n)
+    return u, y, {"a1": a1, "a2": a2, "b0": b1, "b1": b2, "b2": 0.0}
+
+
+LINEAR = {"structure": "wiener", "nonlinearity": {"type": "linear"}, "na": 2, "nb": 2, "nk": 1, "unit_gain": False}
+
+
+def test_identify_arrays_bounds_hold_the_truth():
+    u, y, truth = simulated_linear()
+    r = smid.identify_arrays(u, y, model=LINEAR, noise={"delta": 0.01}, method={"eiv": "classical"})
+    assert r.consistent
+    b = r.bounds()
+    for k, v in truth.items():
+        assert b[k][0] <= v <= b[k][1], (k, v, b[k])
+    assert all(r.radius < 0.1)
+
+
+def test_falsification_is_a_result_not_an_exception():
+    u, y, _ = simulated_linear()
+    y = y.copy()
+    y[150] += 5.0
+    r = smid.identify_arrays(u, y, model=LINEAR, noise={"delta": 0.01}, method={"eiv": "classical"})
+    assert not r.consistent
+    assert r.verdict.stage is not None and r.verdict.sample is not None
+    assert "inconsistent" in r.verdict.message
+    with pytest.raises(smid.InvalidError, match="falsify"):
+        r.parameters
+
+
+def test_bad_arrays_name_the_sample():
+    u, y, _ = simulated_linear()
+    y = y.copy()
+    y[7] = np.nan
+    with pytest.raises(smid.DataError, match="array `y`, sample 7"):
+        smid.identify_arrays(u, y, model=LINEAR, noise={"delta": 0.01})
+    with pytest.raises(smid.InvalidError, match="equal lengths"):
+        smid.identify_arrays(u, y[:-1], model=LINEAR, noise={"delta": 0.01})
+
+
+def read_uy(path):
+    d = np.genfromtxt(path, delimiter=",", names=True)
+    return np.asarray(d["u"], dtype=float), np.asarray(d["y"], dtype=float)
+
+
+def test_validate_equals_the_cli_and_simulate_gives_centre_and_envelope(tmp_path):
+    run_cli("run", PAPER, "--out", tmp_path / "run", cwd=ROOT)
+    run_cli("simulate", PAPER, "--seed", "77", "--out", tmp_path / "fresh", cwd=ROOT)
+    fresh = tmp_path / "fresh" / "seed-77.csv"
+    run_cli("validate", tmp_path / "run" / "result.json", "--data", fresh, "--out", tmp_path / "val", cwd=ROOT)
+    cli_v = json.loads((tmp_path / "val" / "validation.json").read_text())
+    model = smid.ModelSet.load(tmp_path / "run" / "result.json")
+    u, y = read_uy(fresh)
+    # The package's plant run is the CLI's `smid simulate`, to the bit.
+    rec = smid.simulate_plant(PAPER, seed=77)
+    assert rec.u.tobytes() == u.tobytes() and rec.y.tobytes() == y.tobytes()
+    v = smid.validate(model, (u, y))
+    assert v.verdict.consistent and v.passed
+    # Every figure the CLI reports, bit for bit (the record's name aside).
+    py_v = dict(v.data)
+    cli_v["per_record"] = [[None, f] for _, f in cli_v["per_record"]]
+    py_v["per_record"] = [[None, f] for _, f in py_v["per_record"]]
+    same_bits(py_v, cli_v)
+    assert v.fit > 90.0 and v.baseline_fit is not None
+    s = model.simulate(u)
+    assert s.y.shape == s.lower.shape == s.upper.shape == u.shape
+    assert np.all(s.lower <= s.y) and np.all(s.y <= s.upper)
+    # The free run from rest of the centre tracks the measured output.
+    fit = 100 * (1 - np.linalg.norm(y - s.y) / np.linalg.norm(y - y.mean()))
+    assert fit > 90.0, fit
+    # A record that contradicts the model is a verdict, not an exception.
+    bad = y.copy()
+    bad[50] += 1.0
+    assert not smid.validate(model, [("bad", u, bad)]).verdict.consistent
+
+
+def test_diagnose_from_a_model_set_names_nothing_for_a_complete_model(tmp_path):
+    r = smid.identify(PAPER)
+    run_cli("simulate", PAPER, "--seed", "91", "--out", tmp_path, cwd=ROOT)
+    u, y = read_uy(tmp_path / "seed-91.csv")
+    d = r.model.diagnose([("held", u, y)], only=["actuator_lag"], max_effects=1)
+    assert d.added == [] and "no missing effect" in d.summary
+    assert d.before["validation"]["consistency"]["consistent"]
+
+
+def test_check_shards_merge_into_the_one_machine_table():
+    whole = sweeps.check("output_backlash", 6, method="classical", jobs=1)
+    parts = [sweeps.check_shard("output_backlash", 6, method="classical", shard=(k, 3), jobs=1) for k in (3, 1, 2)]
+    merged = sweeps.check_merge(parts)
+    assert merged.raw == whole.raw and merged.text == whole.text
+    assert merged.trials == 6 and merged.missed == []
+    with pytest.raises(smid.InvalidError, match="missing"):
+        sweeps.check_merge(parts[:2])
+    with pytest.raises(smid.InvalidError, match="K/M"):
+        sweeps.check_shard("output_backlash", 6, shard=(4, 3))
+
+
+def test_check_equals_the_cli(tmp_path):
+    out = run_cli("check", "--trials", "4", "--method", "classical", "--jobs", "1", "--json", tmp_path / "c.json", cwd=tmp_path)
+    py = sweeps.check("output_backlash", 4, method="classical", jobs=1)
+    assert py.raw == json.loads((tmp_path / "c.json").read_text())
+    assert py.text == out
+
+
+def test_reproduction_shards_merge_into_the_cli_tables(tmp_path):
+    out = run_cli("reproduce", "paper", "--seeds", "2", cwd=tmp_path)
+    tables, text = sweeps.reproduce_merge([sweeps.reproduce_shard(2, shard=(k, 2)) for k in (2, 1)])
+    assert text == out
+    assert tables["seeds"] == 2
+
+
+def test_a_sweep_on_a_local_dask_cluster_equals_one_machine():
+    import dask.distributed  # noqa: F401  (scripts/test installs it; a missing Dask fails here)
+    whole = sweeps.check("output_backlash", 8, method="classical", jobs=1)
+    r = distributed.check("output_backlash", 8, shards=4, workers=2, method="classical")
+    assert r.raw == whole.raw and r.text == whole.text
+    assert r.missed == []
+
+
+def test_the_example_script_identifies_validates_and_plots(tmp_path):
+    r = subprocess.run(
+        [os.environ.get("PYTHON", "python3"), str(ROOT / "examples" / "python_paper.py"), "--out", str(tmp_path)],
+        capture_output=True, text=True, cwd=tmp_path,
+    )
+    assert r.returncode == 0, r.stderr
+    assert "verdict: consistent" in r.stdout and "truth inside every bound: yes" in r.stdout
+    svg = (tmp_path / "validation.svg").read_text()
+    assert svg.startswith("<?xml") and "<path" in svg
