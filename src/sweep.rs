@@ -50,6 +50,38 @@ pub fn check_shard(shard: Option<(usize, usize)>) -> Result<()> {
     }
 }
 
+/// The shards `(name, (K, M))` of one run (same M, checked by the caller): none given twice
+/// and none missing, else an error naming the shard (`what` is the merged result's name).
+fn complete<'a>(shards: impl Iterator<Item = (&'a str, (usize, usize))>, what: &str) -> Result<()> {
+    let shards: Vec<_> = shards.collect();
+    let Some(&(_, (_, m))) = shards.first() else {
+        return Err(SmidError::invalid("shards", "no shard to merge"));
+    };
+    for (i, (name, (k, _))) in shards.iter().enumerate() {
+        if shards[..i].iter().any(|(_, s)| s.0 == *k) {
+            return Err(SmidError::invalid(
+                *name,
+                format!("shard {k}/{m} is given twice"),
+            ));
+        }
+    }
+    let missing: Vec<String> = (1..=m)
+        .filter(|k| !shards.iter().any(|(_, s)| s.0 == *k))
+        .map(|k| format!("{k}/{m}"))
+        .collect();
+    if missing.is_empty() {
+        Ok(())
+    } else {
+        Err(SmidError::invalid(
+            "shards",
+            format!(
+                "shard(s) {} missing: the merged {what} would not be the whole run's",
+                missing.join(", ")
+            ),
+        ))
+    }
+}
+
 /// Run the trials of one check (or shard), calling `tick` after each trial.
 pub fn check(opts: &CheckOptions, tick: impl Fn() + Sync) -> Result<CheckRun> {
     check_shard(opts.shard)?;
@@ -100,7 +132,7 @@ pub fn merge_checks(shards: &[(String, CheckRun)]) -> Result<CheckRun> {
             r.plugin, r.method, r.any_record, r.first_seed, r.trials, r.shard.1
         )
     };
-    for (i, (name, run)) in shards.iter().enumerate() {
+    for (name, run) in shards {
         if key(run) != key(first) {
             return Err(SmidError::invalid(
                 name.clone(),
@@ -111,27 +143,8 @@ pub fn merge_checks(shards: &[(String, CheckRun)]) -> Result<CheckRun> {
                 ),
             ));
         }
-        if shards[..i].iter().any(|(_, r)| r.shard.0 == run.shard.0) {
-            return Err(SmidError::invalid(
-                name.clone(),
-                format!("shard {}/{} is given twice", run.shard.0, run.shard.1),
-            ));
-        }
     }
-    let m = first.shard.1;
-    let missing: Vec<String> = (1..=m)
-        .filter(|k| !shards.iter().any(|(_, r)| r.shard.0 == *k))
-        .map(|k| format!("{k}/{m}"))
-        .collect();
-    if !missing.is_empty() {
-        return Err(SmidError::invalid(
-            "shards",
-            format!(
-                "shard(s) {} missing: the merged table would not be the whole run's",
-                missing.join(", ")
-            ),
-        ));
-    }
+    complete(shards.iter().map(|(n, r)| (n.as_str(), r.shard)), "table")?;
     let parts: Vec<Summary> = shards.iter().map(|(_, r)| r.summary.clone()).collect();
     Ok(CheckRun {
         shard: (1, 1),
@@ -184,7 +197,7 @@ pub fn merge_paper(shards: &[(String, PaperShard)]) -> Result<Reproduction> {
     let Some((_, first)) = shards.first() else {
         return Err(SmidError::invalid("shards", "no shard to merge"));
     };
-    for (i, (name, s)) in shards.iter().enumerate() {
+    for (name, s) in shards {
         if (s.seeds, s.shard.1) != (first.seeds, first.shard.1) {
             return Err(SmidError::invalid(
                 name.clone(),
@@ -194,27 +207,8 @@ pub fn merge_paper(shards: &[(String, PaperShard)]) -> Result<Reproduction> {
                 ),
             ));
         }
-        if shards[..i].iter().any(|(_, r)| r.shard.0 == s.shard.0) {
-            return Err(SmidError::invalid(
-                name.clone(),
-                format!("shard {}/{} is given twice", s.shard.0, s.shard.1),
-            ));
-        }
     }
-    let m = first.shard.1;
-    let missing: Vec<String> = (1..=m)
-        .filter(|k| !shards.iter().any(|(_, r)| r.shard.0 == *k))
-        .map(|k| format!("{k}/{m}"))
-        .collect();
-    if !missing.is_empty() {
-        return Err(SmidError::invalid(
-            "shards",
-            format!(
-                "shard(s) {} missing: the merged tables would not be the whole run's",
-                missing.join(", ")
-            ),
-        ));
-    }
+    complete(shards.iter().map(|(n, r)| (n.as_str(), r.shard)), "tables")?;
     let mut runs: Vec<PaperRun> = shards.iter().flat_map(|(_, s)| s.runs.clone()).collect();
     runs.sort_by_key(|r| r.seed);
     Ok(reproduce::tables(first.seeds, &runs))

@@ -352,20 +352,24 @@ fn check(
     to_text(&run)
 }
 
+/// The JSON texts of shards, each named `shard N` (its place in the list) for errors.
+fn parse_shards<T: serde::de::DeserializeOwned>(shards: &[String]) -> PyResult<Vec<(String, T)>> {
+    shards
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let name = format!("shard {}", i + 1);
+            let v = parse_json(t, &name)?;
+            Ok((name, v))
+        })
+        .collect()
+}
+
 /// Merge the JSON texts of the shards of one check (in any order); returns JSON
 /// `{"run": <merged run>, "text": <the table `smid check` prints>}`.
 #[pyfunction]
 fn check_merge(shards: Vec<String>) -> PyResult<String> {
-    let runs = shards
-        .iter()
-        .enumerate()
-        .map(|(i, t)| {
-            Ok((
-                format!("shard {}", i + 1),
-                parse_json(t, &format!("shard {}", i + 1))?,
-            ))
-        })
-        .collect::<PyResult<Vec<(String, smid::sweep::CheckRun)>>>()?;
+    let runs: Vec<(String, smid::sweep::CheckRun)> = parse_shards(&shards)?;
     let run = smid::sweep::merge_checks(&runs).map_err(to_py)?;
     to_text(&json!({ "run": run, "text": smid::sweep::format_check(&run) }))
 }
@@ -399,16 +403,7 @@ fn reproduce_shard(
 /// `{"tables": <medians>, "text": <Tables I-II as the CLI prints them>}`.
 #[pyfunction]
 fn reproduce_merge(shards: Vec<String>) -> PyResult<String> {
-    let parts = shards
-        .iter()
-        .enumerate()
-        .map(|(i, t)| {
-            Ok((
-                format!("shard {}", i + 1),
-                parse_json(t, &format!("shard {}", i + 1))?,
-            ))
-        })
-        .collect::<PyResult<Vec<(String, smid::sweep::PaperShard)>>>()?;
+    let parts: Vec<(String, smid::sweep::PaperShard)> = parse_shards(&shards)?;
     let r = smid::sweep::merge_paper(&parts).map_err(to_py)?;
     to_text(&json!({ "tables": r, "text": smid::reproduce::format_tables(&r) }))
 }
