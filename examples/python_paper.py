@@ -33,8 +33,9 @@ fresh = smid.simulate_plant(spec, seed=1001, length=400)
 
 # %% Validate: verdict, free-run fit next to the least-squares ARX baseline.
 v = smid.validate(r.model, (fresh.u, fresh.y))
+arx = "n/a" if v.baseline_fit is None else f"{v.baseline_fit:.2f} %"
 print(f"verdict: {'consistent' if v.verdict.consistent else 'FALSIFIED'}; "
-      f"free-run fit {v.fit:.2f} % (ARX baseline {v.baseline_fit:.2f} %)")
+      f"free-run fit {v.fit:.2f} % (ARX baseline {arx})")
 
 # %% Simulate the model set from rest: centre and envelope over the axis members.
 s = smid.simulate(r.model, fresh.u)

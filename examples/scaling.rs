@@ -43,7 +43,12 @@ fn child(spec_path: &str, m: &str, n: usize) {
             .ok_or_else(|| smid::SmidError::invalid("method", format!("unknown method {m}")))?;
         let id = smid::run_spec(&spec, path.parent().unwrap_or(Path::new(".")), &|_| {})?;
         let dir = std::env::temp_dir().join(format!("smid-scaling-{}", std::process::id()));
-        smid::write_run(&id, &spec, path, &dir)?;
+        smid::write_run(
+            &id,
+            &spec,
+            path.parent().unwrap_or(std::path::Path::new(".")),
+            &dir,
+        )?;
         let _ = std::fs::remove_dir_all(&dir);
         Ok(())
     };

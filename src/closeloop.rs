@@ -173,21 +173,28 @@ fn fresh_bound(spec: &Spec) -> Result<f64> {
     }
 }
 
-/// Fresh records from arrays `(name, u, y)` (the Python package's way in), with the noise
-/// bound and sample time the CSV records of the spec would get; lengths and values checked,
-/// errors naming the record and sample.
+/// Fresh records from arrays `(name, u, y)` (the Python package's way in), shaped as the CSV
+/// records of the spec would be (its first dynamic record's `decimate`: block means, sample
+/// time `dt·k`) with the same noise bound; lengths and values checked, errors naming the
+/// record and sample.
 pub fn records_from_arrays(
     spec: &Spec,
     arrays: Vec<(String, Vec<f64>, Vec<f64>)>,
 ) -> Result<Vec<Record>> {
     let delta = fresh_bound(spec)?;
-    let dt = spec.plant.data.as_ref().and_then(|d| d.dt).unwrap_or(1.0);
+    let (k, dt) = match &spec.plant.data {
+        Some(d) => (
+            d.dynamic.items()[0].decimate.unwrap_or(1),
+            d.dt.unwrap_or(1.0),
+        ),
+        None => (1, 1.0),
+    };
     arrays
         .into_iter()
         .map(|(name, u, y)| {
-            let r = Record::measured(name, u, y, delta, dt);
-            r.validate()?;
-            Ok(r)
+            Record::measured(name.clone(), u.clone(), y.clone(), delta, dt).validate()?;
+            let origin = PathBuf::from(format!("record `{name}`"));
+            smid_core::data::decimated(&origin, name, u, y, k, delta, dt)
         })
         .collect()
 }

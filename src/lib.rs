@@ -122,23 +122,26 @@ pub fn result_value(
     Ok(v)
 }
 
-/// Write the outputs of `smid run` into `dir`: `result.json` ([`result_value`]), `data.csv`,
-/// SVG plots.
+/// Write the outputs of `smid run` into `dir`: `result.json` ([`result_value`], relative paths
+/// of the spec against `spec_dir`), `data.csv`, SVG plots. Returns the files written.
 pub fn write_run(
     id: &Identification,
     spec: &Spec,
-    spec_path: &Path,
+    spec_dir: &Path,
     dir: &Path,
 ) -> Result<Vec<std::path::PathBuf>> {
-    let files = smid_core::report::write_all(id, dir)?;
+    let mut files = smid_core::report::write_all(id, dir)?;
     let path = dir.join("result.json");
-    let v = result_value(id, spec, spec_path.parent().unwrap_or(Path::new(".")))?;
+    let v = result_value(id, spec, spec_dir)?;
     std::fs::write(&path, serde_json::to_string_pretty(&v).unwrap_or_default()).map_err(
         |source| SmidError::Io {
             path: path.clone(),
             source,
         },
     )?;
+    if !files.contains(&path) {
+        files.push(path);
+    }
     Ok(files)
 }
 

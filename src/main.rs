@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Parser)]
 #[command(
@@ -508,7 +508,8 @@ fn real_main() -> Result<()> {
                 .unwrap_or_else(|| "smid".into());
             let dir = out.unwrap_or_else(|| PathBuf::from("out").join(stem));
             let parsed = smid::load_spec(&spec)?;
-            let files = smid::write_run(&id, &parsed, &spec, &dir)?;
+            let files =
+                smid::write_run(&id, &parsed, spec.parent().unwrap_or(Path::new(".")), &dir)?;
             println!(
                 "wrote {}",
                 files

@@ -58,6 +58,12 @@ fn complete<'a>(shards: impl Iterator<Item = (&'a str, (usize, usize))>, what: &
         return Err(SmidError::invalid("shards", "no shard to merge"));
     };
     for (i, (name, (k, _))) in shards.iter().enumerate() {
+        if *k == 0 || *k > m {
+            return Err(SmidError::invalid(
+                *name,
+                format!("shard {k}/{m}: expected K/M with 1 <= K <= M"),
+            ));
+        }
         if shards[..i].iter().any(|(_, s)| s.0 == *k) {
             return Err(SmidError::invalid(
                 *name,
@@ -145,6 +151,18 @@ pub fn merge_checks(shards: &[(String, CheckRun)]) -> Result<CheckRun> {
         }
     }
     complete(shards.iter().map(|(n, r)| (n.as_str(), r.shard)), "table")?;
+    for (name, run) in shards {
+        let n = montecarlo::shard_seeds(run.first_seed, run.trials, Some(run.shard)).len();
+        if run.summary.trials != n {
+            return Err(SmidError::invalid(
+                name.clone(),
+                format!(
+                    "shard {}/{} holds {} trials, expected {n} (its seeds of the run)",
+                    run.shard.0, run.shard.1, run.summary.trials
+                ),
+            ));
+        }
+    }
     let parts: Vec<Summary> = shards.iter().map(|(_, r)| r.summary.clone()).collect();
     Ok(CheckRun {
         shard: (1, 1),
@@ -209,7 +227,96 @@ pub fn merge_paper(shards: &[(String, PaperShard)]) -> Result<Reproduction> {
         }
     }
     complete(shards.iter().map(|(n, r)| (n.as_str(), r.shard)), "tables")?;
+    for (name, s) in shards {
+        let mut want: Vec<(u32, u64)> = reproduce::BITS
+            .iter()
+            .flat_map(|&b| {
+                montecarlo::shard_seeds(1, s.seeds, Some(s.shard))
+                    .into_iter()
+                    .map(move |seed| (b, seed))
+            })
+            .collect();
+        let mut have: Vec<(u32, u64)> = s.runs.iter().map(|r| (r.bits, r.seed)).collect();
+        want.sort_unstable();
+        have.sort_unstable();
+        if have != want {
+            return Err(SmidError::invalid(
+                name.clone(),
+                format!(
+                    "shard {}/{} does not hold exactly its runs (each of its seeds at n_bit {:?})",
+                    s.shard.0,
+                    s.shard.1,
+                    reproduce::BITS
+                ),
+            ));
+        }
+    }
     let mut runs: Vec<PaperRun> = shards.iter().flat_map(|(_, s)| s.runs.clone()).collect();
     runs.sort_by_key(|r| r.seed);
     Ok(reproduce::tables(first.seeds, &runs))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(shard: (usize, usize), trials_in_shard: usize) -> (String, CheckRun) {
+        (
+            format!("s{}", shard.0),
+            CheckRun {
+                plugin: "output_backlash".into(),
+                method: "classical".into(),
+                any_record: false,
+                first_seed: 1,
+                trials: 4,
+                shard,
+                summary: Summary {
+                    trials: trials_in_shard,
+                    contained: trials_in_shard,
+                    ..Default::default()
+                },
+            },
+        )
+    }
+
+    #[test]
+    fn merges_refuse_shards_out_of_range_and_wrong_counts() {
+        let ok = merge_checks(&[run((2, 2), 2), run((1, 2), 2)]).unwrap();
+        assert_eq!((ok.summary.trials, ok.shard), (4, (1, 1)));
+        let extra = merge_checks(&[run((1, 2), 2), run((2, 2), 2), run((3, 2), 2)]);
+        assert!(extra.unwrap_err().to_string().contains("3/2"));
+        let zero = merge_checks(&[run((0, 2), 2), run((1, 2), 2), run((2, 2), 2)]);
+        assert!(zero.unwrap_err().to_string().contains("0/2"));
+        let short = merge_checks(&[run((1, 2), 1), run((2, 2), 2)]);
+        assert!(short.unwrap_err().to_string().contains("holds 1 trials"));
+        assert!(merge_checks(&[]).is_err());
+    }
+
+    #[test]
+    fn a_paper_shard_must_hold_exactly_its_runs() {
+        let shard = |k: usize, seeds: &[u64]| {
+            (
+                format!("p{k}"),
+                PaperShard {
+                    seeds: 3,
+                    shard: (k, 2),
+                    runs: reproduce::BITS
+                        .iter()
+                        .flat_map(|&bits| {
+                            seeds.iter().map(move |&seed| PaperRun {
+                                bits,
+                                seed,
+                                outcome: Err("not run".into()),
+                            })
+                        })
+                        .collect(),
+                },
+            )
+        };
+        // Seeds 1..=3 in 2 shards: {1, 3} and {2}.
+        let r = merge_paper(&[shard(1, &[1, 3]), shard(2, &[2])]).unwrap();
+        assert_eq!(r.errors.len(), 3 * reproduce::BITS.len());
+        let wrong = merge_paper(&[shard(1, &[1]), shard(2, &[2, 3])]);
+        assert!(wrong.unwrap_err().to_string().contains("exactly its runs"));
+    }
 }

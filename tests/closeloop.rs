@@ -73,7 +73,7 @@ fn result_json_carries_the_whole_model_set() {
     let spec = smid::load_spec(&path).unwrap();
     let id = smid::run_spec_file(&path).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    smid::write_run(&id, &spec, &path, dir.path()).unwrap();
+    smid::write_run(&id, &spec, path.parent().unwrap(), dir.path()).unwrap();
     let src = closeloop::load_source(&dir.path().join("result.json")).unwrap();
     let back = src.model.unwrap();
     assert_eq!(back.parameters, id.model.parameters);

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import os
 import tempfile
 from dataclasses import dataclass, field
@@ -29,16 +30,29 @@ RecordsLike = Union[
 ]
 
 
+def _json_default(v: Any) -> Any:
+    """numpy scalars and arrays, paths: what a spec dict may hold besides plain values."""
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, os.PathLike):
+        return os.fspath(v)
+    raise InvalidError(f"invalid spec value {v!r}: expected numbers, strings, lists or dicts")
+
+
 def _spec_source(spec: SpecLike, base: Optional[Union[str, "os.PathLike[str]"]]) -> Tuple[str, str, str]:
     """(text, label, base directory) of a spec given as a path, a YAML string or a dict."""
     if isinstance(spec, Mapping):
         # JSON is YAML: the dict goes through the same parser (and errors) as a file.
-        text = json.dumps(spec)
+        text = json.dumps(spec, default=_json_default)
         return text, "<dict>", str(base if base is not None else os.getcwd())
     # A one-line string is a path; YAML text has lines (or is JSON).
     if isinstance(spec, os.PathLike) or (isinstance(spec, str) and "\n" not in spec and not spec.lstrip().startswith("{")):
         path = Path(spec)
         if not path.is_file():
+            if isinstance(spec, str) and ": " in spec:
+                return spec, "<string>", str(base if base is not None else os.getcwd())
             raise SpecError(f"{path}: no such spec file (give a path, a YAML string or a dict)")
         return path.read_text(encoding="utf-8"), str(path), str(base if base is not None else path.parent)
     if isinstance(spec, str):
@@ -47,10 +61,20 @@ def _spec_source(spec: SpecLike, base: Optional[Union[str, "os.PathLike[str]"]])
 
 
 def _vector(a: ArrayLike, what: str) -> List[float]:
-    v = np.asarray(a, dtype=float)
+    try:
+        v = np.asarray(a, dtype=float)
+    except (TypeError, ValueError) as e:
+        raise DataError(f"array `{what}`: expected numbers ({e})") from None
     if v.ndim != 1:
         raise InvalidError(f"invalid `{what}`: expected a 1-D array, got shape {v.shape}")
     return v.tolist()
+
+
+def _is_1d(a: Any) -> bool:
+    try:
+        return np.ndim(a) == 1
+    except ValueError:  # ragged
+        return False
 
 
 def _records(records: RecordsLike, what: str) -> List[Tuple[str, List[float], List[float]]]:
@@ -58,19 +82,26 @@ def _records(records: RecordsLike, what: str) -> List[Tuple[str, List[float], Li
     ``name -> (u, y)``."""
     if isinstance(records, Mapping):
         items: Iterable[Any] = [(str(k), v[0], v[1]) for k, v in records.items()]
-    elif isinstance(records, tuple) and len(records) == 2 and np.ndim(records[0]) == 1:
+    elif isinstance(records, tuple) and len(records) == 2 and not isinstance(records[0], (str, tuple)) and _is_1d(records[0]):
         items = [records]
     else:
         items = list(records)
     out = []
     for i, r in enumerate(items):
+        if not isinstance(r, (tuple, list)):
+            raise InvalidError(f"invalid `{what}[{i}]`: expected (u, y) or (name, u, y)")
         if len(r) == 3:
             name, u, y = r
         elif len(r) == 2:
             name, (u, y) = f"{what} {i + 1}", r
         else:
             raise InvalidError(f"invalid `{what}[{i}]`: expected (u, y) or (name, u, y)")
-        out.append((str(name), _vector(u, f"{what} `{name}`: u"), _vector(y, f"{what} `{name}`: y")))
+        uu, yy = _vector(u, f"{what} `{name}`: u"), _vector(y, f"{what} `{name}`: y")
+        for col, v in (("u", uu), ("y", yy)):
+            bad = np.flatnonzero(~np.isfinite(np.asarray(v)))
+            if bad.size:
+                raise DataError(f"{what} `{name}`, array `{col}`, sample {bad[0]}: expected a finite number, got {v[bad[0]]}")
+        out.append((str(name), uu, yy))
     if not out:
         raise InvalidError(f"invalid `{what}`: no record given")
     return out
@@ -144,12 +175,19 @@ class ModelSet:
         if "model" not in result or "spec" not in result:
             raise InvalidError("invalid `result`: not a result.json of smid run (no `model` or `spec`)")
         self._result = dict(result)
-        self._text = json.dumps(self._result)
 
     @classmethod
     def load(cls, path: Union[str, "os.PathLike[str]"]) -> "ModelSet":
         """Read a ``result.json`` written by ``smid run`` or :meth:`save`."""
-        return cls(json.loads(Path(path).read_text(encoding="utf-8")))
+        p = Path(path)
+        try:
+            text = p.read_text(encoding="utf-8")
+        except OSError as e:
+            raise DataError(f"{p}: {e.strerror or e}") from None
+        try:
+            return cls(json.loads(text))
+        except json.JSONDecodeError as e:
+            raise DataError(f"{p}: not a result.json ({e})") from None
 
     def save(self, path: Union[str, "os.PathLike[str]"]) -> None:
         """Write the model set as a ``result.json`` (readable by ``smid validate``)."""
@@ -186,20 +224,25 @@ class ModelSet:
         return simulate(self, u, dt=dt)
 
     def to_json(self) -> str:
-        return self._text
+        """The model set as the text of a ``result.json``."""
+        return json.dumps(self._result)
 
     def __repr__(self) -> str:
         return f"ModelSet({self.name!r}, {len(self.parameters)} parameters, {len(self.model.get('cells', []))} cells)"
 
 
+def _num(v: Any, null: float) -> float:
+    """A JSON number; ``null`` is what serde_json writes for a non-finite value."""
+    return null if v is None else float(v)
+
+
 def _parameter(p: Mapping[str, Any]) -> Parameter:
-    f = lambda v: float("nan") if v is None else float(v)  # noqa: E731  (JSON null: NaN)
     return Parameter(
         name=p["name"],
-        lower=f(p["lower"]),
-        upper=f(p["upper"]),
-        center=f(p["center"]),
-        radius=f(p["radius"]),
+        lower=_num(p["lower"], -math.inf),
+        upper=_num(p["upper"], math.inf),
+        center=_num(p["center"], math.nan),
+        radius=_num(p["radius"], math.inf),
         truth=p.get("truth"),
         contains=p.get("contains"),
     )
@@ -371,6 +414,12 @@ def _model_text(model: Union[ModelSet, Identification, Mapping[str, Any], str, "
     if isinstance(model, Mapping):
         m = ModelSet(model)
         return m.to_json(), m.spec
+    if isinstance(model, (str, os.PathLike)) and not str(model).endswith(".json"):
+        # A run spec, identified now (as `smid validate SPEC` does).
+        r = identify(model)
+        if not r.consistent:
+            raise InvalidError(f"invalid `model`: the spec's training data falsify it ({r.verdict.message})")
+        return _model_text(r)
     m = ModelSet.load(model)
     return m.to_json(), m.spec
 
@@ -414,12 +463,12 @@ class Validation:
     @property
     def fit(self) -> float:
         """Free-run fit % (MATLAB ``compare``) of the centre member over the records."""
-        return float(self.data["free_run"]["fit_percent"])
+        return _num(self.data["free_run"]["fit_percent"], -math.inf)
 
     @property
     def baseline_fit(self) -> Optional[float]:
         b = self.data.get("baseline")
-        return None if b is None else float(b["fit_percent"])
+        return None if b is None else _num(b["fit_percent"], -math.inf)
 
     @property
     def smallest_bound(self) -> Optional[Tuple[float, float]]:

@@ -18,39 +18,40 @@ Cluster::
     from dask.distributed import Client
     r = check("output_backlash", 10_000, shards=400, client=Client("tcp://scheduler:8786"))
 
-Every worker needs the ``smid`` package (``pip install .`` of the same commit): the merge
-refuses shards of another run, so mixed versions show up as an error, not a wrong table.
+Every worker needs the ``smid`` package of the same commit (``pip install .``): the merge
+refuses shards of another run (plugin, method, seeds, shard count) and missing or extra
+shards, but it cannot tell two builds apart.
 """
 from __future__ import annotations
 
 from typing import Any, List, Optional, Tuple
 
 from . import sweeps
+from ._native import InvalidError
 
 
-def _client(client: Any, workers: Optional[int]):
-    """The given client, or a new local cluster (closed by the caller)."""
+def _run_shards(fn, shards: int, client: Any, workers: Optional[int], **kwargs) -> List[str]:
+    """Run ``fn(shard=(k, shards), **kwargs)`` for every k as Dask tasks on ``client``, or on a
+    new local cluster of ``workers`` processes (closed afterwards, whatever happens)."""
+    if int(shards) < 1:
+        raise InvalidError("invalid `shards`: must be at least 1")
+    shards = int(shards)
+
+    def run(c: Any) -> List[str]:
+        futures = c.map(lambda k: fn(shard=(k, shards), **kwargs), range(1, shards + 1), pure=False)
+        return c.gather(futures)
+
     if client is not None:
-        return client, None
+        if workers is not None:
+            raise InvalidError("invalid `workers`: give either a client or the size of a new local cluster")
+        return run(client)
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError as e:  # pragma: no cover - depends on the environment
         raise ImportError("smid.distributed needs Dask: pip install 'dask[distributed]'") from e
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
-    return Client(cluster), cluster
-
-
-def _run_shards(fn, shards: int, client: Any, workers: Optional[int], **kwargs) -> List[str]:
-    if shards < 1:
-        raise ValueError("shards: must be at least 1")
-    c, cluster = _client(client, workers)
-    try:
-        futures = c.map(lambda k: fn(shard=(k, shards), **kwargs), range(1, shards + 1), pure=False)
-        return c.gather(futures)
-    finally:
-        if cluster is not None:
-            c.close()
-            cluster.close()
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster:
+        with Client(cluster) as c:
+            return run(c)
 
 
 def check(
@@ -111,20 +112,26 @@ def main(argv: Optional[List[str]] = None) -> int:
         q.add_argument("--scheduler", default=None, help="address of a running Dask scheduler")
         q.add_argument("--json", default=None, help="also write the merged result as JSON")
     a = p.parse_args(argv)
-    client = None
     if a.scheduler:
         from dask.distributed import Client
 
-        client = Client(a.scheduler)
+        with Client(a.scheduler) as client:
+            return _main(a, client)
+    return _main(a, None)
+
+
+def _main(a: Any, client: Any) -> int:
+    import json
+
     if a.what == "check":
-        res = check(a.plugin, a.trials, shards=a.shards, client=client, workers=a.workers,
+        res = check(a.plugin, a.trials, shards=a.shards, client=client, workers=None if client else a.workers,
                     first_seed=a.first_seed, method=a.method, any_record=a.any_record)
         print(res.text, end="")
         if a.json:
             with open(a.json, "w") as f:
                 json.dump(res.raw, f, indent=2)
         return 1 if res.missed else 0
-    tables, text = reproduce(a.seeds, shards=a.shards, client=client, workers=a.workers)
+    tables, text = reproduce(a.seeds, shards=a.shards, client=client, workers=None if client else a.workers)
     print(text, end="")
     if a.json:
         with open(a.json, "w") as f:

@@ -11,8 +11,32 @@ from dataclasses import dataclass
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 from . import _native
+from ._native import InvalidError
 
 Shard = Optional[Tuple[int, int]]
+
+
+def _shard(shard: Any) -> Shard:
+    """``None`` or ``(K, M)`` with 1 <= K <= M (a list is taken as a pair)."""
+    if shard is None:
+        return None
+    try:
+        k, m = (int(v) for v in shard)
+    except (TypeError, ValueError):
+        raise InvalidError(f"invalid `shard`: {shard!r}: expected (K, M)") from None
+    if not 1 <= k <= m:
+        raise InvalidError(f"invalid `shard`: {k}/{m}: expected K/M with 1 <= K <= M")
+    return (k, m)
+
+
+def _count(v: Any, what: str, least: int) -> int:
+    try:
+        n = int(v)
+    except (TypeError, ValueError):
+        raise InvalidError(f"invalid `{what}`: {v!r}: expected an integer") from None
+    if n < least:
+        raise InvalidError(f"invalid `{what}`: {n}: expected at least {least}")
+    return n
 
 
 @dataclass(frozen=True)
@@ -61,7 +85,8 @@ def check_shard(
 ) -> str:
     """Run shard ``(K, M)`` of a containment check (all of it when ``None``) and return its
     JSON text, exactly what ``smid check --shard K/M --json`` writes."""
-    return _native.check(plugin, int(trials), int(first_seed), method, bool(any_record), shard, jobs)
+    return _native.check(plugin, _count(trials, "trials", 1), _count(first_seed, "first_seed", 0), method,
+                         bool(any_record), _shard(shard), None if jobs is None else _count(jobs, "jobs", 1))
 
 
 def check_merge(shards: Sequence[Union[str, Dict[str, Any]]]) -> CheckResult:
@@ -89,7 +114,7 @@ def check(
 def reproduce_shard(seeds: int = 20, *, shard: Shard = None) -> str:
     """Shard ``(K, M)`` of the paper's Tables I-II over seeds ``1..=seeds`` as JSON text
     (``smid reproduce paper --seeds S --shard K/M --json``)."""
-    return _native.reproduce_shard(int(seeds), shard)
+    return _native.reproduce_shard(_count(seeds, "seeds", 1), _shard(shard))
 
 
 def reproduce_merge(shards: Sequence[Union[str, Dict[str, Any]]]) -> Tuple[Dict[str, Any], str]:

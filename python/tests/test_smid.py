@@ -7,6 +7,7 @@ import math
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -175,6 +176,8 @@ def test_validate_equals_the_cli_and_simulate_gives_centre_and_envelope(tmp_path
     s = model.simulate(u)
     assert s.y.shape == s.lower.shape == s.upper.shape == u.shape
     assert np.all(s.lower <= s.y) and np.all(s.y <= s.upper)
+    assert np.any(s.upper - s.lower > 0), "the envelope spans the axis members"
+    assert s.stable_members > 1
     # The free run from rest of the centre tracks the measured output.
     fit = 100 * (1 - np.linalg.norm(y - s.y) / np.linalg.norm(y - y.mean()))
     assert fit > 90.0, fit
@@ -213,10 +216,29 @@ def test_check_equals_the_cli(tmp_path):
 
 
 def test_reproduction_shards_merge_into_the_cli_tables(tmp_path):
-    out = run_cli("reproduce", "paper", "--seeds", "2", cwd=tmp_path)
-    tables, text = sweeps.reproduce_merge([sweeps.reproduce_shard(2, shard=(k, 2)) for k in (2, 1)])
+    out = run_cli("reproduce", "paper", "--seeds", "3", "--json", tmp_path / "r.json", cwd=tmp_path)
+    parts = [sweeps.reproduce_shard(3, shard=(k, 2)) for k in (2, 1)]
+    tables, text = sweeps.reproduce_merge(parts)
     assert text == out
-    assert tables["seeds"] == 2
+    # Every median, bit for bit.
+    same_bits(tables, json.loads((tmp_path / "r.json").read_text()))
+    # A shard that claims another place is refused.
+    forged = json.loads(parts[0])
+    forged["shard"] = [1, 2]
+    with pytest.raises(smid.InvalidError):
+        sweeps.reproduce_merge([json.dumps(forged), parts[1]])
+
+
+def test_a_shard_out_of_range_is_refused():
+    parts = [json.loads(sweeps.check_shard("output_backlash", 2, method="classical", shard=(k, 2), jobs=1)) for k in (1, 2)]
+    extra = dict(parts[1], shard=[3, 2])
+    with pytest.raises(smid.InvalidError, match="3/2"):
+        sweeps.check_merge(parts + [extra])
+    for bad in ([1], "1/2", (0, 2)):
+        with pytest.raises(smid.InvalidError):
+            sweeps.check_shard("output_backlash", 2, shard=bad)
+    with pytest.raises(smid.InvalidError, match="trials"):
+        sweeps.check_shard("output_backlash", -1)
 
 
 def test_a_sweep_on_a_local_dask_cluster_equals_one_machine():
@@ -229,10 +251,66 @@ def test_a_sweep_on_a_local_dask_cluster_equals_one_machine():
 
 def test_the_example_script_identifies_validates_and_plots(tmp_path):
     r = subprocess.run(
-        [os.environ.get("PYTHON", "python3"), str(ROOT / "examples" / "python_paper.py"), "--out", str(tmp_path)],
+        [sys.executable, str(ROOT / "examples" / "python_paper.py"), "--out", str(tmp_path)],
         capture_output=True, text=True, cwd=tmp_path,
     )
     assert r.returncode == 0, r.stderr
     assert "verdict: consistent" in r.stdout and "truth inside every bound: yes" in r.stdout
     svg = (tmp_path / "validation.svg").read_text()
     assert svg.startswith("<?xml") and "<path" in svg
+
+
+def test_arrays_are_shaped_as_the_spec_shapes_its_csv_records(tmp_path):
+    """Validation on arrays equals `smid validate --data CSV@rows` for a spec that decimates."""
+    u, y, _ = simulated_linear(n=800, seed=5, delta=0.005)
+    csv = tmp_path / "rec.csv"
+    csv.write_text("u,y\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(u, y)))
+    spec = {
+        "name": "decimated",
+        "plant": {"data": {"dynamic": {"file": "rec.csv", "u": "u", "y": "y", "rows": [0, 500], "decimate": 2}, "dt": 0.5}},
+        # Block means are not the sampled system: let smid estimate the model's error bound.
+        "noise": {"estimate": 1.1},
+        "model": LINEAR,
+        "method": {"eiv": "classical"},
+    }
+    r = smid.identify(spec, base=tmp_path)
+    assert r.consistent
+    r.model.save(tmp_path / "result.json")
+    run_cli("validate", tmp_path / "result.json", "--data", f"{csv}@500..800", "--out", tmp_path / "val", cwd=tmp_path)
+    cli_v = json.loads((tmp_path / "val" / "validation.json").read_text())
+    v = smid.validate(r.model, [("held", u[500:800], y[500:800])])
+    assert len(v.series[0]["y"]) == 150, "block means of 2"
+    py_v = dict(v.data)
+    cli_v["per_record"] = [[None, f] for _, f in cli_v["per_record"]]
+    py_v["per_record"] = [[None, f] for _, f in py_v["per_record"]]
+    same_bits(py_v, cli_v)
+
+
+def test_diagnose_from_a_spec(tmp_path):
+    run_cli("simulate", PAPER, "--seed", "92", "--out", tmp_path, cwd=ROOT)
+    u, y = read_uy(tmp_path / "seed-92.csv")
+    d = smid.diagnose(PAPER, {"held": (u, y)}, only=["sensor_offset"], max_effects=1)
+    assert d.added == [] and "no missing effect" in d.summary
+    assert d.after["validation"]["consistency"]["consistent"]
+
+
+def test_user_input_errors_are_smid_errors(tmp_path):
+    r = smid.identify(PAPER)
+    u = np.ones(50)
+    with pytest.raises(smid.DataError, match="sample 3"):
+        smid.validate(r.model, (u, np.r_[np.zeros(3), np.inf, np.zeros(46)]))
+    with pytest.raises(smid.DataError):
+        smid.validate(r.model, (["a"] * 50, u))
+    with pytest.raises(smid.InvalidError):
+        smid.validate(r.model, [(u,)])
+    with pytest.raises(smid.DataError):
+        smid.validate(tmp_path / "missing.json", (u, u))
+    with pytest.raises(smid.SpecError, match="no such spec file"):
+        smid.identify("missing.yaml")
+    # numpy values in a spec dict are plain numbers.
+    spec = json.loads(json.dumps(r.result["spec"]))
+    spec["model"]["na"] = np.int64(2)
+    assert smid.identify(spec, base=PAPER.parent).consistent
+    # A non-finite fit (a diverging free run) reads as -inf, not an error.
+    v = smid.Validation({"validation": {"free_run": {"fit_percent": None}, "baseline": None}, "text": "", "series": []})
+    assert v.fit == -math.inf and v.baseline_fit is None

@@ -98,10 +98,24 @@ pub fn read_record(
         y = y[a..b].to_vec();
         name = format!("{name} rows {a}..{b}");
     }
-    let k = c.decimate.unwrap_or(1);
+    decimated(&file, name, u, y, c.decimate.unwrap_or(1), delta, dt)
+}
+
+/// A measured record from columns, with the spec's `decimate`: block means of `k` samples
+/// (sample time `dt·k`; a last incomplete block is left out and the name says so). `file`
+/// names the origin in errors.
+pub fn decimated(
+    file: &Path,
+    mut name: String,
+    mut u: Vec<f64>,
+    mut y: Vec<f64>,
+    k: usize,
+    delta: f64,
+    dt: f64,
+) -> Result<crate::model::Record> {
     if k == 0 || k > u.len() {
         return Err(SmidError::Data {
-            file,
+            file: file.to_path_buf(),
             location: "decimate".into(),
             message: format!(
                 "expected 1 <= decimate <= {} (the samples), got {k}",

@@ -136,20 +136,10 @@ fn identify(
         Err(e) => return Err(to_py(e)),
     };
     let result = smid::result_value(&id, &spec, &base).map_err(to_py)?;
-    let mut files = Vec::new();
-    if let Some(dir) = out {
-        files = smid::core::report::write_all(&id, &dir).map_err(to_py)?;
-        let path = dir.join("result.json");
-        let text =
-            serde_json::to_string_pretty(&result).map_err(|e| SmidError::new_err(e.to_string()))?;
-        std::fs::write(&path, text).map_err(|source| {
-            to_py(Error::Io {
-                path: path.clone(),
-                source,
-            })
-        })?;
-        files.push(path);
-    }
+    let files = match out {
+        Some(dir) => smid::write_run(&id, &spec, &base, &dir).map_err(to_py)?,
+        None => Vec::new(),
+    };
     to_text(&json!({
         "status": "identified",
         "result": result,
