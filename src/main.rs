@@ -219,6 +219,23 @@ fn report_check(run: &smid::sweep::CheckRun) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The shard files of a merge, each named by its path; `what` says what a file should be.
+fn read_shards<T: serde::de::DeserializeOwned>(
+    files: &[PathBuf],
+    what: &str,
+) -> Result<Vec<(String, T)>> {
+    files
+        .iter()
+        .map(|f| {
+            let text =
+                std::fs::read_to_string(f).with_context(|| format!("reading {}", f.display()))?;
+            let v = serde_json::from_str(&text)
+                .with_context(|| format!("{}: not {what}", f.display()))?;
+            Ok((f.display().to_string(), v))
+        })
+        .collect()
+}
+
 /// `--shard K/M`: 1 <= K <= M.
 fn parse_shard(s: &str) -> Result<(usize, usize), String> {
     let bad = || format!("`{s}`: expected K/M with 1 <= K <= M, e.g. 2/4");
@@ -307,32 +324,11 @@ fn real_main() -> Result<()> {
             report_check(&run)?;
         }
         Command::CheckMerge { files } => {
-            let mut shards = Vec::new();
-            for f in &files {
-                let text = std::fs::read_to_string(f)
-                    .with_context(|| format!("reading {}", f.display()))?;
-                let run: smid::sweep::CheckRun =
-                    serde_json::from_str(&text).with_context(|| {
-                        format!("{}: not a `smid check --json` summary", f.display())
-                    })?;
-                shards.push((f.display().to_string(), run));
-            }
+            let shards = read_shards(&files, "a `smid check --json` summary")?;
             report_check(&smid::sweep::merge_checks(&shards)?)?;
         }
         Command::ReproduceMerge { files } => {
-            let mut shards = Vec::new();
-            for f in &files {
-                let text = std::fs::read_to_string(f)
-                    .with_context(|| format!("reading {}", f.display()))?;
-                let s: smid::sweep::PaperShard =
-                    serde_json::from_str(&text).with_context(|| {
-                        format!(
-                            "{}: not a `smid reproduce paper --shard K/M --json` file",
-                            f.display()
-                        )
-                    })?;
-                shards.push((f.display().to_string(), s));
-            }
+            let shards = read_shards(&files, "a `smid reproduce paper --shard K/M --json` file")?;
             print!(
                 "{}",
                 smid::reproduce::format_tables(&smid::sweep::merge_paper(&shards)?)
