@@ -293,21 +293,13 @@ class Identification:
     def names(self) -> List[str]:
         return [p.name for p in self.parameters]
 
-    @property
-    def lower(self) -> np.ndarray:
-        return np.array([p.lower for p in self.parameters])
+    def _column(self, field: str) -> np.ndarray:
+        return np.array([getattr(p, field) for p in self.parameters])
 
-    @property
-    def upper(self) -> np.ndarray:
-        return np.array([p.upper for p in self.parameters])
-
-    @property
-    def center(self) -> np.ndarray:
-        return np.array([p.center for p in self.parameters])
-
-    @property
-    def radius(self) -> np.ndarray:
-        return np.array([p.radius for p in self.parameters])
+    lower = property(lambda self: self._column("lower"), doc="Guaranteed lower bounds (numpy array).")
+    upper = property(lambda self: self._column("upper"), doc="Guaranteed upper bounds (numpy array).")
+    center = property(lambda self: self._column("center"), doc="Centres of the bounds (numpy array).")
+    radius = property(lambda self: self._column("radius"), doc="Radii of the bounds (numpy array).")
 
     def bounds(self) -> Dict[str, Tuple[float, float]]:
         """``{name: (lower, upper)}``."""
@@ -406,22 +398,21 @@ def identify_arrays(
         return identify(spec, base=d)
 
 
-def _model_text(model: Union[ModelSet, Identification, Mapping[str, Any], str, "os.PathLike[str]"]) -> Tuple[str, Dict[str, Any]]:
+def _model_text(model: Union[ModelSet, Identification, Mapping[str, Any], str, "os.PathLike[str]"]) -> str:
+    """The ``result.json`` text of a model set given in any of the accepted forms."""
     if isinstance(model, Identification):
         model = model.model
     if isinstance(model, ModelSet):
-        return model.to_json(), model.spec
+        return model.to_json()
     if isinstance(model, Mapping):
-        m = ModelSet(model)
-        return m.to_json(), m.spec
+        return ModelSet(model).to_json()
     if isinstance(model, (str, os.PathLike)) and not str(model).endswith(".json"):
         # A run spec, identified now (as `smid validate SPEC` does).
         r = identify(model)
         if not r.consistent:
             raise InvalidError(f"invalid `model`: the spec's training data falsify it ({r.verdict.message})")
         return _model_text(r)
-    m = ModelSet.load(model)
-    return m.to_json(), m.spec
+    return ModelSet.load(model).to_json()
 
 
 class Validation:
@@ -493,7 +484,7 @@ def validate(model: Union[ModelSet, Identification, Mapping[str, Any], str, "os.
     a list of ``(u, y)`` or ``(name, u, y)``, or a dict ``name -> (u, y)``; the records get the
     model's noise bound and sample time. ``model`` is a :class:`ModelSet`, an
     :class:`Identification`, a result dict or a ``result.json`` path."""
-    text, _ = _model_text(model)
+    text = _model_text(model)
     return Validation(json.loads(_native.validate(text, _records(records, "record"), int(k))))
 
 
@@ -529,12 +520,11 @@ def diagnose(
     :class:`ModelSet` / :class:`Identification` / ``result.json`` path, or a spec (path, YAML
     string or dict); ``only`` restricts the candidates to these ``type`` tags."""
     held = _records(holdout, "holdout")
-    if isinstance(model, (ModelSet, Identification)) or (isinstance(model, (str, os.PathLike)) and str(model).endswith(".json")):
-        text, _ = _model_text(model)
-        raw = _native.diagnose(text, "result", "<result>", os.getcwd(), held, int(max_effects), list(only), int(k))
-    elif isinstance(model, Mapping) and "model" in model and "spec" in model:
-        text, _ = _model_text(model)
-        raw = _native.diagnose(text, "result", "<result>", os.getcwd(), held, int(max_effects), list(only), int(k))
+    is_set = isinstance(model, (ModelSet, Identification)) or (
+        isinstance(model, (str, os.PathLike)) and str(model).endswith(".json")
+    ) or (isinstance(model, Mapping) and "model" in model and "spec" in model)
+    if is_set:
+        raw = _native.diagnose(_model_text(model), "result", "<result>", os.getcwd(), held, int(max_effects), list(only), int(k))
     else:
         text, label, b = _spec_source(model, base)
         raw = _native.diagnose(text, "spec", label, b, held, int(max_effects), list(only), int(k))
@@ -543,7 +533,7 @@ def diagnose(
 
 def simulate(model: Union[ModelSet, Identification, Mapping[str, Any], str, "os.PathLike[str]"], u: ArrayLike, *, dt: Optional[float] = None) -> Simulation:
     """Free run of a model set from rest on the input ``u``: centre and envelope."""
-    text, _ = _model_text(model)
+    text = _model_text(model)
     s = json.loads(_native.simulate(text, _vector(u, "u"), dt))
     arr = lambda k: np.asarray([np.nan if v is None else v for v in s[k]], dtype=float)  # noqa: E731
     return Simulation(y=arr("y"), lower=arr("lower"), upper=arr("upper"), x=arr("x"), w=arr("w"),

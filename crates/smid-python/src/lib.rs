@@ -115,22 +115,19 @@ fn identify(
     let run = py.detach(|| smid::run_spec(&spec, &base, &|_| {}));
     let id = match run {
         Ok(id) => id,
-        Err(e @ Error::Inconsistent { .. }) => {
-            let message = e.to_string();
-            let Error::Inconsistent {
-                stage,
+        Err(
+            ref e @ Error::Inconsistent {
+                ref stage,
                 sample,
-                detail,
-            } = e
-            else {
-                unreachable!("matched above")
-            };
+                ref detail,
+            },
+        ) => {
             return to_text(&json!({
                 "status": "falsified",
                 "stage": stage.to_string(),
                 "sample": sample,
                 "detail": detail,
-                "message": message,
+                "message": e.to_string(),
             }));
         }
         Err(e) => return Err(to_py(e)),
