@@ -64,7 +64,8 @@ fn gamma(k: usize) -> f64 {
     (k as f64 + 2.0) * f64::EPSILON
 }
 
-/// Dense Cholesky in place (lower triangle, row-major `n × n`); `false` if not positive.
+/// Dense Cholesky in place (lower triangle, row-major `n × n`), the diagonal stored as its
+/// reciprocal; `false` if not positive.
 fn chol(a: &mut [f64], n: usize) -> bool {
     for j in 0..n {
         let mut d = a[j * n + j];
@@ -74,34 +75,68 @@ fn chol(a: &mut [f64], n: usize) -> bool {
         if !(d > 0.0) {
             return false;
         }
-        let d = d.sqrt();
-        a[j * n + j] = d;
+        let inv = 1.0 / d.sqrt();
+        a[j * n + j] = inv;
         for i in j + 1..n {
             let mut s = a[i * n + j];
             for k in 0..j {
                 s -= a[i * n + k] * a[j * n + k];
             }
-            a[i * n + j] = s / d;
+            a[i * n + j] = s * inv;
         }
     }
     true
 }
 
-/// Solve `L Lᵀ x = b` in place with a factor from [`chol`].
+/// Solve `L Lᵀ x = b` in place with a factor from [`chol`] (blocks are small: the common sizes
+/// get their own unrolled copy, with the same arithmetic).
 fn chol_solve(l: &[f64], n: usize, b: &mut [f64]) {
+    match n {
+        1 => chol_solve_n::<1>(l, b),
+        2 => chol_solve_n::<2>(l, b),
+        3 => chol_solve_n::<3>(l, b),
+        4 => chol_solve_n::<4>(l, b),
+        5 => chol_solve_n::<5>(l, b),
+        6 => chol_solve_n::<6>(l, b),
+        _ => chol_solve_any(l, n, b),
+    }
+}
+
+#[inline(always)]
+fn chol_solve_n<const N: usize>(l: &[f64], b: &mut [f64]) {
+    let l = &l[..N * N];
+    let b = &mut b[..N];
+    for i in 0..N {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= l[i * N + k] * b[k];
+        }
+        b[i] = s * l[i * N + i];
+    }
+    for i in (0..N).rev() {
+        let mut s = b[i];
+        for k in i + 1..N {
+            s -= l[k * N + i] * b[k];
+        }
+        b[i] = s * l[i * N + i];
+    }
+}
+
+fn chol_solve_any(l: &[f64], n: usize, b: &mut [f64]) {
+    let (l, b) = (&l[..n * n], &mut b[..n]);
     for i in 0..n {
         let mut s = b[i];
         for k in 0..i {
             s -= l[i * n + k] * b[k];
         }
-        b[i] = s / l[i * n + i];
+        b[i] = s * l[i * n + i];
     }
     for i in (0..n).rev() {
         let mut s = b[i];
         for k in i + 1..n {
             s -= l[k * n + i] * b[k];
         }
-        b[i] = s / l[i * n + i];
+        b[i] = s * l[i * n + i];
     }
 }
 
@@ -117,7 +152,8 @@ impl Band {
         let (r, c) = if r >= c { (r, c) } else { (c, r) };
         &mut self.a[r * (self.w + 1) + (r - c)]
     }
-    /// Cholesky in place; `false` if not positive definite.
+    /// Cholesky in place, the diagonal stored as its reciprocal; `false` if not positive
+    /// definite.
     fn factor(&mut self) -> bool {
         let w = self.w;
         let s = w + 1;
@@ -131,34 +167,35 @@ impl Band {
             if !(d > 0.0) {
                 return false;
             }
-            let d = d.sqrt();
-            self.a[j * s] = d;
+            let inv = 1.0 / d.sqrt();
+            self.a[j * s] = inv;
             for i in j + 1..(j + w + 1).min(self.n) {
                 let mut v = self.a[i * s + (i - j)];
                 let k0 = i.saturating_sub(w);
                 for k in k0..j {
                     v -= self.a[i * s + (i - k)] * self.a[j * s + (j - k)];
                 }
-                self.a[i * s + (i - j)] = v / d;
+                self.a[i * s + (i - j)] = v * inv;
             }
         }
         true
     }
     fn solve(&self, b: &mut [f64]) {
         let (w, s) = (self.w, self.w + 1);
+        let b = &mut b[..self.n];
         for i in 0..self.n {
             let mut v = b[i];
             for k in i.saturating_sub(w)..i {
                 v -= self.a[i * s + (i - k)] * b[k];
             }
-            b[i] = v / self.a[i * s];
+            b[i] = v * self.a[i * s];
         }
         for i in (0..self.n).rev() {
             let mut v = b[i];
             for k in i + 1..(i + w + 1).min(self.n) {
                 v -= self.a[k * s + (k - i)] * b[k];
             }
-            b[i] = v / self.a[i * s];
+            b[i] = v * self.a[i * s];
         }
     }
 }
@@ -219,7 +256,7 @@ pub(crate) struct Prepared<'a> {
     eq_items: Vec<(usize, usize)>,
     eq_ent: Csr,
     /// Per equality: its θ entries.
-    e_theta: Vec<Vec<(usize, f64)>>,
+    e_theta: Csr,
     band: usize,
 }
 
@@ -362,7 +399,7 @@ impl<'a> Prepared<'a> {
             eq_ptr,
             eq_items,
             eq_ent,
-            e_theta,
+            e_theta: Csr::from_rows(e_theta),
             band,
         })
     }
@@ -448,6 +485,15 @@ impl<'a> Prepared<'a> {
             ipm.tmu.clone_from(&st.tmu);
             // The multipliers of the zero objective, scaled to this one's magnitude.
             ipm.lam.clone_from(&st.lam);
+            // The start is (nearly) dual feasible for the zero objective: absorb this objective
+            // into the box multipliers so that it stays so (a few percent fewer iterations).
+            for (j, &qj) in q.iter().enumerate() {
+                if qj > 0.0 {
+                    ipm.zl[j] += qj;
+                } else if qj < 0.0 {
+                    ipm.zu[j] -= qj;
+                }
+            }
         }
         let (v, zt) = ipm.run_mut(&cert, offset, kappa);
         let theta: Vec<f64> = zt
@@ -579,7 +625,52 @@ struct Ipm<'p, 'a> {
     refine: usize,
     /// Stop (without certifying) once the complementarity falls below this: a warm start.
     stop_at: Option<f64>,
+    pool: Pool,
 }
+
+/// Reused work vectors: an iteration needs a few dozen vectors as long as the record, and
+/// fresh ones every time cost page faults (a quarter of the time at N = 1e5).
+#[derive(Default)]
+struct Pool(std::cell::RefCell<Vec<Vec<f64>>>);
+
+impl Pool {
+    /// A vector of `len` values from `it` (reusing a pooled allocation when one fits).
+    fn from_iter(&self, len: usize, it: impl Iterator<Item = f64>) -> Vec<f64> {
+        let mut pool = self.0.borrow_mut();
+        let pick = pool
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| v.capacity() >= len && v.capacity() <= 2 * len.max(16))
+            .min_by_key(|(_, v)| v.capacity())
+            .map(|(i, _)| i);
+        let mut v = pick.map(|i| pool.swap_remove(i)).unwrap_or_default();
+        drop(pool);
+        v.clear();
+        v.extend(it);
+        debug_assert_eq!(v.len(), len);
+        v
+    }
+    fn zeros(&self, len: usize) -> Vec<f64> {
+        self.from_iter(len, std::iter::repeat(0.0).take(len))
+    }
+    fn copy(&self, src: &[f64]) -> Vec<f64> {
+        self.from_iter(src.len(), src.iter().copied())
+    }
+    fn put(&self, v: Vec<f64>) {
+        self.0.borrow_mut().push(v);
+    }
+}
+
+/// A Newton direction: `(dz, ds, dλ, dz_l, dz_u, dμ, dμ_gain)`.
+type Dir = (
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+);
 
 /// Maximum interior-point iterations per bound.
 const MAX_ITER: usize = 80;
@@ -641,6 +732,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
             dbox: vec![0.0; n],
             refine: 0,
             stop_at: None,
+            pool: Pool::default(),
         }
     }
 
@@ -668,7 +760,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
         self.m.a.iter_mut().for_each(|v| *v = 0.0);
         self.bmat.iter_mut().for_each(|v| *v = 0.0);
         for r in 0..neq {
-            for &(j, v) in &p.e_theta[r] {
+            for &(j, v) in p.e_theta.row(r) {
                 self.bmat[r * nt + j] += v;
             }
         }
@@ -827,7 +919,9 @@ impl<'p, 'a> Ipm<'p, 'a> {
         let (mut dz, mut dmu, mut dtmu) = self.solve_once(r1, r2, r2t)?;
         for _ in 0..self.refine {
             // Residual: r1 - H dz - Aᵀ dμ, r2 - A dz.
-            let mut q1: Vec<f64> = (0..p.n).map(|j| r1[j] - self.dbox[j] * dz[j]).collect();
+            let mut q1 = self
+                .pool
+                .from_iter(p.n, (0..p.n).map(|j| r1[j] - self.dbox[j] * dz[j]));
             for (i, row) in p.g.iter().enumerate() {
                 let d = self.lam[i] / self.s[i];
                 let gdz: f64 = row.iter().map(|&(j, v)| v * dz[j]).sum();
@@ -835,7 +929,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
                     q1[j] -= d * v * gdz;
                 }
             }
-            let mut q2 = r2.to_vec();
+            let mut q2 = self.pool.copy(r2);
             for (r, row) in p.e.iter().enumerate() {
                 let mut ez = 0.0;
                 for &(j, v) in row {
@@ -857,6 +951,9 @@ impl<'p, 'a> Ipm<'p, 'a> {
             dz.iter_mut().zip(&a).for_each(|(x, y)| *x += y);
             dmu.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
             dtmu.iter_mut().zip(&c).for_each(|(x, y)| *x += y);
+            for v in [q1, q2, a, b] {
+                self.pool.put(v);
+            }
         }
         Some((dz, dmu, dtmu))
     }
@@ -873,9 +970,9 @@ impl<'p, 'a> Ipm<'p, 'a> {
         let neq = p.e.len();
         let nte = p.te.len();
         // t_b = H_b⁻¹ r1_b; ρ_θ = r1_θ - Σ Yᵀ r1_b; ρ_eq = r2 - E_y t.
-        let mut t = r1.to_vec();
+        let mut t = self.pool.copy(r1);
         let mut rho_t: Vec<f64> = r1[..nt].to_vec();
-        let mut wv: Vec<f64> = r2.to_vec();
+        let mut wv = self.pool.copy(r2);
         for (bi, &(s0, s1)) in lp.blocks.iter().enumerate() {
             let bs = s1 - s0;
             let th = &p.theta_of[bi];
@@ -919,12 +1016,14 @@ impl<'p, 'a> Ipm<'p, 'a> {
         let dth: Vec<f64> = (0..nt).map(|k| sol[k]).collect();
         let dtmu: Vec<f64> = (0..nte).map(|i| sol[nt + i]).collect();
         // dμ = Z dθ - w.
-        let dmu: Vec<f64> = (0..neq)
-            .map(|r| {
+        let dmu = self.pool.from_iter(
+            neq,
+            (0..neq).map(|r| {
                 let zr = &self.zmat[r * nt..(r + 1) * nt];
                 zr.iter().zip(&dth).map(|(a, b)| a * b).sum::<f64>() - wv[r]
-            })
-            .collect();
+            }),
+        );
+        self.pool.put(wv);
         // dy_b = t_b - Y dθ - H_b⁻¹ E_bᵀ dμ.
         let mut dz = t;
         dz[..nt].copy_from_slice(&dth);
@@ -977,10 +1076,10 @@ impl<'p, 'a> Ipm<'p, 'a> {
         let mut stale = 0;
         for _it in 0..MAX_ITER {
             // Residuals.
-            let mut rd: Vec<f64> = (0..n)
-                .map(|j| self.q[j] - self.zl[j] + self.zu[j])
-                .collect();
-            let mut rg = vec![0.0; mi];
+            let mut rd = self
+                .pool
+                .from_iter(n, (0..n).map(|j| self.q[j] - self.zl[j] + self.zu[j]));
+            let mut rg = self.pool.zeros(mi);
             for (i, row) in p.g.iter().enumerate() {
                 let mut gz = 0.0;
                 for &(j, v) in row {
@@ -989,7 +1088,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
                 }
                 rg[i] = gz + self.s[i] - p.h[i];
             }
-            let mut rp = vec![0.0; neq];
+            let mut rp = self.pool.zeros(neq);
             for (r, row) in p.e.iter().enumerate() {
                 let mut ez = 0.0;
                 for &(j, v) in row {
@@ -1044,72 +1143,75 @@ impl<'p, 'a> Ipm<'p, 'a> {
             if !self.factor() {
                 break;
             }
-            // Predictor (τ = 0), then corrector.
-            let step = |this: &Self, tau: &dyn Fn(usize) -> f64| {
-                // Pairs: ineq i -> tau(i); lower box j -> tau(mi + j); upper -> tau(mi + n + j).
-                let mut r1: Vec<f64> = rd.iter().map(|v| -v).collect();
+            // Predictor (τ = 0), then corrector. Reciprocals of the slacks, once per iteration.
+            let pool = &self.pool;
+            let inv_s = pool.from_iter(mi, self.s.iter().map(|v| 1.0 / v));
+            let inv_z = pool.from_iter(n, self.z.iter().map(|v| 1.0 / v));
+            let inv_u = pool.from_iter(n, self.z.iter().map(|v| 1.0 / (1.0 - v)));
+            let r2 = pool.from_iter(neq, rp.iter().map(|v| -v));
+            let r2t: Vec<f64> = rpt.iter().map(|v| -v).collect();
+            // The Newton direction whose complementarity products aim at `tau` (pairs: ineq i ->
+            // tau[i]; lower box j -> tau[mi + j]; upper -> tau[mi + n + j]; None: all 0).
+            let step = |this: &Self, tau: Option<&[f64]>| {
+                let ta = |k: usize| tau.map_or(0.0, |t| t[k]);
+                let mut r1 = this.pool.from_iter(n, rd.iter().map(|v| -v));
                 for (i, row) in p.g.iter().enumerate() {
-                    let rc = -this.s[i] * this.lam[i] + tau(i);
-                    let a = (rc + this.lam[i] * rg[i]) / this.s[i];
+                    let rc = -this.s[i] * this.lam[i] + ta(i);
+                    let a = (rc + this.lam[i] * rg[i]) * inv_s[i];
                     for &(j, v) in row {
                         r1[j] -= v * a;
                     }
                 }
                 for j in 0..n {
-                    let rcl = -this.z[j] * this.zl[j] + tau(mi + j);
-                    let rcu = -(1.0 - this.z[j]) * this.zu[j] + tau(mi + n + j);
-                    r1[j] += rcl / this.z[j] - rcu / (1.0 - this.z[j]);
+                    let rcl = -this.z[j] * this.zl[j] + ta(mi + j);
+                    let rcu = -(1.0 - this.z[j]) * this.zu[j] + ta(mi + n + j);
+                    r1[j] += rcl * inv_z[j] - rcu * inv_u[j];
                 }
-                let r2: Vec<f64> = rp.iter().map(|v| -v).collect();
-                let r2t: Vec<f64> = rpt.iter().map(|v| -v).collect();
                 let (dz, dmu, dtmu) = this.solve(&r1, &r2, &r2t)?;
-                let mut ds = vec![0.0; mi];
-                let mut dl = vec![0.0; mi];
+                let mut ds = r1;
+                ds.clear();
+                ds.resize(mi, 0.0);
+                let mut dl = this.pool.zeros(mi);
                 for (i, row) in p.g.iter().enumerate() {
                     let gdz: f64 = row.iter().map(|&(j, v)| v * dz[j]).sum();
                     ds[i] = -rg[i] - gdz;
-                    let rc = -this.s[i] * this.lam[i] + tau(i);
-                    dl[i] = (rc - this.lam[i] * ds[i]) / this.s[i];
+                    let rc = -this.s[i] * this.lam[i] + ta(i);
+                    dl[i] = (rc - this.lam[i] * ds[i]) * inv_s[i];
                 }
-                let mut dzl = vec![0.0; n];
-                let mut dzu = vec![0.0; n];
+                let mut dzl = this.pool.zeros(n);
+                let mut dzu = this.pool.zeros(n);
                 for j in 0..n {
-                    let rcl = -this.z[j] * this.zl[j] + tau(mi + j);
-                    let rcu = -(1.0 - this.z[j]) * this.zu[j] + tau(mi + n + j);
-                    dzl[j] = (rcl - this.zl[j] * dz[j]) / this.z[j];
-                    dzu[j] = (rcu + this.zu[j] * dz[j]) / (1.0 - this.z[j]);
+                    let rcl = -this.z[j] * this.zl[j] + ta(mi + j);
+                    let rcu = -(1.0 - this.z[j]) * this.zu[j] + ta(mi + n + j);
+                    dzl[j] = (rcl - this.zl[j] * dz[j]) * inv_z[j];
+                    dzu[j] = (rcu + this.zu[j] * dz[j]) * inv_u[j];
                 }
                 Some((dz, ds, dl, dzl, dzu, dmu, dtmu))
             };
+            // Largest step in [0, 1] keeping x + α dx >= 0.
             let ratio = |x: &[f64], dx: &[f64]| -> f64 {
-                x.iter()
-                    .zip(dx)
-                    .filter(|(_, d)| **d < 0.0)
-                    .map(|(x, d)| -x / d)
-                    .fold(1.0f64, f64::min)
+                let mut a = 1.0f64;
+                for (x, d) in x.iter().zip(dx) {
+                    if *d < 0.0 {
+                        a = a.min(-x / d);
+                    }
+                }
+                a
             };
-            let alphas = |this: &Self,
-                          st: &(
-                Vec<f64>,
-                Vec<f64>,
-                Vec<f64>,
-                Vec<f64>,
-                Vec<f64>,
-                Vec<f64>,
-                Vec<f64>,
-            )| {
+            let alphas = |this: &Self, st: &Dir| {
                 let (dz, ds, dl, dzl, dzu, _, _) = st;
-                let up: Vec<f64> = this.z.iter().map(|v| 1.0 - v).collect();
-                let dup: Vec<f64> = dz.iter().map(|v| -v).collect();
-                let ap = ratio(&this.z, dz)
-                    .min(ratio(&up, &dup))
-                    .min(ratio(&this.s, ds));
+                let mut ap = ratio(&this.z, dz).min(ratio(&this.s, ds));
+                for (z, d) in this.z.iter().zip(dz) {
+                    if *d > 0.0 {
+                        ap = ap.min((1.0 - z) / d);
+                    }
+                }
                 let ad = ratio(&this.lam, dl)
                     .min(ratio(&this.zl, dzl))
                     .min(ratio(&this.zu, dzu));
                 (ap, ad)
             };
-            let Some(aff) = step(&self, &|_| 0.0) else {
+            let Some(aff) = step(&self, None) else {
                 break;
             };
             let (ap, ad) = alphas(&self, &aff);
@@ -1123,19 +1225,20 @@ impl<'p, 'a> Ipm<'p, 'a> {
             }
             let sigma = ((comp_aff / npairs) / mu_c).clamp(0.0, 1.0).powi(3);
             let target = sigma * mu_c;
-            let corr = |k: usize| -> f64 {
-                let c = if k < mi {
-                    aff.1[k] * aff.2[k]
-                } else if k < mi + n {
-                    let j = k - mi;
-                    aff.0[j] * aff.3[j]
-                } else {
-                    let j = k - mi - n;
-                    -aff.0[j] * aff.4[j]
-                };
-                target - c
+            // Mehrotra's corrector targets: σμ minus the predictor's second-order term.
+            let tau = self.pool.from_iter(
+                mi + 2 * n,
+                (0..mi)
+                    .map(|i| target - aff.1[i] * aff.2[i])
+                    .chain((0..n).map(|j| target - aff.0[j] * aff.3[j]))
+                    .chain((0..n).map(|j| target + aff.0[j] * aff.4[j])),
+            );
+            for v in [aff.0, aff.1, aff.2, aff.3, aff.4, aff.5] {
+                self.pool.put(v);
+            }
+            let Some(st) = step(&self, Some(&tau)) else {
+                break;
             };
-            let Some(st) = step(&self, &corr) else { break };
             let (ap, ad) = alphas(&self, &st);
             let (ap, ad) = ((0.995 * ap).min(1.0), (0.995 * ad).min(1.0));
             let (dz, ds, dl, dzl, dzu, dmu, dtmu) = st;
@@ -1153,6 +1256,11 @@ impl<'p, 'a> Ipm<'p, 'a> {
             }
             for r in 0..nte {
                 self.tmu[r] += ad * dtmu[r];
+            }
+            for v in [
+                dz, ds, dl, dzl, dzu, dmu, tau, rd, rg, rp, inv_s, inv_z, inv_u, r2,
+            ] {
+                self.pool.put(v);
             }
         }
         let last = cert(&self.lam, &self.mu, &self.tmu);
