@@ -669,6 +669,8 @@ impl Pool {
     fn copy(&self, src: &[f64]) -> Vec<f64> {
         self.from_iter(src.len(), src.iter().copied())
     }
+    /// Give `v` back (every vector given back is one taken, so the pool holds at most the
+    /// vectors one iteration has alive at once).
     fn put(&self, v: Vec<f64>) {
         self.0.borrow_mut().push(v);
     }
@@ -1182,9 +1184,8 @@ impl<'p, 'a> Ipm<'p, 'a> {
                     r1[j] += rcl * inv_z[j] - rcu * inv_u[j];
                 }
                 let (dz, dmu, dtmu) = this.solve(&r1, &r2, &r2t)?;
-                let mut ds = r1;
-                ds.clear();
-                ds.resize(mi, 0.0);
+                this.pool.put(r1);
+                let mut ds = this.pool.zeros(mi);
                 let mut dl = this.pool.zeros(mi);
                 for (i, row) in p.g.iter().enumerate() {
                     let gdz: f64 = row.iter().map(|&(j, v)| v * dz[j]).sum();
