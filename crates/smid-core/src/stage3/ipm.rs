@@ -89,40 +89,21 @@ fn chol(a: &mut [f64], n: usize) -> bool {
 }
 
 /// Solve `L Lᵀ x = b` in place with a factor from [`chol`] (blocks are small: the common sizes
-/// get their own unrolled copy, with the same arithmetic).
+/// get their own copy with the size a constant, so the loops unroll; same arithmetic).
 fn chol_solve(l: &[f64], n: usize, b: &mut [f64]) {
     match n {
-        1 => chol_solve_n::<1>(l, b),
-        2 => chol_solve_n::<2>(l, b),
-        3 => chol_solve_n::<3>(l, b),
-        4 => chol_solve_n::<4>(l, b),
-        5 => chol_solve_n::<5>(l, b),
-        6 => chol_solve_n::<6>(l, b),
-        _ => chol_solve_any(l, n, b),
+        1 => chol_solve_inline(l, 1, b),
+        2 => chol_solve_inline(l, 2, b),
+        3 => chol_solve_inline(l, 3, b),
+        4 => chol_solve_inline(l, 4, b),
+        5 => chol_solve_inline(l, 5, b),
+        6 => chol_solve_inline(l, 6, b),
+        _ => chol_solve_inline(l, n, b),
     }
 }
 
 #[inline(always)]
-fn chol_solve_n<const N: usize>(l: &[f64], b: &mut [f64]) {
-    let l = &l[..N * N];
-    let b = &mut b[..N];
-    for i in 0..N {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= l[i * N + k] * b[k];
-        }
-        b[i] = s * l[i * N + i];
-    }
-    for i in (0..N).rev() {
-        let mut s = b[i];
-        for k in i + 1..N {
-            s -= l[k * N + i] * b[k];
-        }
-        b[i] = s * l[i * N + i];
-    }
-}
-
-fn chol_solve_any(l: &[f64], n: usize, b: &mut [f64]) {
+fn chol_solve_inline(l: &[f64], n: usize, b: &mut [f64]) {
     let (l, b) = (&l[..n * n], &mut b[..n]);
     for i in 0..n {
         let mut s = b[i];
