@@ -630,7 +630,7 @@ struct Ipm<'p, 'a> {
 }
 
 /// Reused work vectors: an iteration needs a few dozen vectors as long as the record, and
-/// fresh ones every time cost page faults (a quarter of the time at N = 1e5).
+/// fresh ones every time cost page faults (14 % of the time at N = 1e5).
 #[derive(Default)]
 struct Pool(std::cell::RefCell<Vec<Vec<f64>>>);
 
