@@ -664,16 +664,26 @@ impl Pool {
     }
 }
 
-/// A Newton direction: `(dz, ds, dλ, dz_l, dz_u, dμ, dμ_gain)`.
-type Dir = (
-    Vec<f64>,
-    Vec<f64>,
-    Vec<f64>,
-    Vec<f64>,
-    Vec<f64>,
-    Vec<f64>,
-    Vec<f64>,
-);
+/// A Newton direction: the scaled variables, the inequality slacks and multipliers, the box
+/// multipliers, the equality and gain multipliers.
+struct Dir {
+    dz: Vec<f64>,
+    ds: Vec<f64>,
+    dl: Vec<f64>,
+    dzl: Vec<f64>,
+    dzu: Vec<f64>,
+    dmu: Vec<f64>,
+    dtmu: Vec<f64>,
+}
+
+impl Dir {
+    /// Give the record-long vectors back to `pool`.
+    fn recycle(self, pool: &Pool) {
+        for v in [self.dz, self.ds, self.dl, self.dzl, self.dzu, self.dmu] {
+            pool.put(v);
+        }
+    }
+}
 
 /// Maximum interior-point iterations per bound.
 const MAX_ITER: usize = 80;
@@ -1060,7 +1070,6 @@ impl<'p, 'a> Ipm<'p, 'a> {
         Some((dz, dmu, dtmu))
     }
 
-    /// Run to convergence (or the cap): the scaled dual point `(λ, μ, μ_gain)`.
     /// Run to convergence (or the cap), certifying the dual points near the end: the best
     /// certified bound (`cert` maps a scaled dual point to its bound).
     fn run_mut(
@@ -1077,6 +1086,8 @@ impl<'p, 'a> Ipm<'p, 'a> {
         let npairs = (mi + 2 * n) as f64;
         let mut best: Option<f64> = None;
         let mut stale = 0;
+        // `IPM_TRACE=1`: one line per iteration on stderr (read once, not per iteration).
+        let trace = std::env::var_os("IPM_TRACE").is_some();
         for _it in 0..MAX_ITER {
             // Residuals.
             let mut rd = self
@@ -1135,7 +1146,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
                     break;
                 }
             }
-            if std::env::var("IPM_TRACE").is_ok() {
+            if trace {
                 let obj: f64 = (0..n).map(|j| self.q[j] * self.z[j]).sum();
                 eprintln!("it {_it} ep {ep:.2e} ed {ed:.2e} mu {mu_c:.2e} obj {obj:.12e}");
             }
@@ -1189,7 +1200,15 @@ impl<'p, 'a> Ipm<'p, 'a> {
                     dzl[j] = (rcl - this.zl[j] * dz[j]) * inv_z[j];
                     dzu[j] = (rcu + this.zu[j] * dz[j]) * inv_u[j];
                 }
-                Some((dz, ds, dl, dzl, dzu, dmu, dtmu))
+                Some(Dir {
+                    dz,
+                    ds,
+                    dl,
+                    dzl,
+                    dzu,
+                    dmu,
+                    dtmu,
+                })
             };
             // Largest step in [0, 1] keeping x + α dx >= 0.
             let ratio = |x: &[f64], dx: &[f64]| -> f64 {
@@ -1202,7 +1221,14 @@ impl<'p, 'a> Ipm<'p, 'a> {
                 a
             };
             let alphas = |this: &Self, st: &Dir| {
-                let (dz, ds, dl, dzl, dzu, _, _) = st;
+                let Dir {
+                    dz,
+                    ds,
+                    dl,
+                    dzl,
+                    dzu,
+                    ..
+                } = st;
                 let mut ap = ratio(&this.z, dz).min(ratio(&this.s, ds));
                 for (z, d) in this.z.iter().zip(dz) {
                     if *d > 0.0 {
@@ -1220,11 +1246,11 @@ impl<'p, 'a> Ipm<'p, 'a> {
             let (ap, ad) = alphas(&self, &aff);
             let mut comp_aff = 0.0;
             for i in 0..mi {
-                comp_aff += (self.s[i] + ap * aff.1[i]) * (self.lam[i] + ad * aff.2[i]);
+                comp_aff += (self.s[i] + ap * aff.ds[i]) * (self.lam[i] + ad * aff.dl[i]);
             }
             for j in 0..n {
-                comp_aff += (self.z[j] + ap * aff.0[j]) * (self.zl[j] + ad * aff.3[j]);
-                comp_aff += (1.0 - self.z[j] - ap * aff.0[j]) * (self.zu[j] + ad * aff.4[j]);
+                comp_aff += (self.z[j] + ap * aff.dz[j]) * (self.zl[j] + ad * aff.dzl[j]);
+                comp_aff += (1.0 - self.z[j] - ap * aff.dz[j]) * (self.zu[j] + ad * aff.dzu[j]);
             }
             let sigma = ((comp_aff / npairs) / mu_c).clamp(0.0, 1.0).powi(3);
             let target = sigma * mu_c;
@@ -1232,37 +1258,33 @@ impl<'p, 'a> Ipm<'p, 'a> {
             let tau = self.pool.from_iter(
                 mi + 2 * n,
                 (0..mi)
-                    .map(|i| target - aff.1[i] * aff.2[i])
-                    .chain((0..n).map(|j| target - aff.0[j] * aff.3[j]))
-                    .chain((0..n).map(|j| target + aff.0[j] * aff.4[j])),
+                    .map(|i| target - aff.ds[i] * aff.dl[i])
+                    .chain((0..n).map(|j| target - aff.dz[j] * aff.dzl[j]))
+                    .chain((0..n).map(|j| target + aff.dz[j] * aff.dzu[j])),
             );
-            for v in [aff.0, aff.1, aff.2, aff.3, aff.4, aff.5] {
-                self.pool.put(v);
-            }
+            aff.recycle(&self.pool);
             let Some(st) = step(&self, Some(&tau)) else {
                 break;
             };
             let (ap, ad) = alphas(&self, &st);
             let (ap, ad) = ((0.995 * ap).min(1.0), (0.995 * ad).min(1.0));
-            let (dz, ds, dl, dzl, dzu, dmu, dtmu) = st;
             for j in 0..n {
-                self.z[j] += ap * dz[j];
-                self.zl[j] += ad * dzl[j];
-                self.zu[j] += ad * dzu[j];
+                self.z[j] += ap * st.dz[j];
+                self.zl[j] += ad * st.dzl[j];
+                self.zu[j] += ad * st.dzu[j];
             }
             for i in 0..mi {
-                self.s[i] += ap * ds[i];
-                self.lam[i] += ad * dl[i];
+                self.s[i] += ap * st.ds[i];
+                self.lam[i] += ad * st.dl[i];
             }
             for r in 0..neq {
-                self.mu[r] += ad * dmu[r];
+                self.mu[r] += ad * st.dmu[r];
             }
             for r in 0..nte {
-                self.tmu[r] += ad * dtmu[r];
+                self.tmu[r] += ad * st.dtmu[r];
             }
-            for v in [
-                dz, ds, dl, dzl, dzu, dmu, tau, rd, rg, rp, inv_s, inv_z, inv_u, r2,
-            ] {
+            st.recycle(&self.pool);
+            for v in [tau, rd, rg, rp, inv_s, inv_z, inv_u, r2] {
                 self.pool.put(v);
             }
         }
@@ -1310,12 +1332,24 @@ mod tests {
         }
     }
 
+    /// The additions the deepest term of [`pairwise`] goes through, by the same splitting.
+    fn additions(len: usize) -> usize {
+        if len <= PAIRWISE_BASE {
+            len.saturating_sub(1)
+        } else {
+            1 + additions(len / 2).max(additions(len - len / 2))
+        }
+    }
+
     #[test]
-    fn pairwise_depth_counts_the_levels() {
-        assert_eq!(pairwise_depth(1), PAIRWISE_BASE);
-        // 17..=32 terms: one halving above runs of at most 16.
-        assert!(pairwise_depth(32) >= PAIRWISE_BASE - 1 + 1);
-        // 1e6 terms: 16-term runs need 17 halvings.
-        assert!(pairwise_depth(1_000_000) >= PAIRWISE_BASE - 1 + 17);
+    fn pairwise_depth_covers_the_deepest_term() {
+        for len in (0..5000).chain([65_535, 65_536, 65_537, 1_000_000, 3_333_333]) {
+            assert!(
+                pairwise_depth(len) >= additions(len),
+                "{len} terms: depth {} < {} additions",
+                pairwise_depth(len),
+                additions(len)
+            );
+        }
     }
 }
