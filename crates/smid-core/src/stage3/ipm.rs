@@ -427,8 +427,8 @@ impl<'a> Prepared<'a> {
         })
     }
 
-    /// [`Self::minimise`], and the θ values (original units, inside their boxes) of the last
-    /// primal iterate: an approximate optimiser, for searches that need one.
+    /// [`Self::minimise`], and the last primal iterate (original units, inside the boxes; θ
+    /// first): an approximate optimiser, for searches that need one.
     pub(crate) fn minimise_at(
         &self,
         c: &[(usize, f64)],
@@ -468,7 +468,7 @@ impl<'a> Prepared<'a> {
             ipm.lam.clone_from(&st.lam);
         }
         let (v, zt) = ipm.run_mut(&cert, offset, kappa);
-        let theta: Vec<f64> = zt
+        let point: Vec<f64> = zt
             .iter()
             .enumerate()
             .map(|(j, &x)| {
@@ -488,7 +488,7 @@ impl<'a> Prepared<'a> {
             Some(v) if v > top + 1e-12 * (1.0 + top.abs()) => Bound::Infeasible,
             v => Bound::Value(v),
         };
-        (bound, theta)
+        (bound, point)
     }
 }
 
@@ -1071,7 +1071,8 @@ impl<'p, 'a> Ipm<'p, 'a> {
     }
 
     /// Run to convergence (or the cap), certifying the dual points near the end: the best
-    /// certified bound (`cert` maps a scaled dual point to its bound).
+    /// certified bound (`cert` maps a scaled dual point to its bound), and the last primal
+    /// iterate (scaled).
     fn run_mut(
         &mut self,
         cert: &dyn Fn(&[f64], &[f64], &[f64]) -> Option<f64>,
@@ -1293,7 +1294,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
             (Some(b), Some(l)) => Some(b.max(l)),
             (b, l) => b.or(l),
         };
-        (v, self.z[..p.lp.nt].to_vec())
+        (v, self.z.clone())
     }
 }
 

@@ -35,6 +35,7 @@ pub mod sdp;
 pub mod shared;
 #[cfg(test)]
 pub(crate) mod testutil;
+pub(crate) mod working_set;
 
 /// The EIV problem of stage 3.
 #[derive(Debug, Clone)]

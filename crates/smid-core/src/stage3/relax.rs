@@ -35,6 +35,8 @@ pub(crate) enum Side {
 pub(crate) struct Sig {
     pub center: f64,
     pub radius: f64,
+    /// Which sample it is.
+    pub key: (Side, usize),
 }
 
 /// The shared-error LP model of an [`EivProblem`]: variable layout and row builder.
@@ -56,7 +58,7 @@ pub(crate) struct SharedModel<'p, 'a> {
 pub(crate) type Term = (Option<usize>, f64, Side, usize);
 
 impl<'p, 'a> SharedModel<'p, 'a> {
-    fn signal(&self, side: Side, s: usize) -> Interval {
+    pub(crate) fn signal(&self, side: Side, s: usize) -> Interval {
         match side {
             Side::Out => self.prob.output[s].interval,
             Side::In => self.prob.input[s],
@@ -109,6 +111,7 @@ impl<'p, 'a> SharedModel<'p, 'a> {
                         m.deltas.push(Sig {
                             center: iv.center(),
                             radius: iv.radius(),
+                            key: (side, s),
                         });
                         m.delta_of.insert((side, s), m.deltas.len() - 1);
                         m.deltas.len() - 1
@@ -383,6 +386,9 @@ impl SharedModel<'_, '_> {
     }
 }
 
+/// Per free θ: its guaranteed lower and upper bound (`None` where no finite bound came out).
+pub(crate) type FreeBounds = Vec<(Option<f64>, Option<f64>)>;
+
 /// Bound every free θ of the LP over boxes `tb`, `db` and the equations `times`, by the
 /// structured interior-point method ([`super::ipm`]), the objectives in parallel. `None`
 /// when a bound proves the LP empty; `(None, _)` entries where no finite bound came out. When
@@ -393,21 +399,48 @@ pub(crate) fn bound_free(
     tb: &[Interval],
     db: &[Interval],
     times: &[usize],
-) -> Result<Option<Vec<(Option<f64>, Option<f64>)>>> {
+) -> Result<Option<FreeBounds>> {
+    match bound_free_points(model, tb, db, times)? {
+        Points::Found(b, _) => Ok(Some(b)),
+        Points::Empty => Ok(None),
+        Points::Sparse => {
+            let lp = model.build(tb, db, times)?;
+            bound_all(model, &mut lp.solver()?)
+        }
+    }
+}
+
+/// What [`bound_free_points`] found.
+pub(crate) enum Points {
+    /// The bounds, and per objective (`2c`: minimise free θ `c`, `2c + 1`: maximise) the last
+    /// primal iterate over the model's columns (original units): an approximate optimiser.
+    Found(FreeBounds, Vec<Vec<f64>>),
+    /// A bound proved the LP empty.
+    Empty,
+    /// The block form does not apply (see [`bound_free`]); nothing was solved.
+    Sparse,
+}
+
+/// [`bound_free`] by the interior-point method only, with each objective's primal point.
+pub(crate) fn bound_free_points(
+    model: &SharedModel,
+    tb: &[Interval],
+    db: &[Interval],
+    times: &[usize],
+) -> Result<Points> {
     use rayon::prelude::*;
-    let (blp, _) = model.block_lp(tb, db, times)?;
+    let (blp, glob) = model.block_lp(tb, db, times)?;
     let Some(prep) = Prepared::new(&blp) else {
-        let lp = model.build(tb, db, times)?;
-        return bound_all(model, &mut lp.solver()?);
+        return Ok(Points::Sparse);
     };
     let nt = model.free.len();
     let start = prep.warm_start();
-    let found: Vec<Bound> = (0..2 * nt)
+    let found: Vec<(Bound, Vec<f64>)> = (0..2 * nt)
         .into_par_iter()
         .map(|i| {
             let (c, max) = (i / 2, i % 2 == 1);
-            prep.minimise_at(&[(c, if max { -1.0 } else { 1.0 })], start.as_ref())
-                .0
+            let (b, z) = prep.minimise_at(&[(c, if max { -1.0 } else { 1.0 })], start.as_ref());
+            (b, glob.iter().map(|&g| z[g]).collect())
         })
         .collect();
     let mut out = Vec::with_capacity(nt);
@@ -423,12 +456,15 @@ pub(crate) fn bound_free(
                 }
             })),
         };
-        match (side(found[2 * c], false), side(found[2 * c + 1], true)) {
+        match (side(found[2 * c].0, false), side(found[2 * c + 1].0, true)) {
             (Ok(lo), Ok(hi)) => out.push((lo, hi)),
-            _ => return Ok(None),
+            _ => return Ok(Points::Empty),
         }
     }
-    Ok(Some(out))
+    Ok(Points::Found(
+        out,
+        found.into_iter().map(|(_, z)| z).collect(),
+    ))
 }
 
 /// Whether the LP over `times` is non-empty: `false` is proven; `true` when not proven empty.
@@ -450,10 +486,7 @@ pub(crate) fn feasible_free(
 }
 
 /// Bound every free θ over one LP; `None` entries where the solver gave no conclusion.
-pub(crate) fn bound_all(
-    model: &SharedModel,
-    solver: &mut LpSolver,
-) -> Result<Option<Vec<(Option<f64>, Option<f64>)>>> {
+pub(crate) fn bound_all(model: &SharedModel, solver: &mut LpSolver) -> Result<Option<FreeBounds>> {
     let mut out = Vec::with_capacity(model.free.len());
     for c in 0..model.free.len() {
         let lo = match solver.minimise(c)? {

@@ -14,6 +14,7 @@
 //! repeats until the radii stop improving. As the θ box shrinks the envelopes become exact, so
 //! the result approaches the exact feasible set (see [`super::exact_grid`]).
 use super::relax::{bound_free, feasible_free, tighten, SharedModel};
+use super::working_set::{bound_free_ws, WorkingSet};
 use super::{EivMethod, EivProblem, EivResult, Stage3Method};
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
@@ -25,13 +26,18 @@ pub struct SharedOptions {
     pub max_rounds: usize,
     /// Stop when no radius shrinks by more than this fraction in a round.
     pub min_improvement: f64,
+    /// Records with at least this many equations are bounded from a working set of equations
+    /// ([`super::working_set`]: the same bounds, up to the solver's gap, at a fraction of the
+    /// cost); shorter ones solve the whole LP each time.
+    pub working_set_from: usize,
 }
 
 impl SharedOptions {
-    /// The defaults: 12 rounds, stop below 3% improvement.
+    /// The defaults: 12 rounds, stop below 3% improvement, a working set from 5000 equations.
     pub const DEFAULT: SharedOptions = SharedOptions {
         max_rounds: 12,
         min_improvement: 0.03,
+        working_set_from: 5000,
     };
 }
 
@@ -65,13 +71,25 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
     let model = SharedModel::new(prob, start.equations.clone());
     let mut tb = start.bounds.clone();
     let mut db = model.initial_deltas();
+    let mut ws = (model.times.len() >= opts.working_set_from)
+        .then(|| WorkingSet::new(&model.times, settling(prob, &start.bounds)));
     for _round in 0..opts.max_rounds.max(1) {
         for _ in 0..2 {
             if let Some(t) = model.propagate(&tb, &mut db) {
                 return Err(inconsistent(t));
             }
         }
-        let Some(found) = bound_free(&model, &tb, &db, &model.times)? else {
+        let found = match ws.as_mut() {
+            Some(w) => {
+                let found = bound_free_ws(&model, &tb, &db, w)?;
+                if w.gave_up {
+                    ws = None;
+                }
+                found
+            }
+            None => bound_free(&model, &tb, &db, &model.times)?,
+        };
+        let Some(found) = found else {
             return Err(inconsistent(locate(&model, &tb, &db)?));
         };
         let mut gain: f64 = 0.0;
@@ -99,6 +117,41 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
 /// The shared-error relaxation of `prob` (classical start through the registry, then LP rounds).
 pub fn solve(prob: &EivProblem, opts: &SharedOptions) -> Result<EivResult> {
     Shared { opts: *opts }.solve(prob)
+}
+
+/// Equations per working-set window: the samples the model's free response needs to fall to
+/// `1e-6` of its start (spectral radius of `A` at the centre of the box `tb`), within
+/// `[4 na, 400]`; 50 when `A` is not stable there.
+pub(crate) fn settling(prob: &EivProblem, tb: &[Interval]) -> usize {
+    let na = prob.na;
+    let lo = (4 * na).max(4);
+    if na == 0 {
+        return lo;
+    }
+    let a: Vec<f64> = (0..na)
+        .map(|k| prob.fixed[k].unwrap_or_else(|| tb[k].center()))
+        .collect();
+    let comp = nalgebra::DMatrix::from_fn(na, na, |r, c| {
+        if r == 0 {
+            -a[c]
+        } else if r == c + 1 {
+            1.0
+        } else {
+            0.0
+        }
+    });
+    let rho = comp
+        .complex_eigenvalues()
+        .iter()
+        .fold(0.0f64, |m, z| m.max(z.norm()));
+    if !(rho.is_finite() && rho < 1.0) {
+        return 50.max(lo);
+    }
+    if rho < 1e-3 {
+        return lo;
+    }
+    let n = ((1e-6f64).ln() / rho.ln()).ceil();
+    (n as usize).clamp(lo, 400)
 }
 
 fn inconsistent(t: usize) -> SmidError {

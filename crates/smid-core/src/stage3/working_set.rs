@@ -1,0 +1,390 @@
+//! The shared-error bounds of stage 3 (`relax.rs`, paper eqs 1, 28-30) for long records, from
+//! a **working set** of equations (constraint generation): the LP is solved over a few
+//! thousand equations instead of all `N`, and grows only where the rest of the record asks.
+//!
+//! **Guarantee.** Dropping equations (and the `δ`, `w` only they touch) from the shared-error LP
+//! leaves a relaxation: the true `(θ, δ, θδ)` satisfies every kept row and box, so the
+//! certified bounds of the smaller LP (weak duality, [`super::ipm`]) hold for the whole record.
+//! Whatever the working set, no bound can miss the truth; the set only decides how tight.
+//!
+//! **Tightness.** The set is made of windows of consecutive equations, each about as long as
+//! the model's free response takes to die out (`len`, from the poles at the box centre): inside
+//! a window the inner signal follows the dynamics as in the whole record, between windows it may
+//! jump. After the LP over `W` is solved for every objective, a forward pass tries to complete
+//! each objective's primal point `(θ*, δ*)` to a point of the whole LP. With `θ = θ*` fixed,
+//! every product `w = θ_k δ_s` enters exactly one equation and its McCormick envelope is an
+//! interval in `δ_s`; so, in time order, each equation allows an interval for its newest `δ_t`
+//! (eq 1 solved for `x_t`, inside the propagated box). The first window keeps the LP's values
+//! (the record's initial condition); later `δ_t` take the LP's value where it has one and the
+//! equation allows it (clamped otherwise), else the middle of what is allowed. An equation whose
+//! `δ_t` is already fixed is checked. If every objective's point completes (to `1e-9` relative
+//! beyond the equations' own pad), each point is feasible for the whole LP, so each bound is the
+//! whole LP's value up to the solver's gap. Otherwise each objective adds windows ending at its
+//! [`WINDOWS_PER_OBJECTIVE`] most violated equations; a miss inside `W` comes from upstream (the
+//! pass could not follow the LP across a gap), so its window closes the nearest gap before it.
+//! The growth also ends when no miss has a gap before it (the solver's accuracy), or when a
+//! generation moves no bound by more than [`SETTLED`] of its width. `W` is kept from one round
+//! of the box iteration to the next.
+//!
+//! **Cost guard.** When a round's working-set LPs would together hold more equations than the
+//! record, when `W` would hold more than a third of them, or after [`MAX_GENERATIONS`], the
+//! whole LP is solved instead, in that round and the later ones: a record whose bounds need
+//! most of its equations pays for one round's attempt at most.
+//!
+//! `WS_TRACE=1` prints one line per generation on stderr (size of `W`, misses per objective).
+use super::relax::{bound_free, bound_free_points, FreeBounds, Points, SharedModel};
+use crate::error::Result;
+use crate::interval::Interval;
+use crate::lp::ROW_PAD;
+use rayon::prelude::*;
+
+/// At most this many working-set LPs per round before the whole LP is solved.
+pub(crate) const MAX_GENERATIONS: usize = 12;
+
+/// A generation that moves no bound by more than this fraction of its width ends the growth.
+const SETTLED: f64 = 1e-6;
+
+/// Windows each objective adds to the working set per generation.
+const WINDOWS_PER_OBJECTIVE: usize = 4;
+
+/// The equations of the working set (a sorted subset of the model's equation times).
+#[derive(Debug, Clone)]
+pub(crate) struct WorkingSet {
+    pub times: Vec<usize>,
+    /// Equations per window: about the settling time of the model's dynamics.
+    pub len: usize,
+    /// A round ended with the whole LP: the record needs most of its equations.
+    pub gave_up: bool,
+}
+
+impl WorkingSet {
+    /// The first window of the record and evenly spaced windows of `len` equations, together
+    /// about a fiftieth of the record.
+    pub fn new(all: &[usize], len: usize) -> Self {
+        let len = len.max(1);
+        let count = (all.len() / 50 / len).max(1);
+        let mut times: Vec<usize> = all.iter().copied().take(len).collect();
+        for i in 1..count {
+            let at = i * all.len() / count;
+            times.extend(all.iter().copied().skip(at).take(len));
+        }
+        times.sort_unstable();
+        times.dedup();
+        WorkingSet {
+            times,
+            len,
+            gave_up: false,
+        }
+    }
+
+    fn add(&mut self, more: impl IntoIterator<Item = usize>) {
+        self.times.extend(more);
+        self.times.sort_unstable();
+        self.times.dedup();
+    }
+}
+
+/// Bound every free θ of the shared LP over the whole record (`model.times`), by LPs over the
+/// working set `ws` (grown as needed). As [`bound_free`]: `None` when the LP is proven empty.
+pub(crate) fn bound_free_ws(
+    model: &SharedModel,
+    tb: &[Interval],
+    db: &[Interval],
+    ws: &mut WorkingSet,
+) -> Result<Option<FreeBounds>> {
+    let all = &model.times;
+    let mut previous: Option<FreeBounds> = None;
+    // Equations solved by this round's generations: past the record's, or with W past a
+    // third of it, the whole LP is the cheaper way to finish (this round and the next).
+    let mut spent = 0;
+    let trace = std::env::var_os("WS_TRACE").is_some();
+    for _ in 0..MAX_GENERATIONS {
+        spent += ws.times.len();
+        if ws.times.is_empty() || spent > all.len() || 3 * ws.times.len() > all.len() {
+            break;
+        }
+        let sub = SharedModel::new(model.prob, ws.times.clone());
+        let sub_db: Vec<Interval> = sub
+            .deltas
+            .iter()
+            .map(|d| db[model.delta_of[&d.key]])
+            .collect();
+        let (bounds, points) = match bound_free_points(&sub, tb, &sub_db, &sub.times)? {
+            Points::Found(b, p) => (b, p),
+            // A relaxation of the whole LP is empty: so is the whole LP.
+            Points::Empty => return Ok(None),
+            Points::Sparse => break,
+        };
+        let misses: Vec<Vec<(f64, usize)>> = points
+            .par_iter()
+            .map(|pt| complete(model, &sub, tb, db, pt, ws.len))
+            .collect();
+        if trace {
+            let n: Vec<usize> = misses.iter().map(Vec::len).collect();
+            eprintln!("working set: {} equations, misses {n:?}", ws.times.len());
+        }
+        if misses.iter().all(Vec::is_empty) || settled(previous.as_ref(), &bounds) {
+            return Ok(Some(bounds));
+        }
+        // Each objective adds windows ending at its most violated equations (one per stretch
+        // of `len`). A miss inside W comes from upstream (the pass could not follow the LP
+        // across a gap): its window closes the nearest gap before it. A miss with all of the
+        // record before it in W is the solver's accuracy: nothing to add.
+        let in_ws = |i: usize| ws.times.binary_search(&all[i]).is_ok();
+        let mut add = Vec::new();
+        for mut m in misses {
+            m.sort_by(|a, b| b.0.total_cmp(&a.0));
+            let mut chosen: Vec<usize> = Vec::new();
+            for &(_, i) in &m {
+                if chosen.len() >= WINDOWS_PER_OBJECTIVE {
+                    break;
+                }
+                let Some(end) = (0..=i).rev().find(|&j| !in_ws(j)) else {
+                    continue;
+                };
+                if chosen.iter().any(|&c| c.abs_diff(end) < ws.len) {
+                    continue;
+                }
+                chosen.push(end);
+                add.extend(all[(end + 1).saturating_sub(ws.len)..=end].iter().copied());
+            }
+        }
+        if add.is_empty() {
+            return Ok(Some(bounds));
+        }
+        ws.add(add);
+        previous = Some(bounds);
+    }
+    ws.gave_up = true;
+    bound_free(model, tb, db, all)
+}
+
+/// Whether no bound moved by more than [`SETTLED`] of its width since the previous
+/// generation (an end without a finite bound counts as moved).
+fn settled(previous: Option<&FreeBounds>, now: &FreeBounds) -> bool {
+    let Some(previous) = previous else {
+        return false;
+    };
+    previous
+        .iter()
+        .zip(now)
+        .all(|(&(l0, h0), &(l1, h1))| match (l0, h0, l1, h1) {
+            (Some(l0), Some(h0), Some(l1), Some(h1)) => {
+                let tol = SETTLED * (h1 - l1).abs().max(f64::MIN_POSITIVE);
+                (l1 - l0).abs() <= tol && (h1 - h0).abs() <= tol
+            }
+            _ => false,
+        })
+}
+
+/// The McCormick envelope of `w = θ δ` over `tb × db` at fixed `θ`, `δ`: the interval of `w`.
+fn envelope(th: f64, d: f64, tb: Interval, db: Interval) -> (f64, f64) {
+    let (l, u, dl, du) = (tb.lo, tb.hi, db.lo, db.hi);
+    let lo = (l * d + th * dl - l * dl).max(u * d + th * du - u * du);
+    let hi = (u * d + th * dl - u * dl).min(l * d + th * du - l * du);
+    (lo.min(th * d), hi.max(th * d))
+}
+
+/// Try to complete the primal point `pt` of the working-set LP `sub` to the whole record (see
+/// the module doc): the `δ` of the first `len` equations as the LP chose them, every later one
+/// chosen in time order. Returns the equations it could not satisfy (their index in
+/// `model.times`), with by how much.
+fn complete(
+    model: &SharedModel,
+    sub: &SharedModel,
+    tb: &[Interval],
+    db: &[Interval],
+    pt: &[f64],
+    len: usize,
+) -> Vec<(f64, usize)> {
+    let prob = model.prob;
+    let theta: Vec<f64> = (0..prob.p())
+        .map(|k| match (prob.fixed[k], model.col_theta[k]) {
+            (Some(v), _) => v,
+            (None, Some(c)) => pt[c].clamp(tb[k].lo, tb[k].hi),
+            (None, None) => tb[k].center(),
+        })
+        .collect();
+    // The LP's δ (where W touches them), and the ones fixed so far.
+    let mut lp = vec![f64::NAN; model.deltas.len()];
+    for (d2, sig) in sub.deltas.iter().enumerate() {
+        let d = model.delta_of[&sig.key];
+        lp[d] = pt[sub.col_delta(d2)].clamp(db[d].lo, db[d].hi);
+    }
+    let mut delta = vec![f64::NAN; model.deltas.len()];
+    for &t in model.times.iter().take(len) {
+        for (_, _, side, s) in model.terms(t) {
+            if let Some(&d) = model.delta_of.get(&(side, s)) {
+                delta[d] = lp[d];
+            }
+        }
+    }
+    let mut misses = Vec::new();
+    for (i, &t) in model.times.iter().enumerate().skip(len) {
+        let terms = model.terms(t);
+        let (_, _, side0, s0) = terms[0];
+        let lead = model.signal(side0, s0).center();
+        // The rest of the equation, an interval: Σ sign (θ_k c_s + w_ks).
+        let (mut lo, mut hi, mut mag) = (0.0, 0.0, lead.abs());
+        for &(k, sign, side, s) in &terms[1..] {
+            let Some(k) = k else { continue };
+            let cs = model.signal(side, s).center();
+            let d = model.delta_of.get(&(side, s)).copied();
+            let x = match d {
+                Some(d) => {
+                    if delta[d].is_nan() {
+                        let x = if lp[d].is_nan() { 0.0 } else { lp[d] };
+                        delta[d] = x.clamp(db[d].lo, db[d].hi);
+                    }
+                    delta[d]
+                }
+                None => 0.0,
+            };
+            let v = theta[k];
+            let (wl, wh) = match (prob.fixed[k], d) {
+                (None, Some(d)) => envelope(v, x, tb[k], db[d]),
+                _ => (v * x, v * x),
+            };
+            let (a, b) = if sign > 0.0 {
+                (sign * (v * cs + wl), sign * (v * cs + wh))
+            } else {
+                (sign * (v * cs + wh), sign * (v * cs + wl))
+            };
+            lo += a;
+            hi += b;
+            mag += a.abs().max(b.abs());
+        }
+        // lead + δ_t + [lo, hi] ∋ 0, within the equation's pad and the tolerance.
+        let tol = ROW_PAD * (1.0 + lead.abs()) + 1e-9 * (1.0 + mag);
+        let need = Interval::new(-lead - hi - tol, -lead - lo + tol);
+        let gap = |x: f64| (need.lo - x).max(x - need.hi).max(0.0);
+        match model.delta_of.get(&(side0, s0)).copied() {
+            None => {
+                if gap(0.0) > 0.0 {
+                    misses.push((gap(0.0), i));
+                }
+            }
+            Some(d) if !delta[d].is_nan() => {
+                if gap(delta[d]) > 0.0 {
+                    misses.push((gap(delta[d]), i));
+                }
+            }
+            Some(d) => match need.intersect(&db[d]) {
+                // Follow the LP where it has a value (its use of the envelopes' slack), else
+                // the middle of what the equation allows.
+                Some(iv) if lp[d].is_nan() => delta[d] = iv.center(),
+                Some(iv) => delta[d] = lp[d].clamp(iv.lo, iv.hi),
+                None => {
+                    let x = if need.hi < db[d].lo {
+                        db[d].lo
+                    } else {
+                        db[d].hi
+                    };
+                    misses.push((gap(x), i));
+                    delta[d] = x;
+                }
+            },
+        }
+    }
+    misses
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stage3::classical;
+    use crate::stage3::shared::{solve, SharedOptions};
+    use crate::stage3::testutil::{cases, problem, random_case, random_extra_case, truth};
+    use crate::stage3::EivProblem;
+    use proptest::prelude::*;
+
+    /// One round's bounds by the whole LP and by the working set (and the set's final size).
+    fn one_round(prob: &EivProblem) -> (FreeBounds, FreeBounds, usize, usize) {
+        let start = classical::solve(prob).unwrap();
+        let model = SharedModel::new(prob, start.equations.clone());
+        let mut db = model.initial_deltas();
+        assert!(model.propagate(&start.bounds, &mut db).is_none());
+        let whole = bound_free(&model, &start.bounds, &db, &model.times)
+            .unwrap()
+            .unwrap();
+        let len = crate::stage3::shared::settling(prob, &start.bounds);
+        let mut ws = WorkingSet::new(&model.times, len);
+        let part = bound_free_ws(&model, &start.bounds, &db, &mut ws)
+            .unwrap()
+            .unwrap();
+        (whole, part, ws.times.len(), model.times.len())
+    }
+
+    /// On records long enough for the working set to stay well under the record, its bounds
+    /// are the whole LP's (within the result pad), and the truth is inside both.
+    #[test]
+    fn working_set_bounds_equal_the_whole_lps() {
+        for seed in 0..3 {
+            let (m, out, input) = random_case(seed, 4000);
+            let prob = problem(&out, &input, true);
+            let (whole, part, used, n) = one_round(&prob);
+            assert!(
+                2 * used <= n,
+                "seed {seed}: the working set took {used} of {n}"
+            );
+            let t = truth(&m);
+            let free: Vec<usize> = (0..prob.p()).filter(|&k| prob.fixed[k].is_none()).collect();
+            for (c, &k) in free.iter().enumerate() {
+                let ((wl, wh), (pl, ph)) = (whole[c], part[c]);
+                let (wl, wh, pl, ph) = (wl.unwrap(), wh.unwrap(), pl.unwrap(), ph.unwrap());
+                assert!(
+                    pl <= t[k] && t[k] <= ph,
+                    "seed {seed} θ{k}: [{pl}, {ph}] misses {}",
+                    t[k]
+                );
+                // Within the pad every bound carries anyway (its precision), and a millionth.
+                let tol = |v: f64| crate::lp::RESULT_PAD * (1.0 + v.abs()) + 1e-6 * (wh - wl);
+                assert!(
+                    (pl - wl).abs() <= tol(wl) && (ph - wh).abs() <= tol(wh),
+                    "seed {seed} θ{k}: working set [{pl}, {ph}], whole LP [{wl}, {wh}]"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn settling_windows_follow_the_poles() {
+        use crate::stage3::testutil::problem;
+        let (_, out, input) = random_case(0, 10);
+        let mut prob = problem(&out, &input, false);
+        prob.na = 1;
+        prob.fixed = vec![None, Some(0.0), None, None];
+        let at = |a: f64| {
+            let tb = vec![Interval::new(a, a); 4];
+            crate::stage3::shared::settling(&prob, &tb)
+        };
+        // |pole| 0.5: 0.5^20 < 1e-6 <= 0.5^19.
+        assert_eq!(at(-0.5), 20);
+        assert_eq!(at(0.5), 20);
+        // Fast poles keep the floor, slow ones the cap, unstable ones 50.
+        assert_eq!(at(0.0), 4);
+        assert_eq!(at(-0.999), 400);
+        assert_eq!(at(-1.5), 50);
+    }
+
+    proptest! {
+        #![proptest_config(cases(6))]
+        /// Whole shared runs from a working set (every round, extra columns included): the
+        /// truth is inside.
+        #[test]
+        fn working_set_runs_contain_the_truth(
+            seed in any::<u64>(),
+            uncertain in any::<bool>(),
+        ) {
+            let case = random_extra_case(seed, 1500, if uncertain { 0.05 } else { 0.0 });
+            let opts = SharedOptions { working_set_from: 0, ..SharedOptions::default() };
+            let r = match solve(&case.problem(true), &opts) {
+                Err(crate::error::SmidError::Unbounded { .. }) => { prop_assume!(false); unreachable!() }
+                other => other.unwrap(),
+            };
+            for (k, t) in case.truth().into_iter().enumerate() {
+                prop_assert!(r.bounds[k].contains(t), "θ{}: {:?} misses {}", k, r.bounds[k], t);
+            }
+        }
+    }
+}
