@@ -20,7 +20,9 @@ impl LinearModel {
         self.b.iter().sum::<f64>() / (1.0 + self.a.iter().sum::<f64>())
     }
 
-    /// Largest modulus of the roots of `z^na + a_1 z^(na-1) + ... + a_na`.
+    /// Largest modulus of the roots of `z^na + a_1 z^(na-1) + ... + a_na`; infinite when the
+    /// eigenvalue iteration does not converge (a non-finite coefficient; at most 10 000 QR
+    /// steps, so no input can make it spin).
     pub fn spectral_radius(&self) -> f64 {
         let n = self.a.len();
         if n == 0 {
@@ -33,7 +35,11 @@ impl LinearModel {
         for i in 1..n {
             c[(i, i - 1)] = 1.0;
         }
-        c.complex_eigenvalues()
+        let Some(schur) = nalgebra::Schur::try_new(c, f64::EPSILON, 10_000) else {
+            return f64::INFINITY;
+        };
+        schur
+            .complex_eigenvalues()
             .iter()
             .map(|z| z.norm())
             .fold(0.0, f64::max)
@@ -175,6 +181,11 @@ mod tests {
         let m = paper();
         assert!((m.gain() - 1.0).abs() < 1e-15);
         assert!((m.spectral_radius() - 0.7f64.sqrt()).abs() < 1e-12);
+        // Inputs the unbounded QR iteration could spin on end, as not stable.
+        for a in [vec![0.0, 0.0, -1.0], vec![f64::NAN, 0.1, 0.2]] {
+            let r = LinearModel { a, b: vec![1.0] }.spectral_radius();
+            assert!(!(r < 1.0), "{r}");
+        }
         assert!(m.validate("plant").is_ok());
         let x = m.simulate(&vec![1.0; 400]);
         assert!((x[399] - 1.0).abs() < 1e-12);

@@ -27,8 +27,9 @@ pub struct SharedOptions {
     /// Stop when no radius shrinks by more than this fraction in a round.
     pub min_improvement: f64,
     /// Records with at least this many equations are bounded from a working set of equations
-    /// ([`super::working_set`]: the same bounds, up to the solver's gap, at a fraction of the
-    /// cost); shorter ones solve the whole LP each time.
+    /// ([`super::working_set`]: guaranteed whatever the set; the whole LP's bounds to within the
+    /// result pad where its completion verifies them, at a fraction of the cost); shorter ones
+    /// solve the whole LP each time.
     pub working_set_from: usize,
 }
 
@@ -121,7 +122,7 @@ pub fn solve(prob: &EivProblem, opts: &SharedOptions) -> Result<EivResult> {
 
 /// Equations per working-set window: the samples the model's free response needs to fall to
 /// `1e-6` of its start (spectral radius of `A` at the centre of the box `tb`), within
-/// `[4 na, 400]`; 50 when `A` is not stable there.
+/// `[4 na, 400]` (at least `4 na`); 50 when `A` is not stable there or not finite.
 pub(crate) fn settling(prob: &EivProblem, tb: &[Interval]) -> usize {
     let na = prob.na;
     let lo = (4 * na).max(4);
@@ -131,19 +132,7 @@ pub(crate) fn settling(prob: &EivProblem, tb: &[Interval]) -> usize {
     let a: Vec<f64> = (0..na)
         .map(|k| prob.fixed[k].unwrap_or_else(|| tb[k].center()))
         .collect();
-    let comp = nalgebra::DMatrix::from_fn(na, na, |r, c| {
-        if r == 0 {
-            -a[c]
-        } else if r == c + 1 {
-            1.0
-        } else {
-            0.0
-        }
-    });
-    let rho = comp
-        .complex_eigenvalues()
-        .iter()
-        .fold(0.0f64, |m, z| m.max(z.norm()));
+    let rho = crate::linear::LinearModel { a, b: vec![1.0] }.spectral_radius();
     if !(rho.is_finite() && rho < 1.0) {
         return 50.max(lo);
     }
@@ -151,7 +140,7 @@ pub(crate) fn settling(prob: &EivProblem, tb: &[Interval]) -> usize {
         return lo;
     }
     let n = ((1e-6f64).ln() / rho.ln()).ceil();
-    (n as usize).clamp(lo, 400)
+    (n as usize).min(400).max(lo)
 }
 
 fn inconsistent(t: usize) -> SmidError {
