@@ -14,7 +14,7 @@
 //! repeats until the radii stop improving. As the θ box shrinks the envelopes become exact, so
 //! the result approaches the exact feasible set (see [`super::exact_grid`]).
 use super::relax::{bound_free, feasible_free, tighten, SharedModel};
-use super::working_set::{bound_free_ws, WorkingSet};
+use super::working_set::{bound_free_ws, window_len, WorkingSet};
 use super::{EivMethod, EivProblem, EivResult, Stage3Method};
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
@@ -73,7 +73,7 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
     let mut tb = start.bounds.clone();
     let mut db = model.initial_deltas();
     let mut ws = (model.times.len() >= opts.working_set_from)
-        .then(|| WorkingSet::new(&model.times, settling(prob, &start.bounds)));
+        .then(|| WorkingSet::new(&model.times, window_len(prob, &start.bounds)));
     for _round in 0..opts.max_rounds.max(1) {
         for _ in 0..2 {
             if let Some(t) = model.propagate(&tb, &mut db) {
@@ -118,29 +118,6 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
 /// The shared-error relaxation of `prob` (classical start through the registry, then LP rounds).
 pub fn solve(prob: &EivProblem, opts: &SharedOptions) -> Result<EivResult> {
     Shared { opts: *opts }.solve(prob)
-}
-
-/// Equations per working-set window: the samples the model's free response needs to fall to
-/// `1e-6` of its start (spectral radius of `A` at the centre of the box `tb`), within
-/// `[4 na, 400]` (at least `4 na`); 50 when `A` is not stable there or not finite.
-pub(crate) fn settling(prob: &EivProblem, tb: &[Interval]) -> usize {
-    let na = prob.na;
-    let lo = (4 * na).max(4);
-    if na == 0 {
-        return lo;
-    }
-    let a: Vec<f64> = (0..na)
-        .map(|k| prob.fixed[k].unwrap_or_else(|| tb[k].center()))
-        .collect();
-    let rho = crate::linear::LinearModel { a, b: vec![1.0] }.spectral_radius();
-    if !(rho.is_finite() && rho < 1.0) {
-        return 50.max(lo);
-    }
-    if rho < 1e-3 {
-        return lo;
-    }
-    let n = ((1e-6f64).ln() / rho.ln()).ceil();
-    (n as usize).min(400).max(lo)
 }
 
 fn inconsistent(t: usize) -> SmidError {
