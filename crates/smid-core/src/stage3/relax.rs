@@ -66,19 +66,14 @@ impl<'p, 'a> SharedModel<'p, 'a> {
         }
     }
 
-    /// The terms of equation `t`: `x_t`, `a_i x_{t-i}`, `-b_j v_{t-j}`, `-c_k φ_k(t)`.
-    pub fn terms(&self, t: usize) -> Vec<Term> {
-        let mut v: Vec<Term> = vec![(None, 1.0, Side::Out, t)];
-        for i in 1..=self.prob.na {
-            v.push((Some(i - 1), 1.0, Side::Out, t - i));
-        }
-        for j in 0..=self.prob.nb {
-            v.push((Some(self.prob.na + j), -1.0, Side::In, t - j));
-        }
-        for k in 0..self.prob.extra.len() {
-            v.push((Some(self.prob.n_ab() + k), -1.0, Side::Extra(k), t));
-        }
-        v
+    /// The terms of equation `t`: `x_t`, `a_i x_{t-i}`, `-b_j v_{t-j}`, `-c_k φ_k(t)` (an
+    /// iterator: the passes over long records call it once per equation).
+    pub fn terms(&self, t: usize) -> impl Iterator<Item = Term> + '_ {
+        let p = self.prob;
+        std::iter::once((None, 1.0, Side::Out, t))
+            .chain((1..=p.na).map(move |i| (Some(i - 1), 1.0, Side::Out, t - i)))
+            .chain((0..=p.nb).map(move |j| (Some(p.na + j), -1.0, Side::In, t - j)))
+            .chain((0..p.extra.len()).map(move |k| (Some(p.n_ab() + k), -1.0, Side::Extra(k), t)))
     }
 
     pub fn new(prob: &'p EivProblem<'a>, times: Vec<usize>) -> Self {
@@ -100,7 +95,8 @@ impl<'p, 'a> SharedModel<'p, 'a> {
         };
         let times = m.times.clone();
         for &t in &times {
-            for (k, _, side, s) in m.terms(t) {
+            let terms: Vec<Term> = m.terms(t).collect();
+            for (k, _, side, s) in terms {
                 let iv = m.signal(side, s);
                 if iv.radius() <= 0.0 {
                     continue;
@@ -214,7 +210,7 @@ impl<'p, 'a> SharedModel<'p, 'a> {
                 continue;
             };
             let (mut lo, mut hi) = (0.0, 0.0);
-            for (k, sign, side, s) in self.terms(t).into_iter().skip(1) {
+            for (k, sign, side, s) in self.terms(t).skip(1) {
                 let iv = self.signal(side, s);
                 let sig = match self.delta_of.get(&(side, s)) {
                     Some(&d) => Interval::new(iv.center() + db[d].lo, iv.center() + db[d].hi),
@@ -337,7 +333,7 @@ impl SharedModel<'_, '_> {
     }
 
     /// Equation `t` as `c0 + row·z = 0` over the model's columns.
-    fn equation(&self, t: usize) -> (Vec<(usize, f64)>, f64) {
+    pub(crate) fn equation(&self, t: usize) -> (Vec<(usize, f64)>, f64) {
         let mut row: Vec<(usize, f64)> = Vec::new();
         let mut c0 = 0.0;
         for (k, sign, side, s) in self.terms(t) {
@@ -400,71 +396,68 @@ pub(crate) fn bound_free(
     db: &[Interval],
     times: &[usize],
 ) -> Result<Option<FreeBounds>> {
-    match bound_free_points(model, tb, db, times)? {
-        Points::Found(b, _) => Ok(Some(b)),
-        Points::Empty => Ok(None),
-        Points::Sparse => {
+    let all: Vec<usize> = (0..2 * model.free.len()).collect();
+    match solve_ends(model, tb, db, times, &all)? {
+        Ends::Found(ends) => Ok(Some(ends.chunks(2).map(|e| (e[0].0, e[1].0)).collect())),
+        Ends::Empty => Ok(None),
+        Ends::Sparse => {
             let lp = model.build(tb, db, times)?;
             bound_all(model, &mut lp.solver()?)
         }
     }
 }
 
-/// What [`bound_free_points`] found.
-pub(crate) enum Points {
-    /// The bounds, and per objective (`2c`: minimise free θ `c`, `2c + 1`: maximise) the last
-    /// primal iterate over the model's columns (original units): an approximate optimiser.
-    Found(FreeBounds, Vec<Vec<f64>>),
+/// What [`solve_ends`] found.
+pub(crate) enum Ends {
+    /// Per requested end: its guaranteed bound (padded outward; `None` when not finite) and the
+    /// last primal iterate over the model's columns (original units).
+    Found(Vec<(Option<f64>, Vec<f64>)>),
     /// A bound proved the LP empty.
     Empty,
-    /// The block form does not apply (see [`bound_free`]); nothing was solved.
+    /// The block form does not apply; nothing was solved.
     Sparse,
 }
 
-/// [`bound_free`] by the interior-point method only, with each objective's primal point.
-pub(crate) fn bound_free_points(
+/// The ends `ends` of the free θ (`2c`: lower end of free θ `c`, `2c + 1`: upper end) over the
+/// equations `times`, by the structured interior-point method, in parallel from one warm start.
+pub(crate) fn solve_ends(
     model: &SharedModel,
     tb: &[Interval],
     db: &[Interval],
     times: &[usize],
-) -> Result<Points> {
+    ends: &[usize],
+) -> Result<Ends> {
     use rayon::prelude::*;
     let (blp, glob) = model.block_lp(tb, db, times)?;
     let Some(prep) = Prepared::new(&blp) else {
-        return Ok(Points::Sparse);
+        return Ok(Ends::Sparse);
     };
-    let nt = model.free.len();
     let start = prep.warm_start();
-    let found: Vec<(Bound, Vec<f64>)> = (0..2 * nt)
-        .into_par_iter()
-        .map(|i| {
+    let found: Vec<(Bound, Vec<f64>)> = ends
+        .par_iter()
+        .map(|&i| {
             let (c, max) = (i / 2, i % 2 == 1);
             let (b, z) = prep.minimise_at(&[(c, if max { -1.0 } else { 1.0 })], start.as_ref());
             (b, glob.iter().map(|&g| z[g]).collect())
         })
         .collect();
-    let mut out = Vec::with_capacity(nt);
-    for c in 0..nt {
-        let side = |b: Bound, max: bool| match b {
-            Bound::Infeasible => Err(()),
-            Bound::Value(v) => Ok(v.map(|v| {
+    let mut out = Vec::with_capacity(ends.len());
+    for (&i, (b, z)) in ends.iter().zip(found) {
+        let max = i % 2 == 1;
+        let v = match b {
+            Bound::Infeasible => return Ok(Ends::Empty),
+            Bound::Value(v) => v.map(|v| {
                 let pad = RESULT_PAD * (1.0 + v.abs());
                 if max {
                     -v + pad
                 } else {
                     v - pad
                 }
-            })),
+            }),
         };
-        match (side(found[2 * c].0, false), side(found[2 * c + 1].0, true)) {
-            (Ok(lo), Ok(hi)) => out.push((lo, hi)),
-            _ => return Ok(Points::Empty),
-        }
+        out.push((v, z));
     }
-    Ok(Points::Found(
-        out,
-        found.into_iter().map(|(_, z)| z).collect(),
-    ))
+    Ok(Ends::Found(out))
 }
 
 /// Whether the LP over `times` is non-empty: `false` is proven; `true` when not proven empty.

@@ -11,7 +11,8 @@
 //! from the classical box (so the result is never wider than the classical one, and inside the
 //! prior box, which the classical LPs carry), each round bounds every free parameter by LP,
 //! shrinks the θ box, tightens the `δ` boxes by interval propagation through the equations, and
-//! repeats until the radii stop improving. As the θ box shrinks the envelopes become exact, so
+//! repeats until the radii stop improving (in a round whose bounds are the whole LP's: a long
+//! record's round may end on a working set's bounds, [`super::working_set`]). As the θ box shrinks the envelopes become exact, so
 //! the result approaches the exact feasible set (see [`super::exact_grid`]).
 use super::relax::{bound_free, feasible_free, tighten, SharedModel};
 use super::working_set::{bound_free_ws, window_len, WorkingSet};
@@ -74,21 +75,26 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
     let mut db = model.initial_deltas();
     let mut ws = (model.times.len() >= opts.working_set_from)
         .then(|| WorkingSet::new(&model.times, window_len(prob, &start.bounds)));
-    for _round in 0..opts.max_rounds.max(1) {
+    for round in 0..opts.max_rounds.max(1) {
         for _ in 0..2 {
             if let Some(t) = model.propagate(&tb, &mut db) {
                 return Err(inconsistent(t));
             }
         }
-        let found = match ws.as_mut() {
+        // `whole`: the bounds are the whole LP's (a round on a working set's bounds alone,
+        // guaranteed but perhaps looser, does not end the rounds).
+        let (found, whole) = match ws.as_mut() {
             Some(w) => {
                 let found = bound_free_ws(&model, &tb, &db, w)?;
-                if w.gave_up {
+                if w.retired(model.times.len()) {
                     ws = None;
                 }
-                found
+                match found {
+                    Some((b, whole)) => (Some(b), whole),
+                    None => (None, true),
+                }
             }
-            None => bound_free(&model, &tb, &db, &model.times)?,
+            None => (bound_free(&model, &tb, &db, &model.times)?, true),
         };
         let Some(found) = found else {
             return Err(inconsistent(locate(&model, &tb, &db)?));
@@ -104,7 +110,10 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
             gain = gain.max(g);
             tb[k] = new;
         }
-        if gain < opts.min_improvement {
+        if std::env::var_os("WS_TRACE").is_some() {
+            eprintln!("round {round}: radii shrank by up to {gain:.4}, whole LP's: {whole}");
+        }
+        if gain < opts.min_improvement && whole {
             break;
         }
     }
