@@ -385,6 +385,13 @@ impl SharedModel<'_, '_> {
 /// Per free θ: its guaranteed lower and upper bound (`None` where no finite bound came out).
 pub(crate) type FreeBounds = Vec<(Option<f64>, Option<f64>)>;
 
+/// The ends `[lo_0, hi_0, lo_1, hi_1, ..]` of the free θ as their intervals.
+pub(crate) fn pair_ends(ends: &[Option<f64>]) -> FreeBounds {
+    ends.chunks(2)
+        .map(|e| (e[0], e.get(1).copied().flatten()))
+        .collect()
+}
+
 /// Bound every free θ of the LP over boxes `tb`, `db` and the equations `times`, by the
 /// structured interior-point method ([`super::ipm`]), the objectives in parallel. `None`
 /// when a bound proves the LP empty; `(None, _)` entries where no finite bound came out. When
@@ -398,7 +405,10 @@ pub(crate) fn bound_free(
 ) -> Result<Option<FreeBounds>> {
     let all: Vec<usize> = (0..2 * model.free.len()).collect();
     match solve_ends(model, tb, db, times, &all)? {
-        Ends::Found(ends) => Ok(Some(ends.chunks(2).map(|e| (e[0].0, e[1].0)).collect())),
+        Ends::Found(ends) => {
+            let v: Vec<Option<f64>> = ends.into_iter().map(|(v, _)| v).collect();
+            Ok(Some(pair_ends(&v)))
+        }
         Ends::Empty => Ok(None),
         Ends::Sparse => {
             let lp = model.build(tb, db, times)?;

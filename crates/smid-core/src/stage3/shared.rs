@@ -11,9 +11,10 @@
 //! from the classical box (so the result is never wider than the classical one, and inside the
 //! prior box, which the classical LPs carry), each round bounds every free parameter by LP,
 //! shrinks the θ box, tightens the `δ` boxes by interval propagation through the equations, and
-//! repeats until the radii stop improving (in a round whose bounds are the whole LP's: a long
-//! record's round may end on a working set's bounds, [`super::working_set`]). As the θ box shrinks the envelopes become exact, so
-//! the result approaches the exact feasible set (see [`super::exact_grid`]).
+//! repeats until the radii stop improving, in a round whose bounds are the whole LP's (a long
+//! record's round may end on a working set's bounds, `working_set.rs`). As the θ box
+//! shrinks the envelopes become exact, so the result approaches the exact feasible set (see
+//! [`super::exact_grid`]).
 use super::relax::{bound_free, feasible_free, tighten, SharedModel};
 use super::working_set::{bound_free_ws, window_len, WorkingSet};
 use super::{EivMethod, EivProblem, EivResult, Stage3Method};
@@ -28,9 +29,9 @@ pub struct SharedOptions {
     /// Stop when no radius shrinks by more than this fraction in a round.
     pub min_improvement: f64,
     /// Records with at least this many equations are bounded from a working set of equations
-    /// ([`super::working_set`]: guaranteed whatever the set; the whole LP's bounds to within the
-    /// result pad where its completion verifies them, at a fraction of the cost); shorter ones
-    /// solve the whole LP each time.
+    /// ([`super::working_set`]: guaranteed whatever the set; the whole LP's bounds up to the
+    /// solver's accuracy where its completion verifies them, at a fraction of the cost);
+    /// shorter ones solve the whole LP each time.
     pub working_set_from: usize,
 }
 
@@ -81,16 +82,16 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
                 return Err(inconsistent(t));
             }
         }
-        // `whole`: the bounds are the whole LP's (a round on a working set's bounds alone,
-        // guaranteed but perhaps looser, does not end the rounds).
-        let (found, whole) = match ws.as_mut() {
+        // `conclusive`: the bounds are the whole LP's (a round that ended on a working set's
+        // bounds alone, guaranteed but perhaps looser, does not end the rounds).
+        let (found, conclusive) = match ws.as_mut() {
             Some(w) => {
                 let found = bound_free_ws(&model, &tb, &db, w)?;
                 if w.retired(model.times.len()) {
                     ws = None;
                 }
                 match found {
-                    Some((b, whole)) => (Some(b), whole),
+                    Some((b, conclusive)) => (Some(b), conclusive),
                     None => (None, true),
                 }
             }
@@ -111,9 +112,9 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
             tb[k] = new;
         }
         if std::env::var_os("WS_TRACE").is_some() {
-            eprintln!("round {round}: radii shrank by up to {gain:.4}, whole LP's: {whole}");
+            eprintln!("round {round}: radii shrank by up to {gain:.4}, conclusive: {conclusive}");
         }
-        if gain < opts.min_improvement && whole {
+        if gain < opts.min_improvement && conclusive {
             break;
         }
     }
