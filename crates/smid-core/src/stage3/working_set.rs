@@ -100,8 +100,9 @@ pub(crate) struct WorkingSet {
     pub unfinished: usize,
     /// The working-set LP has no block form: the sparse path answers every round.
     pub sparse: bool,
-    /// Working-set LPs in the next round at most: [`FIRST_ROUND_GENERATIONS`] in the first,
-    /// [`MAX_GENERATIONS`] after it.
+    /// Working-set LPs at most in the first round ([`FIRST_ROUND_GENERATIONS`]) and in each
+    /// later one ([`MAX_GENERATIONS`]).
+    pub first_round_generations: usize,
     pub max_generations: usize,
     /// Rounds bounded so far.
     pub rounds: usize,
@@ -125,7 +126,8 @@ impl WorkingSet {
             len,
             unfinished: 0,
             sparse: false,
-            max_generations: FIRST_ROUND_GENERATIONS,
+            first_round_generations: FIRST_ROUND_GENERATIONS,
+            max_generations: MAX_GENERATIONS,
             rounds: 0,
         }
     }
@@ -241,10 +243,13 @@ pub(crate) fn bound_free_ws(
     // A guard (cost, size, no block form) stopped the generations: the whole LP finishes.
     let mut guarded = false;
     let first = ws.rounds == 0;
-    let generations = ws.max_generations.max(1);
+    let generations = if first {
+        ws.first_round_generations
+    } else {
+        ws.max_generations
+    };
     ws.rounds += 1;
-    ws.max_generations = MAX_GENERATIONS;
-    for generation in 0..generations {
+    for generation in 0..generations.max(1) {
         spent += ws.times.len() * open.len();
         if ws.times.is_empty() || spent > all.len() * n_ends || ws.too_large(all.len()) {
             guarded = true;
@@ -484,23 +489,27 @@ mod tests {
     use crate::stage3::EivProblem;
     use proptest::prelude::*;
 
+    /// The first round's start of the shared method on `prob`: the classical box, the model
+    /// over its equations, and the `δ` boxes propagated through them.
+    fn first_round<'p, 'a>(
+        prob: &'p EivProblem<'a>,
+    ) -> (Vec<Interval>, SharedModel<'p, 'a>, Vec<Interval>) {
+        let start = classical::solve(prob).unwrap();
+        let model = SharedModel::new(prob, start.equations);
+        let mut db = model.initial_deltas();
+        assert!(model.propagate(&start.bounds, &mut db).is_none());
+        (start.bounds, model, db)
+    }
+
     /// One round's bounds by the whole LP and by the working set (and the set's final size,
     /// `None` when the round was unfinished: the whole LP answered, or the generations ran out).
     fn one_round(prob: &EivProblem) -> (FreeBounds, FreeBounds, Option<usize>, usize) {
-        let start = classical::solve(prob).unwrap();
-        let model = SharedModel::new(prob, start.equations.clone());
-        let mut db = model.initial_deltas();
-        assert!(model.propagate(&start.bounds, &mut db).is_none());
-        let whole = bound_free(&model, &start.bounds, &db, &model.times)
-            .unwrap()
-            .unwrap();
-        let len = window_len(prob, &start.bounds);
-        let mut ws = WorkingSet::new(&model.times, len);
+        let (tb, model, db) = first_round(prob);
+        let whole = bound_free(&model, &tb, &db, &model.times).unwrap().unwrap();
+        let mut ws = WorkingSet::new(&model.times, window_len(prob, &tb));
         // A later round's budget: this test is about what the set converges to.
-        ws.max_generations = MAX_GENERATIONS;
-        let (part, _) = bound_free_ws(&model, &start.bounds, &db, &mut ws)
-            .unwrap()
-            .unwrap();
+        ws.first_round_generations = MAX_GENERATIONS;
+        let (part, _) = bound_free_ws(&model, &tb, &db, &mut ws).unwrap().unwrap();
         let used = (ws.unfinished == 0).then_some(ws.times.len());
         (whole, part, used, model.times.len())
     }
@@ -573,7 +582,7 @@ mod tests {
                 ws.times.binary_search(&2100).is_err(),
                 "the outlier is in the first set"
             );
-            ws.max_generations = MAX_GENERATIONS;
+            ws.first_round_generations = MAX_GENERATIONS;
             let r = bound_free_ws(&model, &tb, &db, &mut ws).unwrap();
             assert!(
                 ws.unfinished == 0,
@@ -597,12 +606,8 @@ mod tests {
     fn the_accuracy_floor_is_twice_the_points_own_residual_capped() {
         let (_, out, input) = random_case(5, 400);
         let prob = problem(&out, &input, true);
-        let start = classical::solve(&prob).unwrap();
-        let model = SharedModel::new(&prob, start.equations.clone());
-        let mut db = model.initial_deltas();
-        assert!(model.propagate(&start.bounds, &mut db).is_none());
-        let Ends::Found(ends) = solve_ends(&model, &start.bounds, &db, &model.times, &[0]).unwrap()
-        else {
+        let (tb, model, db) = first_round(&prob);
+        let Ends::Found(ends) = solve_ends(&model, &tb, &db, &model.times, &[0]).unwrap() else {
             panic!("the LP of a consistent record is not empty");
         };
         let rows: Vec<(SparseRow, f64)> = model.times.iter().map(|&t| model.equation(t)).collect();
@@ -634,22 +639,14 @@ mod tests {
     fn a_round_out_of_generations_answers_with_the_sets_looser_bounds() {
         let (m, out, input) = random_case(1, 6000);
         let prob = problem(&out, &input, true);
-        let start = classical::solve(&prob).unwrap();
-        let model = SharedModel::new(&prob, start.equations.clone());
-        let mut db = model.initial_deltas();
-        assert!(model.propagate(&start.bounds, &mut db).is_none());
-        let whole = bound_free(&model, &start.bounds, &db, &model.times)
-            .unwrap()
-            .unwrap();
-        let mut ws = WorkingSet::new(&model.times, window_len(&prob, &start.bounds));
-        ws.max_generations = 1;
-        let (part, conclusive) = bound_free_ws(&model, &start.bounds, &db, &mut ws)
-            .unwrap()
-            .unwrap();
+        let (tb, model, db) = first_round(&prob);
+        let whole = bound_free(&model, &tb, &db, &model.times).unwrap().unwrap();
+        let mut ws = WorkingSet::new(&model.times, window_len(&prob, &tb));
+        (ws.first_round_generations, ws.max_generations) = (1, 1);
+        let (part, conclusive) = bound_free_ws(&model, &tb, &db, &mut ws).unwrap().unwrap();
         assert!(!conclusive, "one generation closed every end");
-        // Running out in the first round is the plan; the next round has the full budget.
+        // Running out in the first round is the plan, not an unfinished round.
         assert_eq!((ws.unfinished, ws.rounds), (0, 1));
-        assert_eq!(ws.max_generations, MAX_GENERATIONS);
         assert!(!ws.retired(model.times.len()));
         let t = truth(&m);
         let free: Vec<usize> = (0..prob.p()).filter(|&k| prob.fixed[k].is_none()).collect();
@@ -669,13 +666,9 @@ mod tests {
                 "θ{k}: the set's [{pl}, {ph}] inside the whole LP's [{wl}, {wh}]"
             );
         }
-        ws.max_generations = 1;
-        let (_, conclusive) = bound_free_ws(&model, &start.bounds, &db, &mut ws)
-            .unwrap()
-            .unwrap();
-        if !conclusive {
-            assert_eq!(ws.unfinished, 1);
-        }
+        // A later round that runs out is unfinished; one that concludes is not.
+        let (_, conclusive) = bound_free_ws(&model, &tb, &db, &mut ws).unwrap().unwrap();
+        assert_eq!(ws.unfinished, usize::from(!conclusive));
     }
     /// The working set stays for later rounds after one unfinished round, and retires after a
     /// second, when it has no block form, or when it holds half the record.
