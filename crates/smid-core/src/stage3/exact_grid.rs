@@ -187,7 +187,8 @@ impl Grid<'_, '_, '_> {
         // path where its block form does not apply.
         let (blp, _) = self.model.block_lp(tb, &self.db, &self.model.times)?;
         if let Some(prep) = Prepared::new(&blp) {
-            let (b, theta) = prep.minimise_at(&[(col, if max { -1.0 } else { 1.0 })], None);
+            let solved = prep.minimise_at(&[(col, if max { -1.0 } else { 1.0 })], None);
+            let (b, theta) = (solved.bound, solved.point);
             let mut at = [0.0; 2];
             for (d, &k) in self.dims.iter().enumerate() {
                 let c = self.model.col_theta[k].unwrap_or(0);

@@ -50,6 +50,20 @@ pub(crate) struct BlockLp {
     pub theta_eq: Vec<(SparseRow, f64, f64)>,
 }
 
+/// What one run of [`Prepared::minimise_at`] found.
+#[derive(Debug, Clone)]
+pub(crate) struct Solved {
+    /// The guaranteed bound.
+    pub bound: Bound,
+    /// The last primal iterate (original units, inside the boxes; θ first): an approximate
+    /// optimiser, for searches that need one.
+    pub point: Vec<f64>,
+    /// How much the bound leans on each equality (`BlockLp::eq` order): the magnitude of its
+    /// final multiplier, in original units. Near 0 for an equation the optimum does not need;
+    /// a hint for choosing equations, never part of a bound.
+    pub eq_weight: Vec<f64>,
+}
+
 /// The outcome of one bound.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Bound {
@@ -401,7 +415,7 @@ impl<'a> Prepared<'a> {
 
     /// A guaranteed lower bound of `min c·z` over the LP (rows and boxes), `c` sparse.
     pub(crate) fn minimise(&self, c: &[(usize, f64)]) -> Bound {
-        self.minimise_at(c, None).0
+        self.minimise_at(c, None).bound
     }
 
     /// A well-centred interior point of this LP (the zero objective's path at a moderate
@@ -427,13 +441,9 @@ impl<'a> Prepared<'a> {
         })
     }
 
-    /// [`Self::minimise`], and the last primal iterate (original units, inside the boxes; θ
-    /// first): an approximate optimiser, for searches that need one.
-    pub(crate) fn minimise_at(
-        &self,
-        c: &[(usize, f64)],
-        start: Option<&Start>,
-    ) -> (Bound, Vec<f64>) {
+    /// [`Self::minimise`], with the last primal iterate and the equalities' weights (see
+    /// [`Solved`]).
+    pub(crate) fn minimise_at(&self, c: &[(usize, f64)], start: Option<&Start>) -> Solved {
         let (q, kappa) = self.objective(c);
         // The certificate of a scaled dual point, in the original rows: λ = κ λ̂ / ρ.
         let cert = |lam: &[f64], mu: &[f64], tmu: &[f64]| -> Option<f64> {
@@ -488,7 +498,17 @@ impl<'a> Prepared<'a> {
             Some(v) if v > top + 1e-12 * (1.0 + top.abs()) => Bound::Infeasible,
             v => Bound::Value(v),
         };
-        (bound, point)
+        let eq_weight = ipm
+            .mu
+            .iter()
+            .zip(&self.rho_e)
+            .map(|(m, r)| (kappa * m / r).abs())
+            .collect();
+        Solved {
+            bound,
+            point,
+            eq_weight,
+        }
     }
 }
 

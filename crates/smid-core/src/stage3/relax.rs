@@ -11,7 +11,7 @@
 //! are plain coefficients. The McCormick envelopes over a box of `θ_k` and of `δ_s` contain
 //! every product of the box, so the LP's feasible set contains every `(θ, δ)` consistent with
 //! the data and its coordinate bounds are guaranteed.
-use super::ipm::{BlockLp, Bound, Prepared};
+use super::ipm::{BlockLp, Bound, Prepared, Solved};
 use super::EivProblem;
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
@@ -406,7 +406,7 @@ pub(crate) fn bound_free(
     let all: Vec<usize> = (0..2 * model.free.len()).collect();
     match solve_ends(model, tb, db, times, &all)? {
         Ends::Found(ends) => {
-            let v: Vec<Option<f64>> = ends.into_iter().map(|(v, _)| v).collect();
+            let v: Vec<Option<f64>> = ends.into_iter().map(|e| e.value).collect();
             Ok(Some(pair_ends(&v)))
         }
         Ends::Empty => Ok(None),
@@ -417,11 +417,21 @@ pub(crate) fn bound_free(
     }
 }
 
+/// One end as [`solve_ends`] found it.
+pub(crate) struct End {
+    /// The guaranteed bound (padded outward; `None` when not finite).
+    pub value: Option<f64>,
+    /// The last primal iterate over the model's columns (original units).
+    pub point: Vec<f64>,
+    /// How much the bound leans on each equation of `times` (same order; see
+    /// [`super::ipm::Solved::eq_weight`]).
+    pub weight: Vec<f64>,
+}
+
 /// What [`solve_ends`] found.
 pub(crate) enum Ends {
-    /// Per requested end: its guaranteed bound (padded outward; `None` when not finite) and the
-    /// last primal iterate over the model's columns (original units).
-    Found(Vec<(Option<f64>, Vec<f64>)>),
+    /// Per requested end, in order.
+    Found(Vec<End>),
     /// A bound proved the LP empty.
     Empty,
     /// The block form does not apply; nothing was solved.
@@ -443,18 +453,17 @@ pub(crate) fn solve_ends(
         return Ok(Ends::Sparse);
     };
     let start = prep.warm_start();
-    let found: Vec<(Bound, Vec<f64>)> = ends
+    let found: Vec<Solved> = ends
         .par_iter()
         .map(|&i| {
             let (c, max) = (i / 2, i % 2 == 1);
-            let (b, z) = prep.minimise_at(&[(c, if max { -1.0 } else { 1.0 })], start.as_ref());
-            (b, glob.iter().map(|&g| z[g]).collect())
+            prep.minimise_at(&[(c, if max { -1.0 } else { 1.0 })], start.as_ref())
         })
         .collect();
     let mut out = Vec::with_capacity(ends.len());
-    for (&i, (b, z)) in ends.iter().zip(found) {
+    for (&i, solved) in ends.iter().zip(found) {
         let max = i % 2 == 1;
-        let v = match b {
+        let value = match solved.bound {
             Bound::Infeasible => return Ok(Ends::Empty),
             Bound::Value(v) => v.map(|v| {
                 let pad = RESULT_PAD * (1.0 + v.abs());
@@ -465,7 +474,11 @@ pub(crate) fn solve_ends(
                 }
             }),
         };
-        out.push((v, z));
+        out.push(End {
+            value,
+            point: glob.iter().map(|&g| solved.point[g]).collect(),
+            weight: solved.eq_weight,
+        });
     }
     Ok(Ends::Found(out))
 }
