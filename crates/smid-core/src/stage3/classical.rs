@@ -21,6 +21,7 @@ use super::{EivProblem, EivResult, Stage3Method};
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
 use crate::lp::{LpOutcome, Polytope};
+use rayon::prelude::*;
 
 /// The classical orthant-wise LP outer set (`method.eiv: classical`).
 #[derive(Debug, Clone, Copy, Default)]
@@ -246,8 +247,14 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
     let mut hi = vec![f64::NEG_INFINITY; p];
     let mut feasible = 0;
     let names = prob.names();
-    for signs in orthants(&unc) {
-        let bounded = polytope(prob, &times, &signs, &free).bound().map_err(|e| match e {
+    // The orthants' LPs are independent: solved in parallel, combined in orthant order (the
+    // first error in that order is the one reported; min/max do not depend on the order).
+    let outcomes: Vec<Result<LpOutcome>> = orthants(&unc)
+        .par_iter()
+        .map(|signs| polytope(prob, &times, signs, &free).bound())
+        .collect();
+    for outcome in outcomes {
+        let bounded = outcome.map_err(|e| match e {
             SmidError::Unbounded { parameter, message } => SmidError::Unbounded {
                 parameter: parameter
                     .trim_start_matches("θ[")
@@ -256,7 +263,10 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
                     .ok()
                     .and_then(|c| free.get(c).and_then(|&k| names.get(k)).cloned())
                     .unwrap_or(parameter),
-                message: format!("{message} ({} usable equations; a longer or richer dynamic experiment helps)", times.len()),
+                message: format!(
+                    "{message} ({} usable equations; a longer or richer dynamic experiment helps)",
+                    times.len()
+                ),
             },
             other => other,
         })?;
