@@ -771,17 +771,11 @@ mod tests {
                     set.len()
                 );
                 assert!(set.starts_with(&model.times[..ws.len]));
-                let sub = SharedModel::new(&prob, set.clone());
-                let sub_db: Vec<Interval> = sub
-                    .deltas
-                    .iter()
-                    .map(|d| db[model.delta_of[&d.key]])
-                    .collect();
-                let Ends::Found(mut e) = solve_ends(&sub, &tb, &sub_db, &sub.times, &[i]).unwrap()
+                let SetLp::Found(mut e) = solve_set(&model, &tb, &db, set, &[i], ws.len).unwrap()
                 else {
                     panic!("seed {seed}: the pruned LP has no block form or is empty");
                 };
-                part.push(e.remove(0));
+                part.push(e.remove(0).0);
             }
             let values = |e: &[End]| pair_ends(&e.iter().map(|e| e.value).collect::<Vec<_>>());
             let what = format!("seed {seed}, pruned");
