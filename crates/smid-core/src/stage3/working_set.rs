@@ -97,8 +97,9 @@ const COMPLETE_TOL: f64 = 1e-9;
 /// growth.
 const SETTLED: f64 = 1e-6;
 
-/// ... or by no more than this many result pads ([`RESULT_PAD`]): the certified bounds of
-/// near-equal LPs differ by about one pad (order 2, N = 6000: ends of an interval 5e-5 wide
+/// A generation that moves no open bound by more than this many result pads ([`RESULT_PAD`])
+/// also ends the growth (see [`settled`]): the certified bounds of near-equal LPs differ by
+/// about one pad (order 2, N = 6000: ends of an interval 5e-5 wide
 /// moved by 0.5-1.5 pads from one generation to the next while one equation kept missing by
 /// 3e-8), so a generation that moves them less has nothing left to find.
 const SETTLED_PADS: f64 = 4.0;
