@@ -17,6 +17,8 @@ fn main() {
         linear: t.linear.clone(),
         nonlinearity: &t.backlash,
         structure: Default::default(),
+        input: &[],
+        output: &[],
         effects: &[],
         dt: 1.0,
     };
@@ -50,6 +52,8 @@ fn plant_truth(t: &Trial) -> Vec<(String, f64)> {
         linear: t.linear.clone(),
         nonlinearity: &t.backlash,
         structure: Default::default(),
+        input: &[],
+        output: &[],
         effects: &[],
         dt: 1.0,
     }

@@ -27,6 +27,8 @@ fn main() {
                 linear: t.linear.clone(),
                 nonlinearity: &t.backlash,
                 structure: Default::default(),
+                input: &[],
+                output: &[],
                 effects: &[],
                 dt: 1.0,
             };

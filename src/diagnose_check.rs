@@ -153,6 +153,8 @@ pub fn trial(case: usize, seed: u64, plant: PlantKind) -> TrialOutcome {
                     linear: sim.linear(),
                     nonlinearity: sim.nonlinearity.as_ref(),
                     structure: sim.structure,
+                    input: &sim.input,
+                    output: &sim.output,
                     effects: &injected,
                     dt: 1.0,
                 };

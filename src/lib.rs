@@ -11,6 +11,7 @@ pub use smid_core::{Result, SmidError};
 pub use smid_dead_zone as dead_zone;
 pub use smid_effects as effects;
 pub use smid_example_gain as example_gain;
+pub use smid_filters as filters;
 #[cfg(feature = "fmu")]
 pub use smid_fmu as fmu;
 pub use smid_input_backlash as input_backlash;
@@ -18,6 +19,7 @@ pub use smid_linear as linear;
 pub use smid_output_backlash as output_backlash;
 pub use smid_saturation as saturation;
 
+pub mod chain_check;
 pub mod closeloop;
 pub mod compare;
 pub mod diagnose_check;
@@ -37,13 +39,14 @@ use std::path::Path;
 pub fn link_plugins() {
     use smid_core::nonlinearity::NonlinearityModel;
     // A vtable of each plugin's model makes the linker keep that crate's code.
-    let models: [Box<dyn NonlinearityModel>; 6] = [
+    let models: [Box<dyn NonlinearityModel>; 7] = [
         Box::new(smid_output_backlash::OutputBacklashModel::default()),
         Box::new(smid_input_backlash::InputBacklashModel::default()),
         Box::new(smid_dead_zone::DeadZoneModel::default()),
         Box::new(smid_saturation::SaturationModel::default()),
         Box::new(smid_example_gain::GainModel::default()),
         Box::new(smid_linear::LinearModel::default()),
+        Box::new(smid_filters::LagModel::default()),
     ];
     std::hint::black_box(models);
     let effects: fn() = smid_effects::link;

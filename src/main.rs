@@ -98,6 +98,15 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// Containment check of block chains generated from the registry (`smid::chain_check`):
+    /// random linear blocks with a random model nonlinearity, input-side block and block after
+    /// the nonlinearity, bisected over random prior boxes; exit code 1 when a trial missed.
+    CheckChains {
+        #[arg(long, default_value_t = 100)]
+        trials: usize,
+        #[arg(long, default_value_t = 1)]
+        first_seed: u64,
+    },
     /// Join the `--json` summaries of the shards of one `check` run into its table, the same as
     /// one machine's run of all the seeds; exit code 1 when a trial missed the truth.
     CheckMerge {
@@ -322,6 +331,66 @@ fn real_main() -> Result<()> {
                     .with_context(|| format!("writing {}", path.display()))?;
             }
             report_check(&run)?;
+        }
+        Command::CheckChains { trials, first_seed } => {
+            use smid::chain_check::Outcome;
+            let pb = progress(trials, "chains");
+            let (mut contained, mut missed, mut no_bound) = (0, Vec::new(), Vec::new());
+            let mut shapes: std::collections::BTreeMap<String, (usize, usize, usize)> =
+                Default::default();
+            for seed in first_seed..first_seed + trials as u64 {
+                let (spec, outcome) = smid::chain_check::trial(seed)?;
+                let m = &spec.model;
+                let tags = |v: &[Box<dyn smid::core::nonlinearity::NonlinearityModel>]| {
+                    v.iter()
+                        .map(|b| smid::core::model::tag_of_model(b.as_ref()))
+                        .collect::<Vec<_>>()
+                        .join(",")
+                };
+                let shape = format!(
+                    "[{}] -> L -> {} -> [{}]",
+                    tags(&m.input),
+                    m.nonlinearity_tag(),
+                    tags(&m.output)
+                );
+                let e = shapes.entry(shape).or_default();
+                match outcome {
+                    Outcome::Contained => {
+                        contained += 1;
+                        e.0 += 1;
+                    }
+                    Outcome::Missed(why) => {
+                        missed.push((seed, why));
+                        e.1 += 1;
+                    }
+                    Outcome::NoBound(why) => {
+                        no_bound.push((seed, why));
+                        e.2 += 1;
+                    }
+                }
+                pb.inc(1);
+            }
+            pb.finish_and_clear();
+            println!("| chain | contained | missed | no finite bound |");
+            println!("|---|---|---|---|");
+            for (shape, (c, m, n)) in &shapes {
+                println!("| {shape} | {c} | {m} | {n} |");
+            }
+            println!(
+                "\n{trials} trials (seeds {first_seed}..{}): {contained} contained, {} missed, {} without a finite bound",
+                first_seed + trials as u64 - 1,
+                missed.len(),
+                no_bound.len()
+            );
+            for (seed, why) in &no_bound {
+                println!("no bound, seed {seed}: {why}");
+            }
+            for (seed, why) in &missed {
+                println!("MISSED, seed {seed}: {why}");
+            }
+            if !missed.is_empty() {
+                std::process::exit(1);
+            }
         }
         Command::CheckMerge { files } => {
             let shards = read_shards(&files, "a `smid check --json` summary")?;

@@ -118,6 +118,8 @@ impl Trial {
                 fixed: [("b0".to_string(), 0.0)].into_iter().collect(),
                 unit_gain: true,
                 nk: 0,
+                input: Vec::new(),
+                output: Vec::new(),
                 effects: Vec::new(),
                 prior: Default::default(),
             },
@@ -266,6 +268,8 @@ impl Trial {
             linear: self.linear.clone(),
             nonlinearity: &self.backlash,
             structure: Default::default(),
+            input: &[],
+            output: &[],
             effects: &[],
             dt: 1.0,
         };

@@ -182,6 +182,8 @@ impl PluginTrial {
                 fixed: [("b0".to_string(), 0.0)].into_iter().collect(),
                 unit_gain: true,
                 nk: 0,
+                input: Vec::new(),
+                output: Vec::new(),
                 effects: Vec::new(),
                 prior: Default::default(),
             },
@@ -206,6 +208,8 @@ impl PluginTrial {
             linear,
             nonlinearity: nl.as_ref(),
             structure,
+            input: &[],
+            output: &[],
             effects: &[],
             dt: 1.0,
         };

@@ -54,6 +54,8 @@ fn a_record_with_an_undeclared_delay_falsifies_the_model_at_a_sample() {
         linear: sim.linear(),
         nonlinearity: sim.nonlinearity.as_ref(),
         structure: sim.structure,
+        input: &sim.input,
+        output: &sim.output,
         effects: &delay,
         dt: 1.0,
     };

@@ -12,6 +12,7 @@
 
 pub mod baseline;
 pub mod cells;
+pub mod chain;
 pub mod data;
 pub mod diagnose;
 pub mod effect;

@@ -336,6 +336,23 @@ pub fn point(set: &ModelSet, values: &[(String, f64)]) -> Result<ModelPoint> {
         .map(|b| (b.name.clone(), get(&b.name).unwrap_or(b.interval.center())))
         .collect();
     let nonlinearity = crate::registry::instantiate(&set.model.nonlinearity_tag(), &gamma)?;
+    // The chain's other blocks at their values (`in1.c_l` -> the plugin's `c_l`).
+    let mut input = Vec::new();
+    let mut output = Vec::new();
+    for b in &layout.blocks {
+        let vals: Vec<(String, f64)> = layout.dims[b.cells.clone()]
+            .iter()
+            .map(|d| {
+                let short = d.name[b.prefix.len() + 1..].to_string();
+                (short, get(&d.name).unwrap_or(d.prior.center()))
+            })
+            .collect();
+        let block = crate::registry::instantiate(&b.tag, &vals)?;
+        match b.side {
+            crate::chain::Side::Input => input.push(block),
+            crate::chain::Side::Output => output.push(block),
+        }
+    }
     let o = layout.orders;
     let mut theta: Vec<f64> = layout
         .theta_names
@@ -363,6 +380,8 @@ pub fn point(set: &ModelSet, values: &[(String, f64)]) -> Result<ModelPoint> {
     Ok(ModelPoint {
         structure: set.model.structure,
         nonlinearity,
+        input,
+        output,
         linear: LinearModel {
             a: theta[..o.na].to_vec(),
             b: theta[o.na..=o.na + o.nb].to_vec(),
@@ -391,6 +410,10 @@ fn finite_centre(i: Interval) -> f64 {
 pub struct ModelPoint {
     pub structure: Structure,
     pub nonlinearity: Box<dyn Nonlinearity>,
+    /// The chain's blocks before the linear block (and the nonlinearity when Hammerstein).
+    pub input: Vec<Box<dyn Nonlinearity>>,
+    /// The chain's blocks after the nonlinearity (Wiener) or the linear block (Hammerstein).
+    pub output: Vec<Box<dyn Nonlinearity>>,
     pub linear: LinearModel,
     pub nk: usize,
     /// Coefficients of the equation terms.
@@ -499,10 +522,13 @@ impl ModelPoint {
         warm: usize,
     ) -> Simulation {
         let n = u.len();
-        let v = match self.structure {
-            Structure::Wiener => u.to_vec(),
-            Structure::Hammerstein => self.nonlinearity.simulate(u),
-        };
+        let mut v = u.to_vec();
+        for b in &self.input {
+            v = b.simulate(&v);
+        }
+        if self.structure == Structure::Hammerstein {
+            v = self.nonlinearity.simulate(&v);
+        }
         let v: Vec<f64> = (0..n)
             .map(|t| if t >= self.nk { v[t - self.nk] } else { 0.0 })
             .collect();
@@ -532,10 +558,14 @@ impl ModelPoint {
         }
         let sensor: Vec<f64> = (0..n).map(|t| self.sensor(t)).collect();
         let out = |x: &[f64]| -> Vec<f64> {
-            match self.structure {
+            let mut w = match self.structure {
                 Structure::Wiener => self.nonlinearity.simulate(x),
                 Structure::Hammerstein => x.to_vec(),
+            };
+            for b in &self.output {
+                w = b.simulate(&w);
             }
+            w
         };
         let measured_x = match xd {
             Some(x) if k < n && k > 0 => x,

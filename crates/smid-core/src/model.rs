@@ -12,7 +12,8 @@
 use crate::effect::{self, Orders, Signals};
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
-use crate::nonlinearity::{NonlinearitySet, SteadyStateData, Structure};
+use crate::chain::{BlockLayout, Side};
+use crate::nonlinearity::{NonlinearityModel, NonlinearitySet, SteadyStateData, Structure};
 use crate::spec::{MethodSpec, ModelSpec};
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
@@ -43,6 +44,9 @@ pub struct Layout {
     pub nonlinearity_cells: Range<usize>,
     /// The slice of `ψ` that belongs to each effect, in effect order.
     pub effect_cells: Vec<Range<usize>>,
+    /// The chain's blocks besides the nonlinearity (`model.input`, then `model.output`), each
+    /// with its slice of `ψ` (see [`crate::chain`]).
+    pub blocks: Vec<BlockLayout>,
 }
 
 impl Layout {
@@ -143,6 +147,43 @@ impl ModelSpec {
             }
         }
         let nonlinearity_cells = 0..dims.len();
+        let mut blocks = Vec::new();
+        for (side, list) in [(Side::Input, &self.input), (Side::Output, &self.output)] {
+            for (index, b) in list.iter().enumerate() {
+                let tag = tag_of_model(b.as_ref());
+                let prefix = side.prefix(index + 1);
+                let start = dims.len();
+                let names = crate::registry::parameter_names(&tag);
+                for n in &names {
+                    let name = crate::chain::qualified(&prefix, n);
+                    let p = self.prior.get(&name).ok_or_else(|| {
+                        SmidError::invalid(
+                            format!("model.prior.{name}"),
+                            format!(
+                                "the block `{tag}` at {}[{index}] is bisected over a prior box: give {}",
+                                side.field(),
+                                names
+                                    .iter()
+                                    .map(|n| format!("`{}: [lo, hi]`", crate::chain::qualified(&prefix, n)))
+                                    .collect::<Vec<_>>()
+                                    .join(", ")
+                            ),
+                        )
+                    })?;
+                    dims.push(CellDim {
+                        prior: check_prior(&name, p)?,
+                        name,
+                    });
+                }
+                blocks.push(BlockLayout {
+                    side,
+                    index,
+                    tag,
+                    prefix,
+                    cells: start..dims.len(),
+                });
+            }
+        }
         let mut effect_cells = Vec::new();
         for e in &self.effects {
             let start = dims.len();
@@ -218,6 +259,7 @@ impl ModelSpec {
             dims,
             nonlinearity_cells,
             effect_cells,
+            blocks,
         })
     }
 
@@ -229,11 +271,21 @@ impl ModelSpec {
 
     /// The plugin's `type` tag.
     pub fn nonlinearity_tag(&self) -> String {
-        serde_json::to_value(&self.nonlinearity)
-            .ok()
-            .and_then(|v| v.get("type").and_then(|t| t.as_str()).map(String::from))
-            .unwrap_or_default()
+        tag_of_model(self.nonlinearity.as_ref())
     }
+
+    /// Whether the chain has blocks besides the nonlinearity.
+    pub fn has_blocks(&self) -> bool {
+        !(self.input.is_empty() && self.output.is_empty())
+    }
+}
+
+/// The `type` tag of a model plugin.
+pub fn tag_of_model(m: &dyn NonlinearityModel) -> String {
+    serde_json::to_value(m)
+        .ok()
+        .and_then(|v| v.get("type").and_then(|t| t.as_str()).map(String::from))
+        .unwrap_or_default()
 }
 
 /// One dynamic record: input, measured output and per-sample noise bound, with the noise-free

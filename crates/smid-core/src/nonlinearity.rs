@@ -7,7 +7,7 @@
 //! Like argmin's capability traits, each trait has one required method and defaults for the rest.
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
-use crate::inversion::InnerBound;
+use crate::inversion::{InnerBound, InnerKind};
 use crate::polygon::Polygon;
 use serde::{Deserialize, Serialize};
 use std::fmt::Debug;
@@ -297,7 +297,9 @@ pub trait NonlinearitySet: Debug + Send + Sync {
     /// Guaranteed parameter intervals, in report order. Required.
     fn parameters(&self) -> Vec<ParameterBound>;
     /// Stage 2 (Wiener): bound every inner-signal sample `x_t` from the outputs `y` with
-    /// per-sample noise bounds `dy`.
+    /// per-sample noise bounds `dy`. Contract: the sequence may start anywhere in a record (an
+    /// output chain inverts runs between unknown samples), so nothing may assume it starts at
+    /// rest.
     fn invert(&self, _y: &[f64], _dy: &[f64]) -> Result<Vec<InnerBound>> {
         Err(SmidError::Unsupported {
             plugin: format!("{self:?}"),
@@ -310,6 +312,66 @@ pub trait NonlinearitySet: Debug + Send + Sync {
             plugin: format!("{self:?}"),
             what: "input propagation (Hammerstein)".into(),
         })
+    }
+    /// Whether the map from an input sequence to the output sequence is order-preserving for
+    /// every member of the set (`v <= v'` sample by sample gives `N(v) <= N(v')`, from the same
+    /// state): a dead zone, a saturation, a play, a unit-gain lag. Then
+    /// [`NonlinearitySet::propagate_intervals`] needs nothing else. Default: no.
+    fn monotone(&self) -> bool {
+        false
+    }
+    /// Stage 2 of a block further along an input chain ([`crate::chain`]): bound the output
+    /// from input **intervals** (the output of the blocks before it). Default: exact inputs go
+    /// to [`NonlinearitySet::propagate`]; interval inputs to a [`NonlinearitySet::monotone`]
+    /// set are propagated at their lower and upper ends (for every member the output lies
+    /// between the two); anything else is unsupported.
+    fn propagate_intervals(&self, v: &[Interval]) -> Result<Vec<InnerBound>> {
+        if let Some(t) = v.iter().position(|i| !i.is_finite()) {
+            return Err(SmidError::invalid(
+                format!("dynamic sample {t}"),
+                "a block of the input chain received an unknown input",
+            ));
+        }
+        if v.iter().all(|i| i.lo == i.hi) {
+            let c: Vec<f64> = v.iter().map(|i| i.lo).collect();
+            return self.propagate(&c);
+        }
+        if !self.monotone() {
+            return Err(SmidError::Unsupported {
+                plugin: format!("{self:?}"),
+                what: "interval inputs (a block after another block on the input side): implement NonlinearitySet::propagate_intervals or monotone".into(),
+            });
+        }
+        let lo: Vec<f64> = v.iter().map(|i| i.lo).collect();
+        let hi: Vec<f64> = v.iter().map(|i| i.hi).collect();
+        let (a, b) = (self.propagate(&lo)?, self.propagate(&hi)?);
+        Ok(a.iter()
+            .zip(&b)
+            .map(|(a, b)| InnerBound {
+                interval: Interval::new(
+                    a.interval.lo.min(b.interval.lo),
+                    a.interval.hi.max(b.interval.hi),
+                ),
+                kind: if a.kind == InnerKind::Inverted && b.kind == InnerKind::Inverted {
+                    InnerKind::Inverted
+                } else {
+                    InnerKind::Band
+                },
+            })
+            .collect())
+    }
+    /// The block's input at steady state from its steady output `y ± dy` (stage 1 of a chain
+    /// whose output side holds this block after the nonlinearity that steady-state data bound).
+    /// Default: the inversion of that one sample (without history, as [`NonlinearitySet::invert`]
+    /// must allow for). A unit-gain filter returns `[y - dy, y + dy]`.
+    fn invert_steady(&self, y: f64, dy: f64) -> Result<Interval> {
+        Ok(self.invert(&[y], &[dy])?[0].interval)
+    }
+    /// The block's steady output for the steady input `u` (stage 1 of a chain whose input side
+    /// holds this block before the nonlinearity that steady-state data bound). Default: the
+    /// propagation of that one sample. A unit-gain filter returns `[u, u]`.
+    fn propagate_steady(&self, u: f64) -> Result<Interval> {
+        Ok(self.propagate(&[u])?[0].interval)
     }
     /// Feasible regions to plot (with the truth marked when `truth` is given in the order of
     /// [`NonlinearitySet::parameters`]).

@@ -10,11 +10,12 @@
 //! The stage functions ([`stage1`], [`stage2`], [`stage3`]) are public: validation runs the same
 //! stages on fresh records with the identified sets as constraints.
 use crate::cells::{self, Budget, Verdict};
+use crate::chain::{self, Side};
 use crate::effect::{self, DataScale, Signals};
 use crate::error::{Result, SmidError};
 use crate::experiment::{self, FilterDesign, SteadyRecord};
 use crate::interval::Interval;
-use crate::inversion::{InnerBound, InnerKind};
+use crate::inversion::InnerBound;
 use crate::model::{BoundSource, CellSet, Layout, ModelSet, SearchSummary, Training};
 use crate::noise;
 use crate::nonlinearity::{NonlinearitySet, SteadyStateData, Structure};
@@ -91,13 +92,7 @@ impl Identification {
 
 /// The built-in simulator of a spec, if the spec's plant is one.
 pub fn builtin_plant(spec: &Spec) -> Option<SimulatedPlant<'_>> {
-    spec.plant.simulator.as_ref().map(|s| SimulatedPlant {
-        linear: s.linear(),
-        nonlinearity: s.nonlinearity.as_ref(),
-        structure: s.structure,
-        effects: &s.effects,
-        dt: 1.0,
-    })
+    spec.plant.simulator.as_ref().map(SimulatedPlant::from_spec)
 }
 
 /// Run `plant` from rest on `u`; an output of the wrong length or a non-finite sample is an
@@ -262,17 +257,83 @@ pub fn stage1(
             ))
         }
     };
-    if model.effects.is_empty() {
+    if model.effects.is_empty() && !model.has_blocks() {
         return model.nonlinearity.bound_steady_state(steady);
     }
     let slices = layout.effect_slices(cell);
+    let blocks = BlockSets::new(model, layout, cell)?;
+    let outputs = blocks.refs(Side::Output);
+    let inputs = blocks.refs(Side::Input);
     let mut data = steady.clone();
     for p in &mut data.points {
         let s = effect::sensor_sum(&model.effects, &slices, p.time)?;
         p.y -= s.center();
         p.dy += s.radius();
+        if !outputs.is_empty() {
+            (p.y, p.dy) = chain::backward_steady(&outputs, p.y, p.dy)?;
+        }
+        for b in &inputs {
+            let v = b.propagate_steady(p.u)?;
+            if v.lo != v.hi {
+                return Err(SmidError::invalid(
+                    "model.input",
+                    "steady-state data reach the nonlinearity through input-side blocks whose steady output is uncertain over their cell: give the nonlinearity's parameters a prior box too (`model.prior`), or identify from records without the steady-state experiment",
+                ));
+            }
+            p.u = v.lo;
+        }
     }
     model.nonlinearity.bound_steady_state(&data)
+}
+
+/// The stage-1 sets of a chain's blocks over one cell (each plugin's set of its prior cell).
+pub struct BlockSets {
+    sets: Vec<(Side, Box<dyn NonlinearitySet>)>,
+}
+
+impl BlockSets {
+    /// Every block's set over its slice of `cell`; errors name the block's field.
+    pub fn new(model: &ModelSpec, layout: &Layout, cell: &[Interval]) -> Result<BlockSets> {
+        let mut sets = Vec::with_capacity(layout.blocks.len());
+        for b in &layout.blocks {
+            let plugin = match b.side {
+                Side::Input => &model.input[b.index],
+                Side::Output => &model.output[b.index],
+            };
+            let set = plugin.set_from_box(&cell[b.cells.clone()]).map_err(|e| match e {
+                SmidError::Invalid { field, message } => SmidError::invalid(
+                    format!("{}[{}] ({field})", b.side.field(), b.index),
+                    message,
+                ),
+                o => o,
+            })?;
+            sets.push((b.side, set));
+        }
+        Ok(BlockSets { sets })
+    }
+    /// The sets of one side, in signal order.
+    pub fn refs(&self, side: Side) -> Vec<&dyn NonlinearitySet> {
+        self.sets
+            .iter()
+            .filter(|(s, _)| *s == side)
+            .map(|(_, b)| b.as_ref())
+            .collect()
+    }
+    /// The whole input side (the input blocks, then `set` when Hammerstein) and output side
+    /// (`set` when Wiener, then the output blocks), in signal order.
+    pub fn sides<'a>(
+        &'a self,
+        structure: Structure,
+        set: &'a dyn NonlinearitySet,
+    ) -> (Vec<&'a dyn NonlinearitySet>, Vec<&'a dyn NonlinearitySet>) {
+        let mut input = self.refs(Side::Input);
+        let mut output = self.refs(Side::Output);
+        match structure {
+            Structure::Hammerstein => input.push(set),
+            Structure::Wiener => output.insert(0, set),
+        }
+        (input, output)
+    }
 }
 
 /// The signals stage 3 sees: records concatenated, separated by gaps of unknown samples so no
@@ -308,6 +369,8 @@ pub fn stage2(
     let o = layout.orders;
     let gap = o.na + o.nb + o.nk + 1;
     let slices = layout.effect_slices(cell);
+    let blocks = BlockSets::new(model, layout, cell)?;
+    let (input_side, output_side) = blocks.sides(model.structure, set);
     let mut out = StageSignals {
         output: Vec::new(),
         input: Vec::new(),
@@ -344,22 +407,13 @@ pub fn stage2(
                 dy[t] += s.radius();
             }
         }
-        let (output, input): (Vec<InnerBound>, Vec<Interval>) = match model.structure {
-            Structure::Wiener => (
-                set.invert(&yc, &dy)?,
-                rec.u.iter().map(|&v| Interval::new(v, v)).collect(),
-            ),
-            Structure::Hammerstein => (
-                yc.iter()
-                    .zip(&dy)
-                    .map(|(&y, &d)| InnerBound {
-                        interval: Interval::new(y - d, y + d).outward(),
-                        kind: InnerKind::Inverted,
-                    })
-                    .collect(),
-                set.propagate(&rec.u)?.iter().map(|b| b.interval).collect(),
-            ),
-        };
+        // Wiener: the nonlinearity is the first output block; Hammerstein: the last input
+        // block (with no other block, the paper's calls exactly).
+        let output = chain::backward(&output_side, &yc, &dy)?;
+        let input: Vec<Interval> = chain::forward(&input_side, &rec.u)?
+            .iter()
+            .map(|b| b.interval)
+            .collect();
         out.output.extend(output);
         out.input.extend((0..n).map(|t| {
             if t >= o.nk {
@@ -648,17 +702,13 @@ pub fn consistent_at(spec: &Spec, data: &ExperimentData, d: f64) -> Result<bool>
     let scale = data_scale(&data);
     // Coarser than the identification's cells: a test that cannot discard a coarse cell only
     // lowers the estimate, which the identification then raises by the margin if needed.
-    let halvings = 2f64.powi(spec.method.cells.nonlinearity_halvings.saturating_sub(2) as i32);
-    let resolution: Vec<f64> = layout.dims[layout.nonlinearity_cells.clone()]
-        .iter()
-        .map(|d| (d.prior.hi - d.prior.lo) / halvings)
-        .chain(
-            spec.model
-                .effects
-                .iter()
-                .flat_map(|e| e.resolution(d, &scale)),
-        )
-        .collect();
+    let resolution = resolution(
+        &spec.model,
+        &layout,
+        spec.method.cells.nonlinearity_halvings.saturating_sub(2),
+        d,
+        &scale,
+    );
     let test = |c: &[Interval]| test_cell(&spec.model, &layout, &spec.method, &training, c);
     match cells::search(
         &prior,
@@ -678,6 +728,29 @@ pub fn consistent_at(spec: &Spec, data: &ExperimentData, d: f64) -> Result<bool>
         Err(SmidError::Inconsistent { .. }) => Ok(false),
         Err(e) => Err(e),
     }
+}
+
+/// The branch and bound's resolution of each bisected parameter: a nonlinearity's or a
+/// block's prior width halved `halvings` times, an effect's own resolution.
+fn resolution(
+    model: &ModelSpec,
+    layout: &Layout,
+    halvings: u32,
+    delta: f64,
+    scale: &DataScale,
+) -> Vec<f64> {
+    let h = 2f64.powi(halvings as i32);
+    let effects: Vec<f64> = model
+        .effects
+        .iter()
+        .flat_map(|e| e.resolution(delta, scale))
+        .collect();
+    let first_effect = layout.effect_cells.first().map_or(layout.dims.len(), |r| r.start);
+    layout.dims[..first_effect]
+        .iter()
+        .map(|d| (d.prior.hi - d.prior.lo) / h)
+        .chain(effects)
+        .collect()
 }
 
 /// The estimated noise bound of `noise.estimate`: the margin times the smallest bound for
@@ -836,17 +909,13 @@ pub fn identify_with(
     let method = &spec.method;
     let prior: Vec<Interval> = layout.dims.iter().map(|d| d.prior).collect();
     let scale = data_scale(&data);
-    let halvings = 2f64.powi(method.cells.nonlinearity_halvings as i32);
-    let resolution: Vec<f64> = layout.dims[layout.nonlinearity_cells.clone()]
-        .iter()
-        .map(|d| (d.prior.hi - d.prior.lo) / halvings)
-        .chain(
-            model
-                .effects
-                .iter()
-                .flat_map(|e| e.resolution(delta, &scale)),
-        )
-        .collect();
+    let resolution = resolution(
+        model,
+        &layout,
+        method.cells.nonlinearity_halvings,
+        delta,
+        &scale,
+    );
     let test = |cell: &[Interval]| test_cell(model, &layout, method, &training, cell);
     let eval = |cell: &[Interval]| evaluate_cell(model, &layout, method, &training, cell);
     let search = cells::search(
@@ -943,7 +1012,11 @@ pub fn identify_with(
     // The inner signal: the nonlinearity's input (Wiener) or output (Hammerstein).
     let inner: Vec<InnerBound> = match model.structure {
         Structure::Wiener => sig.output[..first_len].to_vec(),
-        Structure::Hammerstein => rep.nonlinearity.propagate(&training.records[0].u)?,
+        Structure::Hammerstein => {
+            let blocks = BlockSets::new(model, &layout, &rep.cell)?;
+            let (input_side, _) = blocks.sides(model.structure, rep.nonlinearity.as_ref());
+            chain::forward(&input_side, &training.records[0].u)?
+        }
     };
     let inner_violations = training.records[0].x.as_ref().map(|x| {
         x.iter()

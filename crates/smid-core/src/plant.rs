@@ -50,13 +50,43 @@ pub struct SimulatedPlant<'a> {
     pub linear: LinearModel,
     pub nonlinearity: &'a dyn Nonlinearity,
     pub structure: Structure,
+    /// Blocks before the linear block (and before `nonlinearity` when Hammerstein), in signal
+    /// order (a chain, see [`crate::chain`]).
+    pub input: &'a [Box<dyn Nonlinearity>],
+    /// Blocks after the nonlinearity (Wiener) or the linear block (Hammerstein).
+    pub output: &'a [Box<dyn Nonlinearity>],
     /// Effects with their true values.
     pub effects: &'a [Box<dyn Effect>],
     /// Sample time (for equation terms that use it).
     pub dt: f64,
 }
 
-impl SimulatedPlant<'_> {
+impl<'a> SimulatedPlant<'a> {
+    /// The simulator of a spec's `plant.simulator` (sample time 1).
+    pub fn from_spec(s: &'a crate::spec::SimulatorSpec) -> Self {
+        SimulatedPlant {
+            linear: s.linear(),
+            nonlinearity: s.nonlinearity.as_ref(),
+            structure: s.structure,
+            input: &s.input,
+            output: &s.output,
+            effects: &s.effects,
+            dt: 1.0,
+        }
+    }
+
+    /// The signal entering the linear block: the input through the input blocks (and the
+    /// nonlinearity when Hammerstein).
+    fn entering(&self, u: &[f64]) -> Vec<f64> {
+        let mut v = u.to_vec();
+        for b in self.input {
+            v = b.simulate(&v);
+        }
+        match self.structure {
+            Structure::Wiener => v,
+            Structure::Hammerstein => self.nonlinearity.simulate(&v),
+        }
+    }
     /// The linear block with every effect's series factor.
     fn total_linear(&self) -> LinearModel {
         self.effects
@@ -68,10 +98,7 @@ impl SimulatedPlant<'_> {
     }
 
     fn inner_signal(&self, u: &[f64]) -> Vec<f64> {
-        let v = match self.structure {
-            Structure::Wiener => u.to_vec(),
-            Structure::Hammerstein => self.nonlinearity.simulate(u),
-        };
+        let v = self.entering(u);
         if self.effects.is_empty() {
             // The exact operation order of the plant FMUs (bit-for-bit agreement).
             return self.linear.simulate(&v);
@@ -92,10 +119,13 @@ impl SimulatedPlant<'_> {
 impl Plant for SimulatedPlant<'_> {
     fn run(&mut self, u: &[f64]) -> Result<Vec<f64>> {
         let x = self.inner_signal(u);
-        let w = match self.structure {
+        let mut w = match self.structure {
             Structure::Wiener => self.nonlinearity.simulate(&x),
             Structure::Hammerstein => x,
         };
+        for b in self.output {
+            w = b.simulate(&w);
+        }
         Ok(w.into_iter()
             .enumerate()
             .map(|(t, w)| self.effects.iter().fold(w, |w, e| e.plant_output(t, w)))
@@ -107,11 +137,24 @@ impl Plant for SimulatedPlant<'_> {
     fn inner(&mut self, u: &[f64]) -> Option<Vec<f64>> {
         Some(match self.structure {
             Structure::Wiener => self.inner_signal(u),
-            Structure::Hammerstein => self.nonlinearity.simulate(u),
+            Structure::Hammerstein => self.entering(u),
         })
     }
     fn truth(&self) -> Vec<(String, f64)> {
         let mut t = self.nonlinearity.parameters();
+        for (side, blocks) in [
+            (crate::chain::Side::Input, self.input),
+            (crate::chain::Side::Output, self.output),
+        ] {
+            for (i, b) in blocks.iter().enumerate() {
+                let prefix = side.prefix(i + 1);
+                t.extend(
+                    b.parameters()
+                        .into_iter()
+                        .map(|(n, v)| (crate::chain::qualified(&prefix, &n), v)),
+                );
+            }
+        }
         for e in self.effects {
             t.extend(e.truth());
         }

@@ -72,6 +72,14 @@ pub struct SimulatorSpec {
     /// `[b_0..b_nb]`.
     pub b: Vec<f64>,
     pub nonlinearity: Box<dyn Nonlinearity>,
+    /// Blocks before the linear block (and before `nonlinearity` when Hammerstein), in signal
+    /// order, with their true parameters (a chain: see [`crate::chain`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub input: Vec<Box<dyn Nonlinearity>>,
+    /// Blocks after the nonlinearity (Wiener) or the linear block (Hammerstein), in signal
+    /// order, with their true parameters: a sensor lag, a second nonlinearity...
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub output: Vec<Box<dyn Nonlinearity>>,
     /// Effects the plant has, with their true values (an offset, a delay, an actuator lag...):
     /// data with an effect a model may lack, without an FMU.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -346,6 +354,17 @@ pub struct ModelSpec {
     #[serde(default)]
     pub structure: Structure,
     pub nonlinearity: Box<dyn NonlinearityModel>,
+    /// Blocks before the linear block (and before `nonlinearity` when Hammerstein), in signal
+    /// order: any registered plugin that supports the input side. Each is bisected over its
+    /// prior box, its parameters named `in1.<name>`, `in2.<name>`, ... in `prior` (see
+    /// [`crate::chain`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub input: Vec<Box<dyn NonlinearityModel>>,
+    /// Blocks after the nonlinearity (Wiener) or the linear block (Hammerstein), in signal
+    /// order: any registered plugin that supports the output side (a sensor lag, a second
+    /// nonlinearity). Parameters `out1.<name>`, ... in `prior`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub output: Vec<Box<dyn NonlinearityModel>>,
     /// Order of `A(q^-1)`.
     pub na: usize,
     /// Order of `B(q^-1)` (coefficients `b_0..b_nb`).
@@ -545,6 +564,17 @@ impl Spec {
                 }
                 o => o,
             })?;
+            for (side, blocks) in [("input", &sim.input), ("output", &sim.output)] {
+                for (i, b) in blocks.iter().enumerate() {
+                    b.validate().map_err(|e| match e {
+                        SmidError::Invalid { field, message } => SmidError::invalid(
+                            format!("plant.simulator.{side}[{i}].{field}"),
+                            message,
+                        ),
+                        o => o,
+                    })?;
+                }
+            }
             for (i, e) in sim.effects.iter().enumerate() {
                 e.validate_plant().map_err(|err| match err {
                     SmidError::Invalid { field, message } => {
@@ -587,6 +617,23 @@ impl Spec {
                     self.model.structure
                 ),
             ));
+        }
+        for (side, blocks) in [
+            (crate::chain::Side::Input, &self.model.input),
+            (crate::chain::Side::Output, &self.model.output),
+        ] {
+            for (i, b) in blocks.iter().enumerate() {
+                if !b.supports(side.structure()) {
+                    return Err(SmidError::invalid(
+                        format!("{}[{i}]", side.field()),
+                        format!(
+                            "the plugin `{}` cannot sit on the {} side",
+                            crate::model::tag_of_model(b.as_ref()),
+                            if side == crate::chain::Side::Input { "input" } else { "output" }
+                        ),
+                    ));
+                }
+            }
         }
         let f = &self.experiment.filter;
         if let Some(a) = f.pole {

@@ -457,17 +457,18 @@ pub fn smallest_bound(
     Ok(Some(((hi * (1.0 - res)).max(lo_set), hi)))
 }
 
-/// The inner-signal estimate a k-step predictor starts from: Hammerstein `y - s` (the centre
-/// member's sensor terms), Wiener the centres of the stage-2 bounds of the first cell where
-/// finite, the free-run inner signal elsewhere.
+/// The inner-signal estimate a k-step predictor starts from: Hammerstein without output blocks
+/// `y - s` (the centre member's sensor terms), otherwise the centres of the stage-2 bounds of
+/// the first cell where inverted, the free-run inner signal elsewhere.
 fn inner_estimate(model: &ModelSet, point: &ModelPoint, rec: &Record) -> Result<Vec<f64>> {
     let free = point.simulate(&rec.u, rec.dt);
+    // A Hammerstein model without output blocks measures the linear block's output directly.
     match model.model.structure {
-        crate::nonlinearity::Structure::Hammerstein => {
+        crate::nonlinearity::Structure::Hammerstein if model.model.output.is_empty() => {
             let s = point.sensor_terms(rec.y.len());
             Ok(rec.y.iter().zip(&s).map(|(y, s)| y - s).collect())
         }
-        crate::nonlinearity::Structure::Wiener => {
+        _ => {
             let layout = model.model.layout()?;
             let c = &model.cells[0];
             let sig = stage2(

@@ -1,0 +1,273 @@
+//! Block chains: the model's blocks on each side of the identified linear block `L(θ)`,
+//!
+//! ```text
+//! u -> N_in,1 -> ... -> N_in,k -> L(θ) -> N_out,1 -> ... -> N_out,m -> y = w + s + η
+//! ```
+//!
+//! where the spec's `model.nonlinearity` is the last input block (Hammerstein) or the first
+//! output block (Wiener), and `model.input` / `model.output` add blocks before and after it. A
+//! block is any registered nonlinearity plugin, static or with memory; a low-order linear filter
+//! (a sensor or actuator lag) is a plugin of the same kind (`plugins/filters`). A block other
+//! than the spec's nonlinearity is bisected by the branch and bound over its prior box (its
+//! parameters are named `in1.m_l`, `out1.p`, ...: side, position, parameter).
+//!
+//! Stage 2 over a cell (Section 4 generalised, eqs 23-27):
+//! * **Input side, forward** ([`forward`]): the known input runs through every input block over
+//!   its cell as an interval simulation with memory ([`NonlinearitySet::propagate`] for the
+//!   first block, [`NonlinearitySet::propagate_intervals`] after it). The result bounds the
+//!   signal `v_t` that enters `L` for every member of the cell.
+//! * **Output side, backward** ([`backward`]): from `y_t ± Δη_t` (sensor terms already removed),
+//!   each output block is inverted in reverse signal order over its cell
+//!   ([`NonlinearitySet::invert`]), its result (an interval per sample) being the next block's
+//!   output `centre ± radius`. Samples a block leaves unknown split the record into runs that
+//!   are inverted separately (a plugin's inversion may not assume it starts at rest). The noise
+//!   bound carries through every inversion as part of the interval; an inverse filter
+//!   `(s_t - p s_{t-1})/(1 - p)` turns `Δη` into `(1 + |p|)Δη/(1 - p)` (the errors of
+//!   consecutive samples are treated as independent intervals: sound, not tight).
+//! * **Stage 1** ([`backward_steady`]): steady-state points reach the spec's nonlinearity
+//!   through the output blocks' steady-state inverses ([`NonlinearitySet::invert_steady`]).
+//!
+//! With no block beside the spec's nonlinearity every function here makes exactly the calls
+//! the paper's three stages made (the snapshots pin it).
+use crate::error::{Result, SmidError, Stage};
+use crate::interval::Interval;
+use crate::inversion::{InnerBound, InnerKind};
+use crate::nonlinearity::{NonlinearitySet, Structure};
+use serde::{Deserialize, Serialize};
+use std::ops::Range;
+
+/// The side of the linear block a block sits on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Side {
+    /// Before `L`: the block sees the input (forward propagation).
+    Input,
+    /// After `L` (after the spec's nonlinearity in a Wiener model): inverted from the output.
+    Output,
+}
+
+impl Side {
+    /// The structure a plugin must support to sit on this side
+    /// ([`crate::nonlinearity::NonlinearityModel::supports`]).
+    pub fn structure(self) -> Structure {
+        match self {
+            Side::Input => Structure::Hammerstein,
+            Side::Output => Structure::Wiener,
+        }
+    }
+    /// The spec's field of this side's blocks.
+    pub fn field(self) -> &'static str {
+        match self {
+            Side::Input => "model.input",
+            Side::Output => "model.output",
+        }
+    }
+    /// The prefix of the `position`-th block (1-based) of this side: `in1`, `out2`, ...
+    pub fn prefix(self, position: usize) -> String {
+        match self {
+            Side::Input => format!("in{position}"),
+            Side::Output => format!("out{position}"),
+        }
+    }
+}
+
+/// A block of the chain besides the spec's nonlinearity, as the layout resolved it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BlockLayout {
+    pub side: Side,
+    /// Index in its side's list (`model.input[index]`).
+    pub index: usize,
+    /// The plugin's `type`.
+    pub tag: String,
+    /// `in1`, `out1`, ...: the prefix of its parameter names.
+    pub prefix: String,
+    /// Its parameters' slice of the bisected parameters `ψ`.
+    pub cells: Range<usize>,
+}
+
+impl BlockLayout {
+    /// The model's name of one of the block's parameters (`in1.c_l`).
+    pub fn name(&self, parameter: &str) -> String {
+        qualified(&self.prefix, parameter)
+    }
+}
+
+/// `prefix.parameter`.
+pub fn qualified(prefix: &str, parameter: &str) -> String {
+    format!("{prefix}.{parameter}")
+}
+
+/// The signal entering `L` from the known input `u`, through the input blocks in signal order
+/// (empty: `u` itself, exact).
+pub fn forward(blocks: &[&dyn NonlinearitySet], u: &[f64]) -> Result<Vec<InnerBound>> {
+    let Some((first, rest)) = blocks.split_first() else {
+        return Ok(u
+            .iter()
+            .map(|&v| InnerBound {
+                interval: Interval::new(v, v),
+                kind: InnerKind::Inverted,
+            })
+            .collect());
+    };
+    let mut v = first.propagate(u)?;
+    for b in rest {
+        let iv: Vec<Interval> = v.iter().map(|b| b.interval).collect();
+        v = b.propagate_intervals(&iv)?;
+    }
+    Ok(v)
+}
+
+/// The signal leaving `L` from the outputs `y ± dy`, through the output blocks given in signal
+/// order (inverted from the last). Empty: `[y - dy, y + dy]` widened outward.
+pub fn backward(blocks: &[&dyn NonlinearitySet], y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
+    let Some((last, before)) = blocks.split_last() else {
+        return Ok(y
+            .iter()
+            .zip(dy)
+            .map(|(&y, &d)| InnerBound {
+                interval: Interval::new(y - d, y + d).outward(),
+                kind: InnerKind::Inverted,
+            })
+            .collect());
+    };
+    // The last block sees the measurements as they are (bit for bit the paper's call).
+    let mut cur = last.invert(y, dy)?;
+    for b in before.iter().rev() {
+        cur = invert_runs(*b, &cur)?;
+    }
+    Ok(cur)
+}
+
+/// Invert `block` from interval outputs, run by run between unknown samples.
+fn invert_runs(block: &dyn NonlinearitySet, w: &[InnerBound]) -> Result<Vec<InnerBound>> {
+    let mut out = vec![InnerBound::unknown(); w.len()];
+    let mut t = 0;
+    while t < w.len() {
+        if w[t].interval.lo > w[t].interval.hi {
+            // The block after this one has no value here over the whole cell (a backlash's dead
+            // band closed): the cell is inconsistent, as stage 3 would find from this interval.
+            return Err(SmidError::Inconsistent {
+                stage: Stage::InnerSignal,
+                sample: t,
+                detail: "the output side of the chain leaves no value for this sample over the cell".into(),
+            });
+        }
+        if !w[t].interval.is_finite() {
+            t += 1;
+            continue;
+        }
+        let start = t;
+        while t < w.len() && w[t].interval.is_finite() && w[t].interval.lo <= w[t].interval.hi {
+            t += 1;
+        }
+        let (c, r): (Vec<f64>, Vec<f64>) = w[start..t]
+            .iter()
+            .map(|b| centre_radius(b.interval))
+            .unzip();
+        let inv = block.invert(&c, &r)?;
+        out[start..t].copy_from_slice(&inv);
+    }
+    Ok(out)
+}
+
+/// `(c, r)` with `[c - r, c + r]` holding the interval despite rounding.
+pub fn centre_radius(i: Interval) -> (f64, f64) {
+    let c = i.center();
+    let r = (i.hi - c).max(c - i.lo);
+    (c, r + (c.abs() + r) * 4.0 * f64::EPSILON)
+}
+
+/// A steady-state output `y ± dy` carried back through the output blocks (signal order) to the
+/// output of the block before them: `(centre, radius)`. Empty: `(y, dy)` unchanged.
+pub fn backward_steady(blocks: &[&dyn NonlinearitySet], y: f64, dy: f64) -> Result<(f64, f64)> {
+    let (mut c, mut r) = (y, dy);
+    for b in blocks.iter().rev() {
+        let i = b.invert_steady(c, r)?;
+        if !i.is_finite() {
+            return Ok((0.0, f64::INFINITY));
+        }
+        (c, r) = centre_radius(i);
+    }
+    Ok((c, r))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `w = k x` over `k ∈ [k0, k1]`, `k0 > 0` (monotone).
+    #[derive(Debug, Serialize, Deserialize)]
+    struct Gain(Interval);
+    #[typetag::serde(name = "chain_test_gain")]
+    impl NonlinearitySet for Gain {
+        fn parameters(&self) -> Vec<crate::nonlinearity::ParameterBound> {
+            Vec::new()
+        }
+        fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
+            Ok(y.iter()
+                .zip(dy)
+                .map(|(&y, &d)| InnerBound {
+                    interval: Interval::hull_of([
+                        (y - d) / self.0.lo,
+                        (y - d) / self.0.hi,
+                        (y + d) / self.0.lo,
+                        (y + d) / self.0.hi,
+                    ])
+                    .unwrap()
+                    .outward(),
+                    kind: InnerKind::Inverted,
+                })
+                .collect())
+        }
+        fn propagate(&self, u: &[f64]) -> Result<Vec<InnerBound>> {
+            Ok(u.iter()
+                .map(|&u| InnerBound {
+                    interval: Interval::hull_of([u * self.0.lo, u * self.0.hi])
+                        .unwrap()
+                        .outward(),
+                    kind: InnerKind::Inverted,
+                })
+                .collect())
+        }
+        fn monotone(&self) -> bool {
+            true
+        }
+    }
+
+    #[test]
+    fn two_gains_each_way_hold_every_member() {
+        let (g1, g2) = (Gain(Interval::new(0.5, 0.7)), Gain(Interval::new(2.0, 2.5)));
+        let blocks: [&dyn NonlinearitySet; 2] = [&g1, &g2];
+        let u = [1.0, -2.0, 0.3];
+        let v = forward(&blocks, &u).unwrap();
+        for (k1, k2) in [(0.5, 2.0), (0.7, 2.5), (0.6, 2.2)] {
+            for (t, &ut) in u.iter().enumerate() {
+                assert!(v[t].interval.contains(k1 * k2 * ut), "t = {t}");
+            }
+        }
+        // Backward: y = k2 (k1 x) + η, |η| <= 0.01.
+        let x = [1.0, -2.0, 0.3];
+        for (k1, k2) in [(0.5, 2.0), (0.7, 2.5), (0.6, 2.2)] {
+            let y: Vec<f64> = x.iter().map(|v| k2 * k1 * v + 0.01).collect();
+            let b = backward(&blocks, &y, &[0.01; 3]).unwrap();
+            for t in 0..3 {
+                assert!(b[t].interval.contains(x[t]), "t = {t}: {:?}", b[t]);
+            }
+        }
+    }
+
+    #[test]
+    fn unknown_samples_split_the_runs() {
+        let g = Gain(Interval::new(1.0, 1.0));
+        let w = [
+            InnerBound::unknown(),
+            InnerBound {
+                interval: Interval::new(1.0, 2.0),
+                kind: InnerKind::Inverted,
+            },
+        ];
+        let out = invert_runs(&g, &w).unwrap();
+        assert_eq!(out[0].kind, InnerKind::Unknown);
+        assert!(out[1].interval.contains(1.0) && out[1].interval.contains(2.0));
+    }
+}
