@@ -125,18 +125,21 @@ pub fn random_chain(seed: u64) -> Result<Spec> {
         model_nl = json!({ "type": tag });
         prior.extend(p);
     }
-    let mut side = |tag: Option<&str>, s: Side, rng: &mut rand_chacha::ChaCha8Rng| -> Result<(Vec<Value>, Vec<Value>)> {
-        match tag {
-            None => Ok((Vec::new(), Vec::new())),
-            Some(t) => {
-                let (v, p) = draw_block(t, Some(&s.prefix(1)), rng).ok_or_else(|| no_draw(t))?;
-                prior.extend(p);
-                Ok((vec![v], vec![json!({ "type": t })]))
-            }
+    // A second block on a side, now and then: blocks fed by blocks.
+    let input2 = input.and_then(|_| if rng.gen_range(0..4) == 0 { pick(&mut rng, &inputs) } else { None });
+    let output2 = output.and_then(|_| if rng.gen_range(0..4) == 0 { pick(&mut rng, &outputs) } else { None });
+    let mut side = |tags: [Option<&str>; 2], s: Side, rng: &mut rand_chacha::ChaCha8Rng| -> Result<(Vec<Value>, Vec<Value>)> {
+        let (mut sims, mut models) = (Vec::new(), Vec::new());
+        for t in tags.into_iter().flatten() {
+            let (v, p) = draw_block(t, Some(&s.prefix(sims.len() + 1)), rng).ok_or_else(|| no_draw(t))?;
+            prior.extend(p);
+            sims.push(v);
+            models.push(json!({ "type": t }));
         }
+        Ok((sims, models))
     };
-    let (sim_in, model_in) = side(input, Side::Input, &mut rng)?;
-    let (sim_out, model_out) = side(output, Side::Output, &mut rng)?;
+    let (sim_in, model_in) = side([input, input2], Side::Input, &mut rng)?;
+    let (sim_out, model_out) = side([output, output2], Side::Output, &mut rng)?;
     let delta = 10f64.powf(rng.gen_range(-4.0..-2.5));
     // The input's amplitude over the block's peak gain (the ℓ1 norm of its impulse response),
     // so the inner signal stays within [-1.5, 1.5] whatever the poles, as a designer scales

@@ -263,6 +263,10 @@ impl DeadZoneSet {
 
 #[typetag::serde(name = "dead_zone")]
 impl NonlinearitySet for DeadZoneSet {
+    /// Order-preserving (positive slopes: nondecreasing), so a chain may feed it interval inputs.
+    fn monotone(&self) -> bool {
+        true
+    }
     fn parameters(&self) -> Vec<ParameterBound> {
         let b = |name: &str, i: Interval| ParameterBound {
             name: name.into(),

@@ -106,6 +106,10 @@ impl NonlinearityModel for GainModel {
 
 #[typetag::serde(name = "example_gain")]
 impl NonlinearitySet for GainSet {
+    /// Order-preserving (k > 0: nondecreasing), so a chain may feed it interval inputs.
+    fn monotone(&self) -> bool {
+        true
+    }
     fn parameters(&self) -> Vec<ParameterBound> {
         vec![ParameterBound {
             name: "k".into(),

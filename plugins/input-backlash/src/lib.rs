@@ -165,6 +165,10 @@ impl InputBacklashSet {
 
 #[typetag::serde(name = "input_backlash")]
 impl NonlinearitySet for InputBacklashSet {
+    /// Order-preserving (a play is order-preserving from any initial state), so a chain may feed it interval inputs.
+    fn monotone(&self) -> bool {
+        true
+    }
     fn parameters(&self) -> Vec<ParameterBound> {
         self.polygons.parameters()
     }

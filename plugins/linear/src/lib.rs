@@ -70,6 +70,10 @@ impl NonlinearityModel for LinearModel {
 
 #[typetag::serde(name = "linear")]
 impl NonlinearitySet for IdentitySet {
+    /// Order-preserving (the identity), so a chain may feed it interval inputs.
+    fn monotone(&self) -> bool {
+        true
+    }
     fn parameters(&self) -> Vec<ParameterBound> {
         Vec::new()
     }
