@@ -448,17 +448,17 @@ pub fn format_table(before: &Column, after: &Column) -> String {
         bound_text(before),
         bound_text(after),
     );
-    let verdict = |c: &Column| match &c.validation.consistency.falsified_at {
-        None => "CONSISTENT".to_string(),
-        Some(f) => format!("FALSIFIED (record {}, sample {})", f.record, f.sample),
+    let verdict = |c: &Column| match &c.validation {
+        None => "no member (see below)".to_string(),
+        Some(v) => match &v.consistency.falsified_at {
+            None => "CONSISTENT".to_string(),
+            Some(f) => format!("FALSIFIED (record {}, sample {})", f.record, f.sample),
+        },
     };
     row(&mut s, "verdict", verdict(before), verdict(after));
-    let smallest = |c: &Column| match c.validation.smallest_bound {
-        Some((_, hi)) => format!(
-            "{hi:.3e} ({})",
-            if c.validation.pass { "PASS" } else { "FAIL" }
-        ),
-        None => "none".into(),
+    let smallest = |c: &Column| match c.validation.as_ref().map(|v| (v.smallest_bound, v.pass)) {
+        Some((Some((_, hi)), pass)) => format!("{hi:.3e} ({})", if pass { "PASS" } else { "FAIL" }),
+        _ => "none".into(),
     };
     row(
         &mut s,
@@ -466,37 +466,26 @@ pub fn format_table(before: &Column, after: &Column) -> String {
         smallest(before),
         smallest(after),
     );
+    let fit = |c: &Column, f: fn(&Validation) -> &Fit| match &c.validation {
+        Some(v) => format!("{:.3e} / {}", f(v).rms, pct(f(v).fit_percent)),
+        None => "-".into(),
+    };
     row(
         &mut s,
         "one-step RMS / fit",
-        format!(
-            "{:.3e} / {}",
-            before.validation.one_step.rms,
-            pct(before.validation.one_step.fit_percent)
-        ),
-        format!(
-            "{:.3e} / {}",
-            after.validation.one_step.rms,
-            pct(after.validation.one_step.fit_percent)
-        ),
+        fit(before, |v| &v.one_step),
+        fit(after, |v| &v.one_step),
     );
     row(
         &mut s,
         "free-run RMS / fit",
-        format!(
-            "{:.3e} / {}",
-            before.validation.free_run.rms,
-            pct(before.validation.free_run.fit_percent)
-        ),
-        format!(
-            "{:.3e} / {}",
-            after.validation.free_run.rms,
-            pct(after.validation.free_run.fit_percent)
-        ),
+        fit(before, |v| &v.free_run),
+        fit(after, |v| &v.free_run),
     );
     let base = |c: &Column| {
         c.validation
-            .baseline
+            .as_ref()
+            .and_then(|v| v.baseline)
             .map(|b| pct(b.fit_percent))
             .unwrap_or_else(|| "-".into())
     };
@@ -518,11 +507,18 @@ pub fn format_table(before: &Column, after: &Column) -> String {
         format!("{:.3e}", before.mean_radius),
         format!("{:.3e}", after.mean_radius),
     );
+    for (name, c) in [("before", before), ("after", after)] {
+        if let Some(why) = &c.stopped {
+            let _ = writeln!(s, "\n{name}: no model to validate: {why}");
+        }
+    }
     s
 }
 
 fn bound_text(c: &Column) -> String {
-    if c.inflated {
+    if c.stopped.is_some() {
+        "none found (the bounded search stopped)".into()
+    } else if c.inflated {
         format!(
             "{:.3e} (inflated: the training data falsify the model at the declared bound)",
             c.bound
@@ -558,13 +554,9 @@ pub fn write_diagnosis(
         serde_norway::to_string(&s).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
     std::fs::write(&augmented, text).map_err(io(&augmented))?;
     out.push(augmented);
-    for (k, (b, a)) in before
-        .validation
-        .series
-        .iter()
-        .zip(&after.validation.series)
-        .enumerate()
-    {
+    let series = |c: &Column| c.validation.as_ref().map(|v| v.series.clone()).unwrap_or_default();
+    let (bs, as_) = (series(before), series(after));
+    for (k, (b, a)) in bs.iter().zip(&as_).enumerate() {
         let path = dir.join(format!("before_after_{k}.svg"));
         let mut lines = vec![
             Line {
@@ -593,6 +585,8 @@ pub fn write_diagnosis(
         plot::series_svg(&format!("held-out: {}", b.name), &lines, None, &path)?;
         out.push(path);
     }
-    out.extend(write_validation(&after.validation, dir, "after_")?);
+    if let Some(v) = &after.validation {
+        out.extend(write_validation(v, dir, "after_")?);
+    }
     Ok(out)
 }

@@ -197,16 +197,23 @@ fn run_trial(
         .collect::<Result<_>>()?;
     let (before, after) = diagnose::assess(&spec, &training, &choice, &holdout, 5)
         .map_err(at("before/after table"))?;
-    out.heldout_pass = after.validation.consistency.consistent && after.validation.pass;
-    out.fit_before = before.validation.free_run.fit_percent;
-    out.fit_after = after.validation.free_run.fit_percent;
+    let fit = |c: &diagnose::Column| c.validation.as_ref().map_or(f64::NEG_INFINITY, |v| v.free_run.fit_percent);
+    out.heldout_pass = after
+        .validation
+        .as_ref()
+        .is_some_and(|v| v.consistency.consistent && v.pass);
+    out.fit_before = fit(&before);
+    out.fit_after = fit(&after);
     out.fit_baseline = after
         .validation
-        .baseline
+        .as_ref()
+        .and_then(|v| v.baseline)
         .map_or(f64::NAN, |b| b.fit_percent);
     let after_spec = diagnose::with_model(spec, &choice.after);
     let truth = pipeline::plant_truth(&after_spec, plant)?;
-    let model = after.model.as_ref().expect("identified");
+    let Some(model) = after.model.as_ref() else {
+        return Ok(());
+    };
     out.truth_inside = truth.iter().all(|(n, v)| {
         model
             .parameter(n)

@@ -19,6 +19,7 @@
 //!   on them ([`crate::validate`]). A base model that the training data falsify has no member;
 //!   for the table it is re-identified at the smallest noise bound that makes its training
 //!   data consistent (said in the table).
+use crate::chain::{qualified, Side};
 use crate::effect::{self, DataScale, Effect};
 use crate::error::{Result, SmidError, Stage};
 use crate::model::ModelSet;
@@ -169,6 +170,18 @@ fn label_of(m: &ModelSpec) -> String {
         m.nb,
         m.nk
     );
+    let tags = |v: &[Box<dyn crate::nonlinearity::NonlinearityModel>]| {
+        v.iter()
+            .map(|b| crate::model::tag_of_model(b.as_ref()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if !m.input.is_empty() {
+        s = format!("[{}] -> {s}", tags(&m.input));
+    }
+    if !m.output.is_empty() {
+        s = format!("{s} -> [{}]", tags(&m.output));
+    }
     for e in &m.effects {
         s.push_str(" + ");
         s.push_str(&e.label());
@@ -280,38 +293,69 @@ fn candidates(
             ));
         }
     }
-    // A model without a nonlinearity (a plugin with no parameters): every plugin that offers a
-    // default prior, on the side the structure has (Hammerstein-Wiener candidates are not
-    // offered).
-    let no_parameters = |tag: &str| crate::registry::parameter_names(tag).is_empty();
-    if no_parameters(&base.nonlinearity_tag()) && !steady {
-        for entry in crate::registry::models() {
-            if no_parameters(entry.tag)
-                || (!opts.only.is_empty() && !opts.only.iter().any(|t| t == entry.tag))
-            {
-                continue;
-            }
+    // Every registered plugin with parameters, as a block at each open position of the chain:
+    // the input side (before everything, where an actuator's nonlinearity or lag sits) and the
+    // output side (after everything, where a sensor's sits). Its prior comes from the range of
+    // the signal it sees (input or output) through its `default_prior` (reported); plugins
+    // without one are not offered. A plugin added to the registry is a candidate with no edit.
+    for entry in crate::registry::models() {
+        let names = crate::registry::parameter_names(entry.tag);
+        if names.is_empty() || (!opts.only.is_empty() && !opts.only.iter().any(|t| t == entry.tag))
+        {
+            continue;
+        }
+        for side in [Side::Input, Side::Output] {
             let plugin = (entry.example)();
-            if !plugin.supports(base.structure) {
+            if !plugin.supports(side.structure()) {
                 continue;
             }
-            let seen = match base.structure {
-                crate::nonlinearity::Structure::Hammerstein => scale.u_range,
-                crate::nonlinearity::Structure::Wiener => scale.y_range,
+            let seen = match side {
+                Side::Input => scale.u_range,
+                Side::Output => scale.y_range,
             };
-            let names = crate::registry::parameter_names(entry.tag);
-            let Some(prior) = plugin.default_prior(base.structure, seen) else {
+            let Some(prior) = plugin.default_prior(side.structure(), seen) else {
                 continue;
             };
             if prior.len() != names.len() {
                 continue;
             }
             let mut m = base.duplicate();
-            m.nonlinearity = plugin;
+            let list = match side {
+                Side::Input => &mut m.input,
+                Side::Output => &mut m.output,
+            };
+            let position = match side {
+                Side::Input => 0,
+                Side::Output => list.len(),
+            };
+            list.insert(position, plugin);
+            // Input blocks are renumbered from the new first one: move the old priors along.
+            if side == Side::Input {
+                let old: Vec<(String, [f64; 2])> = m
+                    .prior
+                    .iter()
+                    .filter(|(k, _)| k.starts_with("in"))
+                    .map(|(k, v)| (k.clone(), *v))
+                    .collect();
+                for (k, _) in &old {
+                    m.prior.remove(k);
+                }
+                for (k, v) in old {
+                    if let Some((pre, rest)) = k.split_once('.') {
+                        if let Ok(i) = pre[2..].parse::<usize>() {
+                            m.prior.insert(qualified(&side.prefix(i + 1), rest), v);
+                            continue;
+                        }
+                    }
+                    m.prior.insert(k, v);
+                }
+            }
+            let prefix = side.prefix(position + 1);
             let mut given = Vec::new();
             for (n, p) in names.iter().zip(&prior) {
-                m.prior.insert(n.clone(), [p.lo, p.hi]);
-                given.push((n.clone(), [p.lo, p.hi]));
+                let name = qualified(&prefix, n);
+                m.prior.insert(name.clone(), [p.lo, p.hi]);
+                given.push((name, [p.lo, p.hi]));
             }
             if m.layout().is_err() {
                 continue;
@@ -320,11 +364,11 @@ fn candidates(
                 m,
                 Evidence {
                     label: format!(
-                        "nonlinearity `{}` ({} side)",
+                        "`{}` on the {} side",
                         entry.tag,
-                        match base.structure {
-                            crate::nonlinearity::Structure::Hammerstein => "input",
-                            crate::nonlinearity::Structure::Wiener => "output",
+                        match side {
+                            Side::Input => "input",
+                            Side::Output => "output",
                         }
                     ),
                     tag: entry.tag.to_string(),
@@ -479,7 +523,13 @@ pub struct Column {
     pub parameters: usize,
     /// Mean radius of the identified parameters' bounds.
     pub mean_radius: f64,
-    pub validation: Validation,
+    /// The validation on the held-out records (`None`: no member to validate, see `stopped`).
+    pub validation: Option<Validation>,
+    /// Why this column has no model: the training data stay inconsistent up to the largest
+    /// bound the bounded search tried, or identification gave no finite bound. A row of the
+    /// table, never an error exit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stopped: Option<String>,
     /// The model set, when identified.
     #[serde(skip)]
     pub model: Option<ModelSet>,
@@ -572,8 +622,29 @@ pub fn assess(
             Some(m) => (m.duplicate(), false),
             None => {
                 let s = with_model(spec, model);
-                let (id, inflated) = identify_consistent(&s, training)?;
-                (id.model, inflated)
+                match identify_consistent(&s, training) {
+                    Ok((id, inflated)) => (id.model, inflated),
+                    // A model the training data falsify at every bound tried, or that no
+                    // bound makes finite: a row that says where the search stopped.
+                    Err(
+                        e @ (SmidError::Inconsistent { .. }
+                        | SmidError::Unbounded { .. }
+                        | SmidError::Solver(_)
+                        | SmidError::Unsupported { .. }),
+                    ) => {
+                        return Ok(Column {
+                            label: label_of(model),
+                            bound: f64::NAN,
+                            inflated: true,
+                            parameters: 0,
+                            mean_radius: f64::NAN,
+                            validation: None,
+                            stopped: Some(e.to_string()),
+                            model: None,
+                        })
+                    }
+                    Err(e) => return Err(e),
+                }
             }
         };
         let opts = validate::Options {
@@ -593,7 +664,8 @@ pub fn assess(
             inflated,
             parameters: free.len(),
             mean_radius: finite.iter().sum::<f64>() / finite.len().max(1) as f64,
-            validation: v,
+            validation: Some(v),
+            stopped: None,
             model: Some(m),
         })
     };

@@ -283,6 +283,9 @@ pub fn stage1(
             p.u = v.lo;
         }
     }
+    // A point an output block leaves unknown (a clipped saturation) bounds nothing: it is left
+    // out of stage 1 (fewer points can only widen the set).
+    data.points.retain(|p| p.dy.is_finite());
     model.nonlinearity.bound_steady_state(&data)
 }
 
