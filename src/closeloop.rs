@@ -141,6 +141,7 @@ pub fn fresh_records(
                     part: None,
                     rows: None,
                     decimate: None,
+                    t: None,
                 },
                 1.0,
             ),

@@ -10,6 +10,15 @@ pub fn read_columns(
     y: &str,
     part: Option<&str>,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
+    let mut cols = read_table(file, &[u, y], part)?;
+    let ys = cols.pop().expect("two columns");
+    let us = cols.pop().expect("two columns");
+    Ok((us, ys))
+}
+
+/// The numeric columns `names` of a CSV file (rows whose `part` column equals `part`, when
+/// given); errors name the file, row and column.
+pub fn read_table(file: &Path, names: &[&str], part: Option<&str>) -> Result<Vec<Vec<f64>>> {
     let data_err = |location: String, message: String| SmidError::Data {
         file: file.to_path_buf(),
         location,
@@ -35,9 +44,9 @@ pub fn read_columns(
             )
         })
     };
-    let (iu, iy) = (col(u)?, col(y)?);
+    let idx: Vec<usize> = names.iter().map(|n| col(n)).collect::<Result<_>>()?;
     let ip = part.map(|_| col("part")).transpose()?;
-    let (mut us, mut ys) = (Vec::new(), Vec::new());
+    let mut out: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
     for (r, rec) in rdr.records().enumerate() {
         let row = r + 2; // 1-based, after the header
         let rec = rec.map_err(|e| data_err(format!("row {row}"), e.to_string()))?;
@@ -62,10 +71,32 @@ pub fn read_columns(
             }
             Ok(v)
         };
-        us.push(num(iu, u)?);
-        ys.push(num(iy, y)?);
+        for ((o, &i), name) in out.iter_mut().zip(&idx).zip(names) {
+            o.push(num(i, name)?);
+        }
     }
-    Ok((us, ys))
+    Ok(out)
+}
+
+/// Sample indices `round(t / dt)` of a time column in seconds: finite, `>= 0` and on the
+/// sampling grid (within 1e-6 of a sample); errors name the file, column and data row.
+pub fn sample_indices(file: &Path, column: &str, t: &[f64], dt: f64) -> Result<Vec<usize>> {
+    t.iter()
+        .enumerate()
+        .map(|(r, &v)| {
+            let k = v / dt;
+            if !(k >= 0.0 && k.is_finite() && (k - k.round()).abs() <= 1e-6 * k.abs().max(1.0)) {
+                return Err(SmidError::Data {
+                    file: file.to_path_buf(),
+                    location: format!("data row {r}, column `{column}`"),
+                    message: format!(
+                        "expected a time >= 0 on the sampling grid (a multiple of dt = {dt} s), got {v}"
+                    ),
+                });
+            }
+            Ok(k.round() as usize)
+        })
+        .collect()
 }
 
 /// One dynamic record named by a spec: columns `u`, `y` of `c.file` (relative to `base`), the
@@ -79,6 +110,22 @@ pub fn read_record(
 ) -> Result<crate::model::Record> {
     let file = base.join(&c.file);
     let (mut u, mut y) = read_columns(&file, &c.u, &c.y, c.part.as_deref())?;
+    if let Some(tc) = &c.t {
+        // A time column: the samples must be evenly spaced by the declared sample time.
+        let t = read_table(&file, &[tc], c.part.as_deref())?
+            .pop()
+            .expect("one column");
+        if let Some(k) = (1..t.len()).find(|&k| ((t[k] - t[k - 1]) - dt).abs() > 1e-6 * dt) {
+            return Err(SmidError::Data {
+                file: file.clone(),
+                location: format!("data row {k}, column `{tc}`"),
+                message: format!(
+                    "samples must be evenly spaced by dt = {dt} s (`plant.data.dt`), got a step of {}",
+                    t[k] - t[k - 1]
+                ),
+            });
+        }
+    }
     let mut name = file
         .file_name()
         .map(|f| f.to_string_lossy().into_owned())

@@ -618,6 +618,16 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
                     ),
                 });
             }
+            let times: Option<Vec<usize>> = match &ss.t {
+                None => None,
+                Some(tc) => {
+                    let file = base.join(&ss.file);
+                    let t = crate::data::read_table(&file, &[tc], ss.part.as_deref())?
+                        .pop()
+                        .expect("one column");
+                    Some(crate::data::sample_indices(&file, tc, &t, d.dt.unwrap_or(1.0))?)
+                }
+            };
             Some(SteadyStateData {
                 points: us
                     .iter()
@@ -630,7 +640,7 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
                         alpha: 0.0,
                         rising: u > 0.0,
                         index: i,
-                        time: None,
+                        time: times.as_ref().map(|t| t[i]),
                         step: None,
                     })
                     .collect(),

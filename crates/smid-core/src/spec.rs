@@ -106,6 +106,11 @@ pub struct CsvColumns {
     pub u: String,
     /// Output column.
     pub y: String,
+    /// Time column in seconds (optional): steady-state points take their sample time from it
+    /// (`t / dt`, which a sensor drift needs); a dynamic record's times must be evenly spaced
+    /// by `dt`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t: Option<String>,
     /// Keep only rows whose `part` column equals this.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub part: Option<String>,

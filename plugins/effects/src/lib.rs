@@ -242,7 +242,7 @@ impl Effect for Drift {
         let t = t.ok_or_else(|| {
             SmidError::invalid(
                 "model.effects: drift",
-                "a drift needs the sample time of every output (steady-state points without a time)",
+                "a drift needs the sample time of every output, and these steady-state points have none: give the steady-state CSV a time column in seconds (`plant.data.steady_state.t: <column>`)",
             )
         })? as f64;
         Ok(Interval::new(
