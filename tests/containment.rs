@@ -44,6 +44,7 @@ fn steady(b: &smid_output_backlash::Backlash, delta: f64, rng: &mut impl Rng) ->
                 index: points.len(),
                 time: None,
                 step: None,
+                du: 0.0,
             });
         }
     }

@@ -411,7 +411,7 @@ pub fn choose(
     let rule = if estimated {
         format!("the noise bound is estimated per model (the smallest bound consistent with the training records, × margin), so every model is admissible: a candidate is kept when its bound falls below {PER_PARAMETER} × the base model's bound per added parameter (an information criterion on the training data, in the ℓ∞ sense) and its free-run fit on the training records is no worse than the base model's (by more than {FIT_SLACK} points: a candidate that explains samples away, as a saturation that swallows the worst ones, does not simulate better), the lowest bound first")
     } else {
-        "admissible (training data consistent with the declared noise bound) with the fewest added parameters; ties broken by the free-run fit on the training records; when none is admissible, the one whose first contradiction comes latest is extended in a further round".to_string()
+        format!("admissible (training data consistent with the declared noise bound) and simulating the training records within {FIT_SLACK} point(s) of the best admissible candidate's free-run fit, the fewest added parameters, then the best fit; when none is admissible, the one whose first contradiction comes latest is extended in a further round")
     };
     let fit_of = |t: &TrainVerdict| match t {
         TrainVerdict::Consistent { fit_percent, .. } => *fit_percent,
@@ -431,18 +431,25 @@ pub fn choose(
             sets.push(id.map(|id| id.model));
             progress(i + 1, total);
         }
+        // Admissible candidates whose centre members simulate the training records within
+        // FIT_SLACK points of the best one; among them the fewest added parameters, then the
+        // best fit. (Fewest parameters alone let a wide, uninformative set win: a lag whose
+        // pole spans [0, 0.9] admits an input dead zone's data but simulates them at 65 %.)
+        let best_fit = cands
+            .iter()
+            .filter(|(_, e)| e.train.admissible())
+            .map(|(_, e)| fit_of(&e.train))
+            .fold(f64::NEG_INFINITY, f64::max);
         let best_admissible = cands
             .iter()
             .enumerate()
-            .filter(|(_, (_, e))| e.train.admissible())
+            .filter(|(_, (_, e))| {
+                e.train.admissible() && fit_of(&e.train) >= best_fit - FIT_SLACK
+            })
             .min_by(|(_, (_, a)), (_, (_, b))| {
-                let fit = |e: &Evidence| match e.train {
-                    TrainVerdict::Consistent { fit_percent, .. } => fit_percent,
-                    _ => f64::NEG_INFINITY,
-                };
                 a.added_parameters.cmp(&b.added_parameters).then(
-                    fit(b)
-                        .partial_cmp(&fit(a))
+                    fit_of(&b.train)
+                        .partial_cmp(&fit_of(&a.train))
                         .unwrap_or(std::cmp::Ordering::Equal),
                 )
             })

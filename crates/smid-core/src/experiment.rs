@@ -347,6 +347,7 @@ pub fn noisy_steady_state(
                 index: i,
                 time: Some(t),
                 step: Some(step),
+                du: 0.0,
             })
             .collect(),
     }

@@ -92,6 +92,16 @@ pub struct SteadyPoint {
     /// paper's ascending order). Scales the overshoot allowance α.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub step: Option<f64>,
+    /// Radius of the steady input actually reaching the nonlinearity, when a chain's input
+    /// blocks leave it uncertain over their cell (`ū ± du`); 0 for a known input. Plugins whose
+    /// sets are strips in `(m, m·c)` take it through [`Polygon::from_uncertain_strips`]; others
+    /// refuse `du > 0` (the nonlinearity then needs a prior box).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub du: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl SteadyPoint {
@@ -118,6 +128,9 @@ impl SteadyStateData {
             }
             if !(p.dy > 0.0 && p.dy.is_finite()) {
                 return Err(SmidError::invalid(at(), "noise bound must be > 0"));
+            }
+            if !(p.du >= 0.0 && p.du.is_finite()) {
+                return Err(SmidError::invalid(at(), "input radius du must be finite and >= 0"));
             }
             if !(p.alpha >= 0.0 && p.alpha.is_finite()) {
                 return Err(SmidError::invalid(at(), "α must be finite and >= 0"));
@@ -227,7 +240,7 @@ pub struct Region {
 ///         Ok(Box::new(GainSet(k.outward())))
 ///     }
 /// }
-/// let pts = vec![SteadyPoint { u: 2.0, y: 4.0, dy: 0.1, alpha: 0.0, rising: true, index: 0, time: None, step: None }];
+/// let pts = vec![SteadyPoint { u: 2.0, y: 4.0, dy: 0.1, alpha: 0.0, rising: true, index: 0, time: None, step: None , du: 0.0}];
 /// let set = GainModel.bound_steady_state(&SteadyStateData { points: pts }).unwrap();
 /// assert!(set.parameters()[0].interval.contains(2.0));
 /// ```
@@ -238,6 +251,12 @@ pub trait NonlinearityModel: Debug + Send + Sync {
     /// Whether the plugin can sit in this structure.
     fn supports(&self, structure: Structure) -> bool {
         structure == Structure::Wiener
+    }
+    /// Whether [`NonlinearityModel::bound_steady_state`] honours [`SteadyPoint::du`] (a steady
+    /// input known only to an interval, behind a chain's input blocks). Default: no, and the
+    /// pipeline then never passes such points (the nonlinearity needs a prior box instead).
+    fn accepts_input_radius(&self) -> bool {
+        false
     }
     /// A prior box for the plugin's parameters from the range `seen` of the signal the plugin
     /// sees in the training data (the input for Hammerstein, the output for Wiener), when a

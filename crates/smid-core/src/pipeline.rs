@@ -272,15 +272,31 @@ pub fn stage1(
         if !outputs.is_empty() {
             (p.y, p.dy) = chain::backward_steady(&outputs, p.y, p.dy)?;
         }
-        for b in &inputs {
-            let v = b.propagate_steady(p.u)?;
-            if v.lo != v.hi {
+        if !inputs.is_empty() {
+            // The steady input through the input blocks over their cell: an interval.
+            let mut v = Interval::new(p.u - p.du, p.u + p.du);
+            for b in &inputs {
+                let lo = b.propagate_steady(v.lo)?;
+                let hi = b.propagate_steady(v.hi)?;
+                if !b.monotone() && v.lo != v.hi {
+                    return Err(SmidError::invalid(
+                        "model.input",
+                        "a steady input reaches a non-monotone input block as an interval: give the nonlinearity's parameters a prior box (`model.prior`)",
+                    ));
+                }
+                v = Interval::new(lo.lo.min(hi.lo), lo.hi.max(hi.hi));
+            }
+            if v.lo != v.hi && !model.nonlinearity.accepts_input_radius() {
                 return Err(SmidError::invalid(
                     "model.input",
-                    "steady-state data reach the nonlinearity through input-side blocks whose steady output is uncertain over their cell: give the nonlinearity's parameters a prior box too (`model.prior`), or identify from records without the steady-state experiment",
+                    "steady-state data reach the nonlinearity through input-side blocks whose steady output is uncertain over their cell, and this plugin's stage 1 needs exact inputs: give the nonlinearity's parameters a prior box too (`model.prior`), or identify from records without the steady-state experiment",
                 ));
             }
-            p.u = v.lo;
+            (p.u, p.du) = chain::centre_radius(v);
+            if v.lo == v.hi {
+                p.du = 0.0;
+            }
+            // `rising` stays: the blocks are monotone, so the input reached v̄ from the same side.
         }
     }
     // A point an output block leaves unknown (a clipped saturation) bounds nothing: it is left
@@ -642,6 +658,7 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
                         index: i,
                         time: times.as_ref().map(|t| t[i]),
                         step: None,
+                        du: 0.0,
                     })
                     .collect(),
             })

@@ -68,6 +68,56 @@ impl Polygon {
         self.vertices.is_empty()
     }
 
+    /// [`Polygon::from_strips`] for samples whose input is only known to an interval (a chain's
+    /// input blocks before the nonlinearity): strip `k` says `lo <= v z0 + n1 z1 <= hi` for
+    /// **some** `v ∈ [n0 - du_k, n0 + du_k]`, with `z0 >= 0` (a slope). Exactly, that is the
+    /// two half-planes `(n0 - du) z0 + n1 z1 <= hi` and `(n0 + du) z0 + n1 z1 >= lo`. They are
+    /// clipped into the polygon of the strips widened by `du·M`, `M` a slope cap of 1000 times
+    /// the largest slope the data suggest (`(|lo| + |hi|) / |n0|`): the widened strips only
+    /// bound the start, so the result is the exact set (padded outward) for every slope below
+    /// the cap. With every `du = 0` it is [`Polygon::from_strips`] itself.
+    pub fn from_uncertain_strips(
+        strips: &[Strip],
+        du: &[f64],
+        domain: &[([f64; 2], f64)],
+        what: &str,
+    ) -> Result<Polygon> {
+        if du.iter().all(|&d| d == 0.0) {
+            return Polygon::from_strips(strips, domain, what);
+        }
+        let cap = 1e3
+            * strips
+                .iter()
+                .filter(|s| s.n[0] != 0.0)
+                .map(|s| (s.lo.abs() + s.hi.abs()) / s.n[0].abs())
+                .fold(1.0, f64::max);
+        let widened: Vec<Strip> = strips
+            .iter()
+            .zip(du)
+            .map(|(s, &d)| Strip {
+                lo: s.lo - d * cap,
+                hi: s.hi + d * cap,
+                ..*s
+            })
+            .collect();
+        let mut poly = Polygon::from_strips(&widened, domain, what)?;
+        for (s, &d) in strips.iter().zip(du).filter(|(_, d)| **d > 0.0) {
+            poly = poly
+                .clip([s.n[0] - d, s.n[1]], s.hi)
+                .clip([-(s.n[0] + d), -s.n[1]], -s.lo);
+            if poly.is_empty() {
+                return Err(SmidError::Inconsistent {
+                    stage: Stage::SteadyState,
+                    sample: s.sample,
+                    detail: format!(
+                        "{what}: no parameter pair fits this sample (its input known to ±{d:.3e}) and the ones before it"
+                    ),
+                });
+            }
+        }
+        Ok(poly)
+    }
+
     /// Intersect every strip (in sample order) with the `domain` half-planes `g·z <= d`.
     /// The polygon starts as the exact parallelogram of the first strip and the first strip not
     /// parallel to it (no large starting box, so no loss of precision). An empty result names

@@ -339,6 +339,7 @@ mod tests {
                     index: i,
                     time: None,
                     step: None,
+                    du: 0.0,
                 });
             }
         }

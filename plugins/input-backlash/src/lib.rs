@@ -108,6 +108,10 @@ impl NonlinearityModel for InputBacklashModel {
     fn supports(&self, structure: Structure) -> bool {
         structure == Structure::Hammerstein
     }
+    /// Stage 1 is the output backlash's polygons, which take interval steady inputs.
+    fn accepts_input_radius(&self) -> bool {
+        true
+    }
     /// A box of `(m_l, c_l, m_r, c_r)`: the branch images of the output backlash; the interval
     /// simulation takes `L`, `R` over their vertices, so it holds for every member.
     /// Unit slopes, half-plays up to a quarter of the range seen.
@@ -231,6 +235,7 @@ mod tests {
                     index: i,
                     time: None,
                     step: None,
+                    du: 0.0,
                 });
             }
         }

@@ -133,6 +133,7 @@ mod tests {
             index,
             time: None,
             step: None,
+            du: 0.0,
         };
         let ok = SteadyStateData {
             points: vec![p(1.0, 1.005, 0), p(-1.0, -0.995, 1)],

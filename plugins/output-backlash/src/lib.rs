@@ -111,8 +111,14 @@ pub struct BacklashSet {
 pub fn branch_polygons(data: &SteadyStateData) -> Result<BacklashSet> {
     let mut left = Vec::new();
     let mut right = Vec::new();
+    let (mut du_l, mut du_r) = (Vec::new(), Vec::new());
     data.validate()?;
     for p in &data.points {
+        if p.rising {
+            du_r.push(p.du);
+        } else {
+            du_l.push(p.du);
+        }
         if p.rising {
             // ȳ = m_r ū - m_r c_r + η̄, η̄ in [-Δη, Δη + α] (overshoot can only raise ȳ).
             right.push(Strip {
@@ -131,13 +137,15 @@ pub fn branch_polygons(data: &SteadyStateData) -> Result<BacklashSet> {
             });
         }
     }
-    let left = Polygon::from_strips(
+    let left = Polygon::from_uncertain_strips(
         &left,
+        &du_l,
         &Polygon::positive_quadrant(),
         "left branch (m_l, m_l·c_l)",
     )?;
-    let right = Polygon::from_strips(
+    let right = Polygon::from_uncertain_strips(
         &right,
+        &du_r,
         &Polygon::positive_quadrant(),
         "right branch (m_r, m_r·c_r)",
     )?;
@@ -156,6 +164,11 @@ pub fn branch_polygons(data: &SteadyStateData) -> Result<BacklashSet> {
 impl NonlinearityModel for OutputBacklashModel {
     fn bound_steady_state(&self, data: &SteadyStateData) -> Result<Box<dyn NonlinearitySet>> {
         Ok(Box::new(branch_polygons(data)?))
+    }
+    /// Steady inputs known to an interval (behind a chain's input blocks) give two half-planes
+    /// per sample ([`Polygon::from_uncertain_strips`]).
+    fn accepts_input_radius(&self) -> bool {
+        true
     }
     /// A box of `(m_l, c_l, m_r, c_r)`: each branch's exact image in `(m, m·c)`; the
     /// vertex-based inversion then bounds `x` for every member (extremes at the corners).
@@ -281,6 +294,7 @@ mod tests {
                         index: 2 * k,
                         time: None,
                         step: None,
+                        du: 0.0,
                     },
                     SteadyPoint {
                         u: -a,
@@ -291,6 +305,7 @@ mod tests {
                         index: 2 * k + 1,
                         time: None,
                         step: None,
+                        du: 0.0,
                     },
                 ]
             })

@@ -1,6 +1,7 @@
 //! # smid-saturation
 //!
-//! Output saturation as a smid plugin (`type: saturation`, Wiener structure `w = N(G u)`).
+//! Saturation as a smid plugin (`type: saturation`): at the output (Wiener structure
+//! `w = N(G u)`) or, as a chain's input block, a saturating actuator (`v = N(u)`, propagated).
 //!
 //! ## Parameterisation
 //!
@@ -243,6 +244,11 @@ impl NonlinearityModel for SaturationModel {
     fn bound_steady_state(&self, data: &SteadyStateData) -> Result<Box<dyn NonlinearitySet>> {
         Ok(Box::new(staircases(data)?))
     }
+    /// Either side: an output saturation (Wiener, inverted) or a saturating actuator (an input
+    /// block of a chain, propagated).
+    fn supports(&self, _structure: Structure) -> bool {
+        true
+    }
     /// Unit slopes; each limit within [0.5, 2] × the largest output on its side, or fixed far
     /// beyond the data when that side is never seen.
     fn default_prior(&self, _s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
@@ -350,6 +356,37 @@ impl NonlinearitySet for SaturationSet {
             .collect())
     }
 
+    /// `v = min(s_r, m_r u)` (`u >= 0`), `max(-s_l, m_l u)` (`u < 0`) over the box hull of
+    /// each branch's set (a superset of the staircase: sound): monotone in `m` and `s`, so the
+    /// interval ends suffice.
+    fn propagate(&self, u: &[f64]) -> Result<Vec<InnerBound>> {
+        u.iter()
+            .enumerate()
+            .map(|(t, &u)| {
+                if !u.is_finite() {
+                    return Err(SmidError::invalid(
+                        format!("dynamic sample {t}"),
+                        "non-finite input",
+                    ));
+                }
+                let (r, l) = (&self.right, &self.left);
+                let i = if u >= 0.0 {
+                    Interval::new((r.m.lo * u).min(r.s.lo), (r.m.hi * u).min(r.s.hi))
+                } else {
+                    Interval::new((l.m.hi * u).max(-l.s.hi), (l.m.lo * u).max(-l.s.lo))
+                };
+                Ok(InnerBound {
+                    interval: i.outward(),
+                    kind: InnerKind::Inverted,
+                })
+            })
+            .collect()
+    }
+    /// Nondecreasing in the input for every member (positive slopes).
+    fn monotone(&self) -> bool {
+        true
+    }
+
     fn contains(&self, truth: &[f64]) -> bool {
         truth.len() == 4
             && self.left.contains(truth[0], truth[1])
@@ -381,6 +418,7 @@ mod tests {
                     index: i,
                     time: None,
                     step: None,
+                    du: 0.0,
                 });
             }
         }
