@@ -1,35 +1,95 @@
-//! `smid diagnose-check`: the release-mode check of the diagnosis on the founding model class.
-//! The paper's Section 6 plant (Wiener, output backlash on, built-in simulator) gets one effect
-//! its model does not declare; the spec is `examples/paper.yaml`'s (Appendix filter, 50
-//! steady-state amplitudes) with a longer PRBS; the diagnosis runs on the training experiment
-//! only, then two fresh PRBS records of the plant (other seeds) are the held-out data. A trial
-//! passes when the diagnosis names the injected effect (nothing, for the case without one), the
-//! after-model is consistent with the declared bound on the held-out records (PASS), and every
-//! bound of the after-model contains the true parameter.
-use rand::SeedableRng;
+//! `smid diagnose-check`: the release-mode check of the diagnosis, a matrix generated from the
+//! registries. The plant is the paper's Section 6 plant (Wiener, output backlash on, built-in
+//! simulator); each case puts one thing into it that its model does not declare:
+//!
+//! * every registered effect (its registered example's true values, non-integer ones scaled by
+//!   one factor in [0.8, 1.25] per seed);
+//! * every registered plugin with parameters and a default prior (what makes it a diagnosis
+//!   candidate) at each position this plant leaves open: the input
+//!   side (before the linear block) and the output side (after the backlash), with true values
+//!   drawn in the middle half of the prior the diagnosis itself would give it (from the range
+//!   of the signal the block sees in the training data), so the truth is a member of the
+//!   candidate's class;
+//! * nothing (then nothing may be added).
+//!
+//! The input of each seed is drawn too: a binary PRBS or a multilevel one. The diagnosis runs on
+//! the training experiment only (designed steady-state points in shuffled order, given filter
+//! pole, a PRBS of 300 samples), then two fresh records of the plant (other seeds) are the
+//! held-out data. With `--csv` every record goes through CSV files first (steady-state points
+//! with a time column, the dynamic records), as measured data would. A trial passes when the
+//! diagnosis names the case (nothing, for `none`), the after-model is consistent with the
+//! declared bound on the held-out records (PASS), and every bound of the after-model contains
+//! the true parameter. A plugin or effect linked into the binary is a case with no edit here.
+use rand::{Rng, SeedableRng};
+use smid_core::chain::Side;
 use smid_core::diagnose::{self, Options};
 use smid_core::effect::{self, Effect};
-use smid_core::pipeline::{self, Record};
+use smid_core::nonlinearity::Nonlinearity;
+use smid_core::pipeline::{self, ExperimentData, Record};
 use smid_core::plant::{Plant, SimulatedPlant};
+use smid_core::registry;
 use smid_core::spec::Spec;
 use smid_core::{Result, SmidError};
 use std::fmt::Write as _;
 
-/// The injected cases: `(name, effect as YAML or "" for none)`.
-pub const CASES: [(&str, &str); 7] = [
-    ("none", ""),
-    ("offset", "{type: offset, value: 0.01}"),
-    ("drift", "{type: drift, offset: 0.005, rate: 2.0e-7}"),
-    ("delay", "{type: delay, samples: 1}"),
-    ("actuator_lag", "{type: actuator_lag, pole: 0.5}"),
-    ("extra_zero", "{type: extra_zero, zero: 0.5}"),
-    ("viscous_friction", "{type: viscous_friction, value: -0.3}"),
-];
+/// What a case injects.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CaseKind {
+    None,
+    /// A registered effect, by tag.
+    Effect(&'static str),
+    /// A registered plugin as a block on one side of the linear block.
+    Block(&'static str, Side),
+}
+
+/// One row of the matrix.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Case {
+    /// `none`, the effect's tag, or `<plugin>@input` / `<plugin>@output`.
+    pub name: String,
+    pub kind: CaseKind,
+}
+
+/// The matrix: nothing, every registered effect, every registered plugin with parameters at
+/// every open position of the paper's chain.
+pub fn cases() -> Vec<Case> {
+    crate::link_plugins();
+    let mut v = vec![Case {
+        name: "none".into(),
+        kind: CaseKind::None,
+    }];
+    for e in effect::effects() {
+        v.push(Case {
+            name: e.tag.into(),
+            kind: CaseKind::Effect(e.tag),
+        });
+    }
+    for m in registry::models() {
+        if registry::parameter_names(m.tag).is_empty() {
+            continue;
+        }
+        for side in [Side::Input, Side::Output] {
+            let ex = (m.example)();
+            // A plugin without a default prior is never a diagnosis candidate: no row.
+            if ex.supports(side.structure()) && ex.default_prior(side.structure(), (-1.0, 1.0)).is_some() {
+                v.push(Case {
+                    name: format!(
+                        "{}@{}",
+                        m.tag,
+                        if side == Side::Input { "input" } else { "output" }
+                    ),
+                    kind: CaseKind::Block(m.tag, side),
+                });
+            }
+        }
+    }
+    v
+}
 
 /// Which plant a trial runs on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PlantKind {
-    /// The built-in simulator with the effect injected (`plant.simulator.effects`).
+    /// The built-in simulator with the case injected.
     Simulator,
     /// The FMU `fmus/paper_effects` with its `effect` parameter (offset, drift, delay only).
     Fmu,
@@ -46,8 +106,9 @@ fn fmu_case(name: &str) -> Option<(f64, &'static str)> {
     }
 }
 
-/// The spec of a trial: the paper's plant and model, classical stage 3 for speed.
-pub fn trial_spec(seed: u64, length: usize, plant: PlantKind, case: &str) -> Result<Spec> {
+/// The spec of a trial: the paper's plant and model, classical stage 3 for speed; `levels`
+/// of the PRBS (2: binary).
+pub fn trial_spec(seed: u64, length: usize, plant: PlantKind, case: &str, levels: usize) -> Result<Spec> {
     let plant_text = match plant {
         PlantKind::Simulator => "  simulator:
     a: [0.5, 0.7]
@@ -83,7 +144,7 @@ experiment:
   seed: {seed}
   filter: {{ pole: 0.8125 }}
   steady_state: {{ shuffle: true }}
-  dynamic: {{ length: {length}, amplitude: 1.0, levels: 8 }}
+  dynamic: {{ length: {length}, amplitude: 1.0, levels: {levels} }}
 model:
   nonlinearity: {{ type: output_backlash }}
   na: 2
@@ -101,7 +162,7 @@ method:
 /// The outcome of one trial.
 #[derive(Debug, Clone)]
 pub struct TrialOutcome {
-    pub case: &'static str,
+    pub case: String,
     /// Consistency checks of the after-model the LP solver could not complete.
     pub unchecked: usize,
     pub seed: u64,
@@ -124,11 +185,72 @@ fn tag_of_label(label: &str) -> String {
         .unwrap_or_default()
 }
 
-/// Run one trial.
-pub fn trial(case: usize, seed: u64, plant: PlantKind) -> TrialOutcome {
-    let (name, yaml) = CASES[case];
+/// The label the diagnosis gives a case when it names it.
+fn expected_label(kind: &CaseKind) -> Option<String> {
+    match kind {
+        CaseKind::None => None,
+        CaseKind::Effect(t) => Some(t.to_string()),
+        CaseKind::Block(t, side) => Some(format!(
+            "`{t}` on the {} side",
+            if *side == Side::Input { "input" } else { "output" }
+        )),
+    }
+}
+
+/// An effect's registered example with its non-integer values scaled by `f`.
+fn scaled_effect(tag: &str, f: f64) -> Result<Box<dyn Effect>> {
+    let e = effect::effects()
+        .into_iter()
+        .find(|e| e.tag == tag)
+        .ok_or_else(|| SmidError::invalid("case", format!("no effect `{tag}`")))?;
+    let mut v = serde_json::to_value((e.example)()).map_err(|e| SmidError::invalid("case", e.to_string()))?;
+    if let Some(o) = v.as_object_mut() {
+        for (_, x) in o.iter_mut() {
+            if let Some(n) = x.as_f64().filter(|_| !(x.is_u64() || x.is_i64())) {
+                *x = serde_json::json!(n * f);
+            }
+        }
+    }
+    serde_json::from_value(v).map_err(|e| SmidError::invalid("case", e.to_string()))
+}
+
+/// A true block of plugin `tag` on `side`: every parameter drawn in the middle half of the
+/// prior the diagnosis gives it from the training data's `scale`.
+fn drawn_block(
+    tag: &str,
+    side: Side,
+    scale: &smid_core::effect::DataScale,
+    rng: &mut impl Rng,
+) -> Result<Box<dyn Nonlinearity>> {
+    let m = registry::models()
+        .into_iter()
+        .find(|m| m.tag == tag)
+        .ok_or_else(|| SmidError::invalid("case", format!("no plugin `{tag}`")))?;
+    let seen = match side {
+        Side::Input => scale.u_range,
+        Side::Output => scale.y_range,
+    };
+    let prior = (m.example)()
+        .default_prior(side.structure(), seen)
+        .ok_or_else(|| SmidError::invalid("case", format!("`{tag}` offers no default prior")))?;
+    for _ in 0..20 {
+        let values: Vec<(String, f64)> = registry::parameter_names(tag)
+            .into_iter()
+            .zip(&prior)
+            .map(|(n, p)| (n, p.lo + rng.gen_range(0.25..0.75) * (p.hi - p.lo)))
+            .collect();
+        if let Ok(b) = registry::instantiate(tag, &values) {
+            if b.validate().is_ok() {
+                return Ok(b);
+            }
+        }
+    }
+    Err(SmidError::invalid("case", format!("no valid draw of `{tag}` in its prior")))
+}
+/// Run one trial (`csv`: every record through CSV files first).
+pub fn trial(case: &Case, seed: u64, plant: PlantKind, csv: bool) -> TrialOutcome {
     let mut out = TrialOutcome {
-        case: name,
+        case: case.name.clone(),
         unchecked: 0,
         seed,
         named: false,
@@ -140,30 +262,43 @@ pub fn trial(case: usize, seed: u64, plant: PlantKind) -> TrialOutcome {
         fit_baseline: f64::NAN,
         error: None,
     };
-    let r = trial_spec(seed, 300, plant, name).and_then(|spec| {
-        let injected: Vec<Box<dyn Effect>> = if yaml.is_empty() || plant == PlantKind::Fmu {
-            Vec::new()
-        } else {
-            vec![serde_norway::from_str(yaml)
-                .map_err(|e| SmidError::invalid("case", e.to_string()))?]
-        };
-        match &spec.plant.simulator {
-            Some(sim) => {
-                let mut p = SimulatedPlant {
-                    linear: sim.linear(),
-                    nonlinearity: sim.nonlinearity.as_ref(),
-                    structure: sim.structure,
-                    input: &sim.input,
-                    output: &sim.output,
-                    effects: &injected,
-                    dt: 1.0,
-                };
-                run_trial(&spec, &mut p, name, seed, &mut out)
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xd1a6_0c4e);
+    let levels = if rng.gen_bool(0.5) { 2 } else { 8 };
+    let r = trial_spec(seed, 300, plant, &case.name, levels).and_then(|spec| {
+        let sim = match (&spec.plant.simulator, plant) {
+            (Some(sim), PlantKind::Simulator) => sim,
+            _ => {
+                return crate::with_fmu_plant(&spec, std::path::Path::new("."), |p| {
+                    run_trial(&spec, p, &case.kind, seed, csv, &mut out)
+                })
             }
-            None => crate::with_fmu_plant(&spec, std::path::Path::new("."), |p| {
-                run_trial(&spec, p, name, seed, &mut out)
-            }),
+        };
+        let (mut effects, mut input, mut output): (Vec<Box<dyn Effect>>, Vec<Box<dyn Nonlinearity>>, Vec<Box<dyn Nonlinearity>>) =
+            (Vec::new(), Vec::new(), Vec::new());
+        match &case.kind {
+            CaseKind::None => {}
+            CaseKind::Effect(t) => effects.push(scaled_effect(t, rng.gen_range(0.8..1.25))?),
+            CaseKind::Block(t, side) => {
+                // The range the block sees: the base plant's own training data.
+                let mut base = SimulatedPlant::from_spec(sim);
+                let scale = pipeline::data_scale(&pipeline::simulate_experiments(&spec, &mut base)?);
+                let b = drawn_block(t, *side, &scale, &mut rng)?;
+                match side {
+                    Side::Input => input.push(b),
+                    Side::Output => output.push(b),
+                }
+            }
         }
+        let mut p = SimulatedPlant {
+            linear: sim.linear(),
+            nonlinearity: sim.nonlinearity.as_ref(),
+            structure: sim.structure,
+            input: &input,
+            output: &output,
+            effects: &effects,
+            dt: 1.0,
+        };
+        run_trial(&spec, &mut p, &case.kind, seed, csv, &mut out)
     });
     if let Err(e) = r {
         out.error = Some(e.to_string());
@@ -171,30 +306,102 @@ pub fn trial(case: usize, seed: u64, plant: PlantKind) -> TrialOutcome {
     out
 }
 
+/// Write the training data and held-out records as CSV files in `dir` and read them back
+/// through a spec with `plant.data`, as measured data would come.
+fn through_csv(
+    spec: &Spec,
+    training: &ExperimentData,
+    holdout: &[Record],
+    dir: &std::path::Path,
+) -> Result<(Spec, ExperimentData, Vec<Record>)> {
+    let io = |e: std::io::Error| SmidError::invalid("--csv", e.to_string());
+    let mut ss = String::from("u,y,t\n");
+    for p in training.steady.iter().flat_map(|s| &s.points) {
+        let t = p.time.ok_or_else(|| SmidError::invalid("--csv", "a steady-state point without its time"))?;
+        let _ = writeln!(ss, "{:e},{:e},{t}", p.u, p.y);
+    }
+    std::fs::write(dir.join("steady.csv"), ss).map_err(io)?;
+    let rec_csv = |r: &Record, name: &str| -> Result<()> {
+        let mut d = String::from("u,y\n");
+        for (u, y) in r.u.iter().zip(&r.y) {
+            let _ = writeln!(d, "{u:e},{y:e}");
+        }
+        std::fs::write(dir.join(name), d).map_err(io)
+    };
+    rec_csv(&training.records[0], "train.csv")?;
+    for (k, r) in holdout.iter().enumerate() {
+        rec_csv(r, &format!("holdout{k}.csv"))?;
+    }
+    let mut v = serde_json::to_value(spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
+    v["plant"] = serde_json::json!({ "data": {
+        "steady_state": { "file": "steady.csv", "u": "u", "y": "y", "t": "t" },
+        "dynamic": { "file": "train.csv", "u": "u", "y": "y" },
+    }});
+    let spec: Spec = serde_json::from_value(v).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
+    let mut data = pipeline::load_data(&spec, dir)?;
+    // The steady points' direction and step come with the design, as the experiment recorded
+    // them (a CSV of measured steady states gives the sign of ū; the step heights are those of
+    // the designed square wave).
+    if let (Some(d), Some(s)) = (data.steady.as_mut(), training.steady.as_ref()) {
+        for (a, b) in d.points.iter_mut().zip(&s.points) {
+            a.rising = b.rising;
+            a.step = b.step;
+        }
+    }
+    let delta = spec.noise.delta()?;
+    let held = (0..holdout.len())
+        .map(|k| {
+            let c: smid_core::spec::CsvColumns = serde_json::from_value(serde_json::json!({
+                "file": format!("holdout{k}.csv"), "u": "u", "y": "y"
+            }))
+            .expect("columns parse");
+            smid_core::data::read_record(dir, &c, delta, 1.0)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok((spec, data, held))
+}
+
 fn run_trial(
     spec: &Spec,
     plant: &mut dyn Plant,
-    name: &str,
+    kind: &CaseKind,
     seed: u64,
+    csv: bool,
     out: &mut TrialOutcome,
 ) -> Result<()> {
     let at = |what: &'static str| move |e: SmidError| SmidError::invalid(what, e.to_string());
     let training = pipeline::simulate_experiments(spec, plant).map_err(at("training"))?;
-    let choice =
-        diagnose::choose(spec, &training, &Options::default(), &|_, _| {}).map_err(at("choice"))?;
-    out.chosen = choice.added.clone();
-    let tags: Vec<String> = choice.added.iter().map(|l| tag_of_label(l)).collect();
-    out.named = if name == "none" {
-        tags.is_empty()
-    } else {
-        tags.len() == 1 && tags[0] == name
-    };
     let holdout: Vec<Record> = (0..2u64)
         .map(|k| {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(10_000 + 10 * seed + k);
             pipeline::dynamic_record(spec, plant, &mut rng, 300, format!("held-out {k}"))
         })
         .collect::<Result<_>>()?;
+    let dir = std::env::temp_dir().join(format!(
+        "smid-diagnose-check-{}-{seed}-{}",
+        std::process::id(),
+        out.case.replace('@', "-")
+    ));
+    std::fs::create_dir_all(&dir).map_err(|e| SmidError::invalid("--csv", e.to_string()))?;
+    let (spec_used, training, holdout) = if csv {
+        through_csv(spec, &training, &holdout, &dir)?
+    } else {
+        let s: Spec = serde_json::from_value(serde_json::to_value(spec).expect("specs serialise"))
+            .expect("a serialised spec deserialises");
+        (s, training, holdout)
+    };
+    let _ = std::fs::remove_dir_all(&dir);
+    let spec = &spec_used;
+    let choice =
+        diagnose::choose(spec, &training, &Options::default(), &|_, _| {}).map_err(at("choice"))?;
+    out.chosen = choice.added.clone();
+    out.named = match expected_label(kind) {
+        None => choice.added.is_empty(),
+        Some(want) => {
+            choice.added.len() == 1
+                && (choice.added[0] == want || tag_of_label(&choice.added[0]) == want)
+        }
+    };
     let (before, after) = diagnose::assess(&spec, &training, &choice, &holdout, 5)
         .map_err(at("before/after table"))?;
     let fit = |c: &diagnose::Column| c.validation.as_ref().map_or(f64::NEG_INFINITY, |v| v.free_run.fit_percent);
@@ -211,6 +418,7 @@ fn run_trial(
         .map_or(f64::NAN, |b| b.fit_percent);
     let after_spec = diagnose::with_model(spec, &choice.after);
     let truth = pipeline::plant_truth(&after_spec, plant)?;
+
     let Some(model) = after.model.as_ref() else {
         return Ok(());
     };
@@ -231,23 +439,26 @@ pub fn run(
     first_seed: u64,
     only: &[String],
     plant: PlantKind,
+    csv: bool,
     jobs: usize,
     tick: impl Fn() + Sync,
 ) -> Result<Vec<TrialOutcome>> {
-    let cases: Vec<usize> = (0..CASES.len())
-        .filter(|&i| only.is_empty() || only.iter().any(|o| o == CASES[i].0))
-        .filter(|&i| plant == PlantKind::Simulator || fmu_case(CASES[i].0).is_some())
+    let all = cases();
+    let cases: Vec<&Case> = all
+        .iter()
+        .filter(|c| only.is_empty() || only.iter().any(|o| *o == c.name))
+        .filter(|c| plant == PlantKind::Simulator || fmu_case(&c.name).is_some())
         .collect();
     if cases.is_empty() {
         return Err(SmidError::invalid(
             "--only",
             format!(
                 "no such case; expected some of: {}",
-                CASES.iter().map(|c| c.0).collect::<Vec<_>>().join(", ")
+                all.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", ")
             ),
         ));
     }
-    let work: Vec<(usize, u64)> = cases
+    let work: Vec<(&Case, u64)> = cases
         .iter()
         .flat_map(|&c| (0..trials as u64).map(move |k| (c, first_seed + k)))
         .collect();
@@ -258,7 +469,7 @@ pub fn run(
             sc.spawn(|| loop {
                 let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 let Some(&(c, s)) = work.get(i) else { break };
-                let o = trial(c, s, plant);
+                let o = trial(c, s, plant, csv);
                 results.lock().expect("no poisoned lock").push((i, o));
                 tick();
             });
@@ -267,6 +478,14 @@ pub fn run(
     let mut r = results.into_inner().expect("no poisoned lock");
     r.sort_by_key(|(i, _)| *i);
     Ok(r.into_iter().map(|(_, o)| o).collect())
+}
+
+/// The number of cases `only` selects (all when empty).
+pub fn case_count(only: &[String]) -> usize {
+    cases()
+        .iter()
+        .filter(|c| only.is_empty() || only.iter().any(|o| *o == c.name))
+        .count()
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -288,7 +507,8 @@ pub fn format(outcomes: &[TrialOutcome]) -> String {
     let mut s = String::from(
         "| injected effect | named | held-out PASS | truth inside | median free-run fit before | after | ARX baseline |\n|---|---|---|---|---|---|---|\n",
     );
-    for (name, _) in CASES {
+    for case in cases() {
+        let name = case.name.as_str();
         let o: Vec<&TrialOutcome> = outcomes.iter().filter(|o| o.case == name).collect();
         if o.is_empty() {
             continue;
@@ -333,8 +553,8 @@ pub fn format(outcomes: &[TrialOutcome]) -> String {
 /// Whether every case meets the issue's bar: named in at least 9 of 10 (the same share of
 /// any count), held-out consistent and truth inside in every named trial.
 pub fn meets_bar(outcomes: &[TrialOutcome]) -> bool {
-    CASES.iter().all(|(name, _)| {
-        let o: Vec<&TrialOutcome> = outcomes.iter().filter(|o| o.case == *name).collect();
+    cases().iter().all(|case| {
+        let o: Vec<&TrialOutcome> = outcomes.iter().filter(|o| o.case == case.name).collect();
         let n = o.len();
         let named = o.iter().filter(|x| x.named).count();
         n == 0

@@ -173,10 +173,14 @@ enum Command {
         trials: usize,
         #[arg(long, default_value_t = 1)]
         first_seed: u64,
-        /// Only these cases (comma-separated: none, offset, drift, delay, actuator_lag,
-        /// extra_zero, viscous_friction).
+        /// Only these cases (comma-separated: none, an effect's tag, or `<plugin>@input` /
+        /// `<plugin>@output`; the matrix is generated from the registries).
         #[arg(long, value_delimiter = ',')]
         only: Vec<String>,
+        /// Give the diagnosis every record through CSV files (steady-state points with a time
+        /// column, the dynamic records), as measured data.
+        #[arg(long)]
+        csv: bool,
         /// Trials run in parallel (default: the number of cores).
         #[arg(long)]
         jobs: Option<usize>,
@@ -499,23 +503,21 @@ fn real_main() -> Result<()> {
             only,
             jobs,
             fmu,
+            csv,
         } => {
             let plant = if fmu {
                 smid::diagnose_check::PlantKind::Fmu
             } else {
                 smid::diagnose_check::PlantKind::Simulator
             };
-            let n = if only.is_empty() {
-                smid::diagnose_check::CASES.len()
-            } else {
-                only.len()
-            };
+            let n = smid::diagnose_check::case_count(&only);
             let pb = progress(n * trials, "diagnosis trials");
             let r = smid::diagnose_check::run(
                 trials,
                 first_seed,
                 &only,
                 plant,
+                csv,
                 jobs_or_cores(jobs),
                 || pb.inc(1),
             )?;
