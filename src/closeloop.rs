@@ -428,6 +428,13 @@ pub fn format_choice(c: &Choice) -> String {
                     )
                 }
             );
+            if !e.equivalent_to.is_empty() {
+                let _ = writeln!(
+                    s,
+                    "      indistinguishable on the training records from: {}",
+                    e.equivalent_to.join("; ")
+                );
+            }
         }
     }
     let _ = writeln!(s, "diagnosis: {}", c.summary());

@@ -167,6 +167,8 @@ pub struct TrialOutcome {
     pub unchecked: usize,
     pub seed: u64,
     pub named: bool,
+    /// Named through an equivalence the diagnosis reported (not the case's own label).
+    pub equivalent: bool,
     pub chosen: Vec<String>,
     pub heldout_pass: bool,
     pub truth_inside: bool,
@@ -254,6 +256,7 @@ pub fn trial(case: &Case, seed: u64, plant: PlantKind, csv: bool) -> TrialOutcom
         unchecked: 0,
         seed,
         named: false,
+        equivalent: false,
         chosen: Vec::new(),
         heldout_pass: false,
         truth_inside: false,
@@ -398,10 +401,15 @@ fn run_trial(
     out.named = match expected_label(kind) {
         None => choice.added.is_empty(),
         Some(want) => {
+            // The case, or an explanation the diagnosis itself reports as indistinguishable
+            // from the one it chose.
+            let is = |l: &str| l == want || tag_of_label(l) == want;
             choice.added.len() == 1
-                && (choice.added[0] == want || tag_of_label(&choice.added[0]) == want)
+                && (is(&choice.added[0]) || choice.equivalents().iter().any(|l| is(l)))
         }
     };
+    out.equivalent = !choice.added.is_empty()
+        && expected_label(kind).is_some_and(|w| choice.added[0] != w && tag_of_label(&choice.added[0]) != w);
     let (before, after) = diagnose::assess(&spec, &training, &choice, &holdout, 5)
         .map_err(at("before/after table"))?;
     let fit = |c: &diagnose::Column| c.validation.as_ref().map_or(f64::NEG_INFINITY, |v| v.free_run.fit_percent);

@@ -110,6 +110,76 @@ pub struct Evidence {
     pub priors: Vec<(String, [f64; 2])>,
     pub train: TrainVerdict,
     pub chosen: bool,
+    /// Other admissible candidates of the round (and the base model, as "the model as
+    /// declared") that the training records cannot tell from this one: their centre members'
+    /// free runs on the training inputs stay within twice the noise bound of each other.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub equivalent_to: Vec<String>,
+}
+
+/// The label of the base model in equivalence lists.
+pub const AS_DECLARED: &str = "the model as declared";
+
+/// Free runs from rest of the centre member of `set` on each training record.
+fn centre_runs(set: &ModelSet) -> Option<Vec<Vec<f64>>> {
+    let c = crate::members::centre(set).ok()?;
+    let runs: Vec<Vec<f64>> = set
+        .training
+        .records
+        .iter()
+        .map(|r| c.simulate(&r.u, r.dt).y)
+        .collect();
+    runs.iter()
+        .all(|y| y.iter().all(|v| v.is_finite()))
+        .then_some(runs)
+}
+
+/// Whether two models' centre free runs stay within `tol` of each other on every training
+/// sample after the first `skip` of each record.
+fn indistinguishable(a: &[Vec<f64>], b: &[Vec<f64>], tol: f64, skip: usize) -> bool {
+    a.len() == b.len()
+        && a.iter().zip(b).all(|(x, y)| {
+            x.len() == y.len()
+                && x.iter()
+                    .zip(y)
+                    .skip(skip)
+                    .all(|(p, q)| (p - q).abs() <= tol)
+        })
+}
+
+/// Mark every pair of admissible candidates (and the admissible base model) whose training
+/// behaviour the data cannot tell apart.
+fn mark_equivalences(
+    evidence: &mut [Evidence],
+    sets: &[Option<ModelSet>],
+    base: Option<&ModelSet>,
+    delta: f64,
+) {
+    let runs: Vec<Option<Vec<Vec<f64>>>> = sets
+        .iter()
+        .map(|s| s.as_ref().and_then(centre_runs))
+        .collect();
+    let base_runs = base.and_then(centre_runs);
+    let skip = 20;
+    for i in 0..evidence.len() {
+        let Some(ri) = &runs[i] else { continue };
+        if let Some(rb) = &base_runs {
+            if indistinguishable(ri, rb, 2.0 * delta, skip) {
+                evidence[i].equivalent_to.push(AS_DECLARED.into());
+            }
+        }
+        for j in 0..evidence.len() {
+            if i == j {
+                continue;
+            }
+            if let Some(rj) = &runs[j] {
+                if indistinguishable(ri, rj, 2.0 * delta, skip) {
+                    let l = evidence[j].label.clone();
+                    evidence[i].equivalent_to.push(l);
+                }
+            }
+        }
+    }
 }
 
 /// One round of the search.
@@ -153,8 +223,32 @@ impl Choice {
                 "no candidate made the training data consistent; the model is unchanged".into()
             }
         } else {
-            format!("missing: {}", self.added.join(", "))
+            let eq: Vec<String> = self
+                .rounds
+                .iter()
+                .flat_map(|r| r.candidates.iter().filter(|e| e.chosen))
+                .filter(|e| !e.equivalent_to.is_empty())
+                .map(|e| format!("{} ≡ {}", e.label, e.equivalent_to.join(" ≡ ")))
+                .collect();
+            if eq.is_empty() {
+                format!("missing: {}", self.added.join(", "))
+            } else {
+                format!(
+                    "missing: {} (the training records cannot tell apart: {}; the choice among them is the rule's, not the data's)",
+                    self.added.join(", "),
+                    eq.join("; ")
+                )
+            }
         }
+    }
+    /// The labels the training records cannot tell from the chosen ones (equivalent
+    /// explanations), including [`AS_DECLARED`] when the model without them simulates alike.
+    pub fn equivalents(&self) -> Vec<String> {
+        self.rounds
+            .iter()
+            .flat_map(|r| r.candidates.iter().filter(|e| e.chosen))
+            .flat_map(|e| e.equivalent_to.iter().cloned())
+            .collect()
     }
 }
 
@@ -289,6 +383,7 @@ fn candidates(
                         message: "not tried".into(),
                     },
                     chosen: false,
+                    equivalent_to: Vec::new(),
                 },
             ));
         }
@@ -378,6 +473,7 @@ fn candidates(
                         message: "not tried".into(),
                     },
                     chosen: false,
+                    equivalent_to: Vec::new(),
                 },
             ));
         }
@@ -486,6 +582,12 @@ pub fn choose(
             base_train: base_train.clone(),
             candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
         };
+        mark_equivalences(
+            &mut round.candidates,
+            &sets,
+            base_set.as_ref().filter(|_| base_train.admissible()),
+            spec.noise.delta().unwrap_or(f64::NAN),
+        );
         match pick {
             Some(i) => {
                 round.candidates[i].chosen = true;
