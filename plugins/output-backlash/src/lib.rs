@@ -327,4 +327,37 @@ mod tests {
                 > 10
         );
     }
+
+    proptest::proptest! {
+        /// Steady inputs known only to an interval (behind a chain's input blocks): the true
+        /// slopes and plays lie in the polygons whatever the true inputs inside the intervals,
+        /// and the polygons are those of the exact inputs when every radius is 0.
+        #[test]
+        fn interval_steady_inputs_keep_the_truth(
+            m in 0.1f64..2.0, asym in -0.02f64..0.02, cl in 0.01f64..0.3, cr in 0.01f64..0.3,
+            du in 0.0f64..0.05, delta in 1e-5f64..1e-2,
+            fr in proptest::collection::vec(0.0f64..1.0, 24),
+            noise in proptest::collection::vec(-1.0f64..1.0, 24),
+        ) {
+            let b = Backlash { m_l: m * (1.0 + asym), c_l: cl, m_r: m * (1.0 - asym), c_r: cr };
+            let points: Vec<SteadyPoint> = (0..24).map(|k| {
+                let a = 0.6 + 0.1 * (k / 2) as f64;
+                let rising = k % 2 == 0;
+                let u = if rising { a } else { -a };
+                // The input that really reached the backlash: anywhere in u ± du.
+                let v = u - du + 2.0 * du * fr[k];
+                let w = if rising { b.m_r * (v - b.c_r) } else { b.m_l * (v + b.c_l) };
+                SteadyPoint { u, y: w + delta * noise[k], dy: delta, alpha: 0.0, rising, index: k, time: None, step: None, du }
+            }).collect();
+            let set = branch_polygons(&SteadyStateData { points: points.clone() }).unwrap();
+            proptest::prop_assert!(set.contains(&[b.m_l, b.c_l, b.m_r, b.c_r]), "{:?}", set);
+            let exact: Vec<SteadyPoint> = points.iter().map(|p| SteadyPoint { du: 0.0, ..*p }).collect();
+            let plain = branch_polygons(&SteadyStateData { points: exact.clone() });
+            let via = Polygon::from_uncertain_strips(&[], &[], &Polygon::positive_quadrant(), "none");
+            proptest::prop_assert!(via.is_err());
+            if du == 0.0 {
+                proptest::prop_assert_eq!(plain.unwrap().left, set.left);
+            }
+        }
+    }
 }
