@@ -1,0 +1,86 @@
+//! Noise-bound estimation (`noise.estimate`): the smallest bound at which the training data are
+//! consistent with the model (by the branch and bound's cheap test), times a margin (eq 5).
+use crate::cells::{self, Budget};
+use crate::error::{Result, SmidError};
+use crate::interval::Interval;
+use crate::model::Training;
+use crate::spec::Spec;
+use super::*;
+
+/// Whether the training data are consistent with the model at noise bound `d`, by the
+/// branch and bound's cheap test alone (classical outer sets, no bounds computed): `false`
+/// proves them inconsistent; `true` proves nothing.
+pub fn consistent_at(spec: &Spec, data: &ExperimentData, d: f64) -> Result<bool> {
+    let spec = with_bound(spec, d);
+    let data = data_with_bound(data, d);
+    let layout = spec.model.layout()?;
+    let training = Training {
+        steady: data.steady.clone(),
+        records: data.records.clone(),
+    };
+    let prior: Vec<Interval> = layout.dims.iter().map(|d| d.prior).collect();
+    let scale = data_scale(&data);
+    // Coarser than the identification's cells: a test that cannot discard a coarse cell only
+    // lowers the estimate, which the identification then raises by the margin if needed.
+    let resolution = resolution(
+        &spec.model,
+        &layout,
+        spec.method.cells.nonlinearity_halvings.saturating_sub(2),
+        d,
+        &scale,
+    );
+    let test = |c: &[Interval]| test_cell(&spec.model, &layout, &spec.method, &training, c);
+    match cells::search(
+        &prior,
+        Budget {
+            resolution,
+            depth: spec.method.cells.depth,
+            // A consistency test stopped early keeps its cells: it can only say "consistent"
+            // too soon, which lowers the estimate (raised again by the margin if needed).
+            max_cells: spec.method.cells.max_cells.min(500),
+            max_leaves: 500,
+        },
+        &test,
+        &test,
+        &|_| {},
+    ) {
+        Ok(s) => Ok(!s.leaves.is_empty()),
+        Err(SmidError::Inconsistent { .. }) => Ok(false),
+        Err(e) => Err(e),
+    }
+}
+
+/// The estimated noise bound of `noise.estimate`: the margin times the smallest bound for
+/// which the training data are consistent with the model (doubling from a thousandth of the
+/// largest output, then bisection to 2 %; at most 60 tests). That smallest bound is a lower
+/// bound of the exact one (the test is an outer relaxation), so the identification at the
+/// estimate may still find the data inconsistent: the estimate then grows by the margin again.
+pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<f64> {
+    let margin = spec.noise.estimate.unwrap_or(1.1);
+    let scale = data_scale(data).y_max;
+    let mut hi = 1e-3 * scale;
+    let mut lo = 0.0;
+    let mut n = 0;
+    while !consistent_at(spec, data, hi)? {
+        n += 1;
+        if n > 40 {
+            return Err(SmidError::Inconsistent {
+                stage: crate::error::Stage::Linear,
+                sample: 0,
+                detail: format!("no noise bound up to {hi:.3e} makes the training data consistent"),
+            });
+        }
+        lo = hi;
+        hi *= 2.0;
+    }
+    while hi - lo > 0.02 * hi && n < 60 {
+        let mid = 0.5 * (lo + hi);
+        if consistent_at(spec, data, mid)? {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+        n += 1;
+    }
+    Ok(margin * hi)
+}

@@ -1,0 +1,360 @@
+//! The search: the branch and bound over the bisected parameters ([`crate::cells`]) with the
+//! stages as its tests, the hulls over the surviving cells in report order, and the run's
+//! artifacts ([`Identification`]).
+use crate::cells::{self, Budget};
+use crate::chain::{self};
+use crate::effect::DataScale;
+use crate::error::{Result, SmidError};
+use crate::experiment::{self};
+use crate::interval::Interval;
+use crate::inversion::InnerBound;
+use crate::model::{BoundSource, CellSet, Layout, ModelSet, SearchSummary, Training};
+use crate::noise;
+use crate::nonlinearity::{NonlinearitySet, Structure};
+use crate::spec::{AlphaSpec, ModelSpec, Spec};
+use super::*;
+
+/// Result of a whole identification: the model set and the run's artifacts.
+#[derive(Debug)]
+pub struct Identification {
+    pub name: String,
+    pub delta_eta: f64,
+    pub snr_db: f64,
+    /// The identified model set (what `result.json` carries as `model`).
+    pub model: ModelSet,
+    /// The cell whose artifacts are reported (the one holding the truth when known).
+    pub representative: usize,
+    /// Stage-2 bounds of the representative cell, first record.
+    pub inner: Vec<InnerBound>,
+    /// Time indices (in the concatenated records) of the stage-3 equations of that cell.
+    pub equations: Vec<usize>,
+    pub data: ExperimentData,
+    /// Whether the truth lies in the exact stage-1 set of some cell holding the true `ψ`.
+    pub truth_in_nonlinearity_set: Option<bool>,
+    /// Inner samples whose true value falls outside its bound (must be 0), when known.
+    pub inner_violations: Option<usize>,
+}
+
+impl Identification {
+    /// Nonlinearity parameters (stage 1), linear parameters and equation terms (stage 3),
+    /// bisected parameters: the hull over the surviving cells.
+    pub fn parameters(&self) -> &[ParamResult] {
+        &self.model.parameters
+    }
+    /// Whether every parameter with a known truth is inside its bounds.
+    pub fn all_contain_truth(&self) -> Option<bool> {
+        let c: Vec<bool> = self
+            .model
+            .parameters
+            .iter()
+            .filter_map(|p| p.contains)
+            .collect();
+        (!c.is_empty()).then(|| {
+            c.iter().all(|b| *b)
+                && self.truth_in_nonlinearity_set != Some(false)
+                && self.inner_violations.unwrap_or(0) == 0
+        })
+    }
+    /// A parameter by name.
+    pub fn parameter(&self, name: &str) -> Option<&ParamResult> {
+        self.model.parameter(name)
+    }
+    /// The nonlinearity set of the representative cell.
+    pub fn set(&self) -> &dyn NonlinearitySet {
+        self.model.cells[self.representative].nonlinearity.as_ref()
+    }
+}
+
+/// The branch and bound's resolution of each bisected parameter: a nonlinearity's or a
+/// block's prior width halved `halvings` times, an effect's own resolution.
+pub(super) fn resolution(
+    model: &ModelSpec,
+    layout: &Layout,
+    halvings: u32,
+    delta: f64,
+    scale: &DataScale,
+) -> Vec<f64> {
+    let h = 2f64.powi(halvings as i32);
+    let effects: Vec<f64> = model
+        .effects
+        .iter()
+        .flat_map(|e| e.resolution(delta, scale))
+        .collect();
+    let first_effect = layout.effect_cells.first().map_or(layout.dims.len(), |r| r.start);
+    layout.dims[..first_effect]
+        .iter()
+        .map(|d| (d.prior.hi - d.prior.lo) / h)
+        .chain(effects)
+        .collect()
+}
+
+/// Stages 1-3 on acquired data. `truth` holds known true values by parameter name.
+pub fn identify(
+    spec: &Spec,
+    data: ExperimentData,
+    truth: &[(String, f64)],
+) -> Result<Identification> {
+    identify_with(spec, data, truth, &|_| {})
+}
+
+/// [`identify`] with a progress callback for the branch and bound over the bisected
+/// parameters.
+pub fn identify_with(
+    spec: &Spec,
+    mut data: ExperimentData,
+    truth: &[(String, f64)],
+    progress: &(dyn Fn(&cells::Progress) + Sync),
+) -> Result<Identification> {
+    if spec.noise.estimated() && spec.noise.delta.is_none() {
+        // Measured data without a known sensor bound: estimate it, then identify with it
+        // (growing it by the margin while the stage-3 method still finds the data inconsistent).
+        let margin = spec.noise.estimate.unwrap_or(1.1);
+        let mut d = estimate_bound(spec, &data)?;
+        for _ in 0..10 {
+            match identify_with(
+                &with_bound(spec, d),
+                data_with_bound(&data, d),
+                truth,
+                progress,
+            ) {
+                Err(SmidError::Inconsistent { .. }) => d *= margin,
+                r => return r,
+            }
+        }
+        return identify_with(
+            &with_bound(spec, d),
+            data_with_bound(&data, d),
+            truth,
+            progress,
+        );
+    }
+    let delta = spec.noise.delta()?;
+    let layout = spec.model.layout()?;
+    if let Some(steady) = data.steady.as_mut() {
+        let step = data
+            .filter
+            .as_ref()
+            .and_then(|f| f.step)
+            .unwrap_or(spec.experiment.filter.step);
+        match spec.method.alpha {
+            AlphaSpec::Bias => experiment::apply_alpha(steady, step),
+            AlphaSpec::Design => match data.filter.as_ref().and_then(|f| f.overshoot) {
+                Some(d) => experiment::apply_design_alpha(steady, d, step),
+                None => {
+                    return Err(SmidError::invalid(
+                        "method.alpha",
+                        "`design` needs the filter pole from the Appendix search on the plant; with a given pole or measured data choose `bias` or `zero`",
+                    ))
+                }
+            },
+            AlphaSpec::Zero => {}
+        }
+        steady.validate()?;
+    }
+    for r in &data.records {
+        r.validate()?;
+    }
+    if data.steady.is_some() {
+        if let Some(e) = spec
+            .model
+            .effects
+            .iter()
+            .find(|e| !e.vanishes_at_steady_state())
+        {
+            return Err(SmidError::invalid(
+                "model.effects",
+                format!(
+                    "`{}` does not vanish at steady state, so stage 1 from steady-state data would be biased: use it on records without the designed steady-state experiment",
+                    e.label()
+                ),
+            ));
+        }
+    }
+    if data.records.is_empty() {
+        return Err(SmidError::invalid(
+            "plant",
+            "no dynamic record to identify from",
+        ));
+    }
+    let training = Training {
+        steady: data.steady.clone(),
+        records: data.records.clone(),
+    };
+    let model = &spec.model;
+    let method = &spec.method;
+    let prior: Vec<Interval> = layout.dims.iter().map(|d| d.prior).collect();
+    let scale = data_scale(&data);
+    let resolution = resolution(
+        model,
+        &layout,
+        method.cells.nonlinearity_halvings,
+        delta,
+        &scale,
+    );
+    let test = |cell: &[Interval]| test_cell(model, &layout, method, &training, cell);
+    let eval = |cell: &[Interval]| evaluate_cell(model, &layout, method, &training, cell);
+    let search = cells::search(
+        &prior,
+        Budget {
+            resolution,
+            depth: method.cells.depth,
+            max_cells: method.cells.max_cells,
+            max_leaves: method.cells.max_leaves,
+        },
+        &test,
+        &eval,
+        progress,
+    )?;
+    let summary = SearchSummary {
+        evaluated: search.evaluated,
+        discarded: search.discarded,
+        budget_stopped: search.budget_stopped,
+    };
+    let mut kept = Vec::new();
+    for leaf in search.leaves {
+        match leaf.value {
+            Some(c) => kept.push(c),
+            None => {
+                return Err(SmidError::Unbounded {
+                    parameter: "θ".into(),
+                    message: format!(
+                    "over the cell {} of the bisected parameters stage 3 found no finite bound{}",
+                    fmt_cell(&layout, &leaf.cell),
+                    if summary.budget_stopped {
+                        " (the cell budget stopped the bisection: raise method.cells.max_cells)"
+                    } else {
+                        ""
+                    }
+                ),
+                })
+            }
+        }
+    }
+    let truth_of = |n: &str| truth.iter().find(|(k, _)| k == n).map(|(_, v)| *v);
+
+    // Hulls over the cells, in report order: nonlinearity, θ, ψ.
+    let mut parameters: Vec<ParamResult> = Vec::new();
+    let gnames: Vec<String> = kept[0]
+        .nonlinearity
+        .parameters()
+        .iter()
+        .map(|b| b.name.clone())
+        .collect();
+    for (k, name) in gnames.iter().enumerate() {
+        let h = hull(kept.iter().map(|c| c.nonlinearity.parameters()[k].interval));
+        parameters.push(ParamResult::new(name, h, truth_of(name)));
+    }
+    for (k, name) in layout.theta_names.iter().enumerate() {
+        let h = hull(kept.iter().map(|c| c.theta[k]));
+        parameters.push(ParamResult::new(name, h, truth_of(name)));
+    }
+    for (k, d) in layout.dims.iter().enumerate() {
+        if layout.nonlinearity_cells.contains(&k) {
+            continue; // reported above, from the sets (which are these cells)
+        }
+        let h = hull(kept.iter().map(|c| c.cell[k]));
+        parameters.push(ParamResult::new(&d.name, h, truth_of(&d.name)));
+    }
+
+    // The cell holding the true ψ (when known) is the representative.
+    let psi_truth: Option<Vec<f64>> = layout.dims.iter().map(|d| truth_of(&d.name)).collect();
+    let gamma_truth: Option<Vec<f64>> = gnames.iter().map(|n| truth_of(n)).collect();
+    let holds_psi = |c: &CellSet| {
+        psi_truth
+            .as_ref()
+            .map(|t| c.cell.iter().zip(t).all(|(i, v)| i.contains(*v)))
+            .unwrap_or(true)
+    };
+    let representative = kept.iter().position(|c| holds_psi(c)).unwrap_or(0);
+    let truth_in_set = match (&gamma_truth, &psi_truth) {
+        (Some(g), _) => Some(
+            kept.iter()
+                .any(|c| holds_psi(c) && c.nonlinearity.contains(g)),
+        ),
+        _ => None,
+    };
+    let rep = &kept[representative];
+    let sig = stage2(
+        model,
+        &layout,
+        rep.nonlinearity.as_ref(),
+        &rep.cell,
+        &training.records,
+    )?;
+    // The equations stage 3 used (every method uses every usable one): listed, not re-solved.
+    let equations = eiv_problem(model, &layout, method, &sig, None).equation_times();
+    let first_len = training.records[0].y.len();
+    // The inner signal: the nonlinearity's input (Wiener) or output (Hammerstein).
+    let inner: Vec<InnerBound> = match model.structure {
+        Structure::Wiener => sig.output[..first_len].to_vec(),
+        Structure::Hammerstein => {
+            let blocks = BlockSets::new(model, &layout, &rep.cell)?;
+            let (input_side, _) = blocks.sides(model.structure, rep.nonlinearity.as_ref());
+            chain::forward(&input_side, &training.records[0].u)?
+        }
+    };
+    let inner_violations = training.records[0].x.as_ref().map(|x| {
+        x.iter()
+            .zip(&inner)
+            .filter(|(v, b)| b.interval.is_finite() && !b.interval.contains(**v))
+            .count()
+    });
+    let set = ModelSet {
+        name: spec.name.clone().unwrap_or_else(|| "smid".into()),
+        model: model.duplicate(),
+        method: method.clone(),
+        delta,
+        bound_source: if spec.noise.estimated() {
+            BoundSource::Estimated
+        } else {
+            BoundSource::Given
+        },
+        dims: layout.dims.clone(),
+        cells: kept,
+        parameters,
+        search: summary,
+        training,
+    };
+    let snr_db = match data.records.first() {
+        Some(Record {
+            w: Some(w),
+            noise: Some(n),
+            ..
+        }) => noise::snr_db(w, n),
+        Some(r) => {
+            // Measured data: signal power against the power of uniform noise in [-Δη, Δη].
+            let ps: f64 = r.y.iter().map(|v| v * v).sum();
+            10.0 * (ps / (r.y.len() as f64 * delta * delta / 3.0)).log10()
+        }
+        None => f64::NAN,
+    };
+    Ok(Identification {
+        name: set.name.clone(),
+        delta_eta: delta,
+        snr_db,
+        model: set,
+        representative,
+        inner,
+        equations,
+        data,
+        truth_in_nonlinearity_set: truth_in_set,
+        inner_violations,
+    })
+}
+
+pub(super) fn hull(it: impl IntoIterator<Item = Interval>) -> Interval {
+    it.into_iter()
+        .reduce(|a, b| Interval::new(a.lo.min(b.lo), a.hi.max(b.hi)))
+        .unwrap_or(Interval::new(f64::NAN, f64::NAN))
+}
+
+/// `name ∈ [lo, hi], ...` of a cell.
+pub fn fmt_cell(layout: &Layout, cell: &[Interval]) -> String {
+    layout
+        .dims
+        .iter()
+        .zip(cell)
+        .map(|(d, i)| format!("{} ∈ [{:.4e}, {:.4e}]", d.name, i.lo, i.hi))
+        .collect::<Vec<_>>()
+        .join(", ")
+}

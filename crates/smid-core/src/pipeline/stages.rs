@@ -1,0 +1,401 @@
+//! The three stages over one cell of the bisected parameters: stage 1 (the nonlinearity's set
+//! from steady-state points, Section 3, eqs 13-20, carried through the chain's blocks), stage 2
+//! (inner-signal bounds, Section 4, eqs 23-27, through [`crate::chain`]), stage 3 (the linear
+//! block, Section 5, [`crate::stage3`]), and the branch and bound's cheap and full cell tests.
+use crate::cells::Verdict;
+use crate::chain::{self, Side};
+use crate::effect::{self, Signals};
+use crate::error::{Result, SmidError};
+use crate::interval::Interval;
+use crate::inversion::InnerBound;
+use crate::model::{CellSet, Layout, Training};
+use crate::nonlinearity::{NonlinearitySet, SteadyStateData, Structure};
+use crate::spec::{MethodSpec, ModelSpec};
+use crate::stage3::{EivProblem, EivResult, Regressor};
+use super::*;
+
+/// Stage 1 for one cell: the nonlinearity's feasible set from the steady-state points with the
+/// outputs corrected by the sensor terms over the cell (`ȳ - s`, `s` an interval: its centre
+/// moves `ȳ`, its radius widens `Δη̄`).
+pub fn stage1(
+    model: &ModelSpec,
+    layout: &Layout,
+    steady: Option<&SteadyStateData>,
+    cell: &[Interval],
+) -> Result<Box<dyn NonlinearitySet>> {
+    let range = layout.nonlinearity_cells.clone();
+    if !range.is_empty() {
+        if steady.is_some() {
+            return Err(SmidError::invalid(
+                "model.prior",
+                "a prior box for the nonlinearity's parameters together with steady-state data is not supported yet: give one or the other",
+            ));
+        }
+        return model.nonlinearity.set_from_box(&cell[range]);
+    }
+    let steady = match steady {
+        Some(s) => s,
+        // A plugin without parameters needs no stage 1.
+        None if crate::registry::parameter_names(&model.nonlinearity_tag()).is_empty() => {
+            return model.nonlinearity.set_from_box(&[])
+        }
+        None => {
+            return Err(SmidError::invalid(
+                "plant",
+                format!(
+                    "stage 1 needs steady-state data (the designed experiment of Section 3); without it, give the nonlinearity's parameters a prior box (`model.prior`: {})",
+                    crate::registry::parameter_names(&model.nonlinearity_tag()).join(", ")
+                ),
+            ))
+        }
+    };
+    if model.effects.is_empty() && !model.has_blocks() {
+        return model.nonlinearity.bound_steady_state(steady);
+    }
+    let slices = layout.effect_slices(cell);
+    let blocks = BlockSets::new(model, layout, cell)?;
+    let outputs = blocks.refs(Side::Output);
+    let inputs = blocks.refs(Side::Input);
+    let mut data = steady.clone();
+    for p in &mut data.points {
+        let s = effect::sensor_sum(&model.effects, &slices, p.time)?;
+        p.y -= s.center();
+        p.dy += s.radius();
+        if !outputs.is_empty() {
+            (p.y, p.dy) = chain::backward_steady(&outputs, p.y, p.dy)?;
+        }
+        if !inputs.is_empty() {
+            // The steady input through the input blocks over their cell: an interval.
+            let mut v = Interval::new(p.u - p.du, p.u + p.du);
+            for b in &inputs {
+                let lo = b.propagate_steady(v.lo)?;
+                let hi = b.propagate_steady(v.hi)?;
+                if !b.monotone() && v.lo != v.hi {
+                    return Err(SmidError::invalid(
+                        "model.input",
+                        "a steady input reaches a non-monotone input block as an interval: give the nonlinearity's parameters a prior box (`model.prior`)",
+                    ));
+                }
+                v = Interval::new(lo.lo.min(hi.lo), lo.hi.max(hi.hi));
+            }
+            if v.lo != v.hi && !model.nonlinearity.accepts_input_radius() {
+                return Err(SmidError::invalid(
+                    "model.input",
+                    "steady-state data reach the nonlinearity through input-side blocks whose steady output is uncertain over their cell, and this plugin's stage 1 needs exact inputs: give the nonlinearity's parameters a prior box too (`model.prior`), or identify from records without the steady-state experiment",
+                ));
+            }
+            (p.u, p.du) = chain::centre_radius(v);
+            if v.lo == v.hi {
+                p.du = 0.0;
+            }
+            // `rising` stays: the blocks are monotone, so the input reached v̄ from the same side.
+        }
+    }
+    // A point an output block leaves unknown (a clipped saturation) bounds nothing: it is left
+    // out of stage 1 (fewer points can only widen the set).
+    data.points.retain(|p| p.dy.is_finite());
+    model.nonlinearity.bound_steady_state(&data)
+}
+
+/// The stage-1 sets of a chain's blocks over one cell (each plugin's set of its prior cell).
+pub struct BlockSets {
+    sets: Vec<(Side, Box<dyn NonlinearitySet>)>,
+}
+
+impl BlockSets {
+    /// Every block's set over its slice of `cell`; errors name the block's field.
+    pub fn new(model: &ModelSpec, layout: &Layout, cell: &[Interval]) -> Result<BlockSets> {
+        let mut sets = Vec::with_capacity(layout.blocks.len());
+        for b in &layout.blocks {
+            let plugin = match b.side {
+                Side::Input => &model.input[b.index],
+                Side::Output => &model.output[b.index],
+            };
+            let set = plugin.set_from_box(&cell[b.cells.clone()]).map_err(|e| match e {
+                SmidError::Invalid { field, message } => SmidError::invalid(
+                    format!("{}[{}] ({field})", b.side.field(), b.index),
+                    message,
+                ),
+                o => o,
+            })?;
+            sets.push((b.side, set));
+        }
+        Ok(BlockSets { sets })
+    }
+    /// The sets of one side, in signal order.
+    pub fn refs(&self, side: Side) -> Vec<&dyn NonlinearitySet> {
+        self.sets
+            .iter()
+            .filter(|(s, _)| *s == side)
+            .map(|(_, b)| b.as_ref())
+            .collect()
+    }
+    /// The whole input side (the input blocks, then `set` when Hammerstein) and output side
+    /// (`set` when Wiener, then the output blocks), in signal order.
+    pub fn sides<'a>(
+        &'a self,
+        structure: Structure,
+        set: &'a dyn NonlinearitySet,
+    ) -> (Vec<&'a dyn NonlinearitySet>, Vec<&'a dyn NonlinearitySet>) {
+        let mut input = self.refs(Side::Input);
+        let mut output = self.refs(Side::Output);
+        match structure {
+            Structure::Hammerstein => input.push(set),
+            Structure::Wiener => output.insert(0, set),
+        }
+        (input, output)
+    }
+}
+
+/// The signals stage 3 sees: records concatenated, separated by gaps of unknown samples so no
+/// equation spans two records.
+#[derive(Debug, Clone)]
+pub struct StageSignals {
+    pub output: Vec<InnerBound>,
+    pub input: Vec<Interval>,
+    pub extra: Vec<Regressor>,
+    /// Index of each record's first sample in the concatenation.
+    pub starts: Vec<usize>,
+}
+
+impl StageSignals {
+    /// `(record, sample)` of a concatenated index.
+    pub fn locate(&self, i: usize) -> (usize, usize) {
+        let r = self.starts.iter().rposition(|&s| s <= i).unwrap_or(0);
+        (r, i - self.starts[r])
+    }
+}
+
+/// Stage 2 for one cell over records: the outputs corrected by the sensor terms (`y - s`, the
+/// interval `s` widening the noise bound), inverted (Wiener) or taken as the linear block's
+/// output (Hammerstein); the input as is (Wiener) or propagated through the nonlinearity
+/// (Hammerstein); delayed by `nk`; the equation terms' regressors.
+pub fn stage2(
+    model: &ModelSpec,
+    layout: &Layout,
+    set: &dyn NonlinearitySet,
+    cell: &[Interval],
+    records: &[Record],
+) -> Result<StageSignals> {
+    let o = layout.orders;
+    let gap = o.na + o.nb + o.nk + 1;
+    let slices = layout.effect_slices(cell);
+    let blocks = BlockSets::new(model, layout, cell)?;
+    let (input_side, output_side) = blocks.sides(model.structure, set);
+    let mut out = StageSignals {
+        output: Vec::new(),
+        input: Vec::new(),
+        extra: layout
+            .extra_names
+            .iter()
+            .map(|n| Regressor {
+                name: n.clone(),
+                values: Vec::new(),
+            })
+            .collect(),
+        starts: Vec::new(),
+    };
+    for (r, rec) in records.iter().enumerate() {
+        rec.validate()?;
+        if r > 0 {
+            out.output
+                .extend(std::iter::repeat(InnerBound::unknown()).take(gap));
+            out.input
+                .extend(std::iter::repeat(Interval::entire()).take(gap));
+            for e in &mut out.extra {
+                e.values
+                    .extend(std::iter::repeat(Interval::entire()).take(gap));
+            }
+        }
+        out.starts.push(out.output.len());
+        let n = rec.y.len();
+        let mut yc = rec.y.clone();
+        let mut dy = rec.dy.clone();
+        if !model.effects.is_empty() {
+            for t in 0..n {
+                let s = effect::sensor_sum(&model.effects, &slices, Some(t))?;
+                yc[t] -= s.center();
+                dy[t] += s.radius();
+            }
+        }
+        // Wiener: the nonlinearity is the first output block; Hammerstein: the last input
+        // block (with no other block, the paper's calls exactly).
+        let output = chain::backward(&output_side, &yc, &dy)?;
+        let input: Vec<Interval> = chain::forward(&input_side, &rec.u)?
+            .iter()
+            .map(|b| b.interval)
+            .collect();
+        out.output.extend(output);
+        out.input.extend((0..n).map(|t| {
+            if t >= o.nk {
+                input[t - o.nk]
+            } else {
+                Interval::entire()
+            }
+        }));
+        let xs: Vec<Interval> = out.output[out.output.len() - n..]
+            .iter()
+            .map(|b| b.interval)
+            .collect();
+        let cols = effect::regressors(
+            &model.effects,
+            &Signals {
+                u: &rec.u,
+                dt: rec.dt,
+                x: Some(&xs),
+            },
+        );
+        for (e, c) in out.extra.iter_mut().zip(cols) {
+            e.values.extend(c.values);
+        }
+    }
+    Ok(out)
+}
+
+/// The stage-3 problem of stage-2 signals, with an optional prior box on `θ`.
+pub(super) fn eiv_problem<'a>(
+    model: &ModelSpec,
+    layout: &Layout,
+    method: &MethodSpec,
+    sig: &'a StageSignals,
+    prior: Option<&'a [Interval]>,
+) -> EivProblem<'a> {
+    EivProblem {
+        na: layout.orders.na,
+        nb: layout.orders.nb,
+        fixed: layout.fixed.clone(),
+        unit_gain: model.unit_gain,
+        output: &sig.output,
+        input: &sig.input,
+        extra: &sig.extra,
+        prior,
+        use_band_samples: method.use_band_samples(),
+    }
+}
+
+/// Stage 3 on stage-2 signals, with an optional prior box on `θ`. An inconsistency names the
+/// sample in the concatenation (see [`relabel`]).
+pub fn stage3(
+    model: &ModelSpec,
+    layout: &Layout,
+    method: &MethodSpec,
+    sig: &StageSignals,
+    prior: Option<&[Interval]>,
+) -> Result<EivResult> {
+    let problem = eiv_problem(model, layout, method, sig, prior);
+    match crate::stage3::solve(method.eiv, &problem) {
+        // Solver trouble: another method's outer bound is as guaranteed.
+        Err(SmidError::Solver(first)) => {
+            let other = if method.eiv == crate::stage3::EivMethod::Shared {
+                crate::stage3::EivMethod::Classical
+            } else {
+                crate::stage3::EivMethod::Shared
+            };
+            crate::stage3::solve(other, &problem).map_err(|e| match e {
+                SmidError::Solver(second) => SmidError::Solver(format!(
+                    "{first}; with the {} method too: {second}",
+                    other.name()
+                )),
+                e => e,
+            })
+        }
+        r => r,
+    }
+}
+
+/// A stage-3 inconsistency with its sample as the index within its record (the record named
+/// in the detail when there are several).
+pub fn relabel(e: SmidError, sig: &StageSignals) -> SmidError {
+    match e {
+        SmidError::Inconsistent {
+            stage,
+            sample,
+            detail,
+        } => {
+            let (r, t) = sig.locate(sample);
+            let detail = detail.replace(&format!("t = {sample}"), &format!("sample {t}"));
+            SmidError::Inconsistent {
+                stage,
+                sample: t,
+                detail: if sig.starts.len() > 1 {
+                    format!("training record {r}: {detail}")
+                } else {
+                    detail
+                },
+            }
+        }
+        other => other,
+    }
+}
+
+/// Stages 1-3 over one cell: `Infeasible` when a stage proves the cell inconsistent,
+/// `Undecided` when stage 3 leaves a parameter unbounded over a bisected cell. Without bisected
+/// parameters every error is returned as is (the paper's three stages).
+pub fn evaluate_cell(
+    model: &ModelSpec,
+    layout: &Layout,
+    method: &MethodSpec,
+    training: &Training,
+    cell: &[Interval],
+) -> Result<Verdict<CellSet>> {
+    let bisected = !layout.dims.is_empty();
+    let outcome = (|| {
+        let set = stage1(model, layout, training.steady.as_ref(), cell)?;
+        let sig = stage2(model, layout, set.as_ref(), cell, &training.records)?;
+        let r = stage3(model, layout, method, &sig, None).map_err(|e| relabel(e, &sig))?;
+        Ok(CellSet {
+            cell: cell.to_vec(),
+            nonlinearity: set,
+            theta: r.bounds,
+        })
+    })();
+    match outcome {
+        Ok(c) => Ok(Verdict::Feasible(c)),
+        Err(e @ SmidError::Inconsistent { .. }) if bisected => Ok(Verdict::Infeasible(e)),
+        Err(SmidError::Unbounded { .. }) if bisected => Ok(Verdict::Undecided),
+        Err(e) => Err(e),
+    }
+}
+
+/// The branch and bound's cheap test of a cell: stages 1 and 2, then whether the classical
+/// outer set of stage 3 is empty (a proof of inconsistency) — no bounds computed.
+pub fn test_cell(
+    model: &ModelSpec,
+    layout: &Layout,
+    method: &MethodSpec,
+    training: &Training,
+    cell: &[Interval],
+) -> Result<Verdict<()>> {
+    let outcome = (|| {
+        let set = stage1(model, layout, training.steady.as_ref(), cell)?;
+        let sig = stage2(model, layout, set.as_ref(), cell, &training.records)?;
+        let o = layout.orders;
+        let problem = EivProblem {
+            na: o.na,
+            nb: o.nb,
+            fixed: layout.fixed.clone(),
+            unit_gain: model.unit_gain,
+            output: &sig.output,
+            input: &sig.input,
+            extra: &sig.extra,
+            prior: None,
+            use_band_samples: method.use_band_samples(),
+        };
+        if crate::stage3::feasible(&problem)? {
+            Ok(())
+        } else {
+            Err(SmidError::Inconsistent {
+                stage: crate::error::Stage::Linear,
+                sample: sig.output.len(),
+                detail: "no θ fits the equations of this cell (classical outer set empty)".into(),
+            })
+        }
+    })();
+    match outcome {
+        Ok(()) => Ok(Verdict::Feasible(())),
+        Err(e @ SmidError::Inconsistent { .. }) => Ok(Verdict::Infeasible(e)),
+        // Nothing proven: the cell is kept (a solver failure never discards one).
+        Err(SmidError::Unbounded { .. }) | Err(SmidError::Solver(_)) => Ok(Verdict::Undecided),
+        Err(e) => Err(e),
+    }
+}
