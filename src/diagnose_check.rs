@@ -283,7 +283,7 @@ pub fn trial(case: &Case, seed: u64, plant: PlantKind, csv: bool) -> TrialOutcom
             CaseKind::Effect(t) => effects.push(scaled_effect(t, rng.gen_range(0.8..1.25))?),
             CaseKind::Block(t, side) => {
                 // The range the block sees: the base plant's own training data.
-                let mut base = SimulatedPlant::from_spec(sim);
+                let mut base = sim.plant();
                 let scale = pipeline::data_scale(&pipeline::simulate_experiments(&spec, &mut base)?);
                 let b = drawn_block(t, *side, &scale, &mut rng)?;
                 match side {

@@ -347,7 +347,7 @@ fn real_main() -> Result<()> {
                 let m = &spec.model;
                 let tags = |v: &[Box<dyn smid::core::nonlinearity::NonlinearityModel>]| {
                     v.iter()
-                        .map(|b| smid::core::model::tag_of_model(b.as_ref()))
+                        .map(|b| smid::core::nonlinearity::tag_of_model(b.as_ref()))
                         .collect::<Vec<_>>()
                         .join(",")
                 };

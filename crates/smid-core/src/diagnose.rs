@@ -266,7 +266,7 @@ fn label_of(m: &ModelSpec) -> String {
     );
     let tags = |v: &[Box<dyn crate::nonlinearity::NonlinearityModel>]| {
         v.iter()
-            .map(|b| crate::model::tag_of_model(b.as_ref()))
+            .map(|b| crate::nonlinearity::tag_of_model(b.as_ref()))
             .collect::<Vec<_>>()
             .join(", ")
     };

@@ -39,7 +39,7 @@ pub fn central_cell(set: &ModelSet) -> usize {
 /// samples were all inverted), subject to the fixed coefficients and the unit gain, inside the
 /// cell's bounds (an active set). `None` when too few equations.
 fn least_squares_theta(set: &ModelSet, k: usize) -> Result<Option<Vec<f64>>> {
-    let layout = set.model.layout()?;
+    let layout = set.layout()?;
     let c = &set.cells[k];
     let sig = crate::pipeline::stage2(
         &set.model,
@@ -189,7 +189,7 @@ fn constrained_ls(
 /// bisected parameters at their centres, `θ` by least squares on its stage-2 centres (the
 /// centres of its `θ` bounds when that fails).
 pub fn central_values(set: &ModelSet) -> Result<Vec<(String, f64)>> {
-    let layout = set.model.layout()?;
+    let layout = set.layout()?;
     if set.cells.is_empty() {
         return Err(SmidError::invalid(
             "model set",
@@ -318,7 +318,7 @@ pub fn simulate_set(set: &ModelSet, u: &[f64], dt: f64) -> Result<SetSimulation>
 
 /// A member with the given parameter values (by name; missing ones at the centre).
 pub fn point(set: &ModelSet, values: &[(String, f64)]) -> Result<ModelPoint> {
-    let layout = set.model.layout()?;
+    let layout = set.layout()?;
     let get = |n: &str| {
         values
             .iter()

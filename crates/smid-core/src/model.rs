@@ -2,7 +2,8 @@
 //! check and extend. A [`ModelSpec`] (the spec's `model:` section: structure, nonlinearity
 //! plugin, orders, effects, priors) resolves to a [`Layout`] (orders after the effects, the
 //! names of `θ = [a_1..a_na, b_0..b_nb, c_1..c_m]` (eq 7 plus the effects' equation
-//! coefficients), the bisected parameters `ψ` with their prior box). Identification yields a
+//! coefficients), the bisected parameters `ψ` with their prior box: the nonlinearity's when
+//! `model.prior` names them, the chain's blocks' ([`crate::chain`]), the effects'). Identification yields a
 //! [`ModelSet`]: one [`CellSet`] per surviving cell of `ψ` (a single cell when nothing is
 //! bisected), each holding the nonlinearity's feasible set (stage 1, eqs 13-20: polygons,
 //! staircases...) and guaranteed `θ` intervals (stage 3), together with the training data from
@@ -13,7 +14,7 @@ use crate::effect::{self, Orders, Signals};
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
 use crate::chain::{BlockLayout, Side};
-use crate::nonlinearity::{NonlinearityModel, NonlinearitySet, SteadyStateData, Structure};
+use crate::nonlinearity::{tag_of_model, NonlinearitySet, SteadyStateData, Structure};
 use crate::spec::{MethodSpec, ModelSpec};
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
@@ -280,13 +281,6 @@ impl ModelSpec {
     }
 }
 
-/// The `type` tag of a model plugin.
-pub fn tag_of_model(m: &dyn NonlinearityModel) -> String {
-    serde_json::to_value(m)
-        .ok()
-        .and_then(|v| v.get("type").and_then(|t| t.as_str()).map(String::from))
-        .unwrap_or_default()
-}
 
 /// One dynamic record: input, measured output and per-sample noise bound, with the noise-free
 /// signals when they are known (simulated plants).
@@ -469,6 +463,10 @@ pub struct ModelSet {
     /// Cells evaluated, discarded, and whether the budget stopped the bisection.
     pub search: SearchSummary,
     pub training: Training,
+    /// The model's resolved layout (checked once, like linfa's checked hyper-parameters): set
+    /// by identification, resolved on first use after reading a `result.json`.
+    #[serde(skip)]
+    pub resolved: std::sync::OnceLock<Layout>,
 }
 
 /// What the branch and bound did.
@@ -489,6 +487,15 @@ impl ModelSet {
     /// A parameter by name.
     pub fn parameter(&self, name: &str) -> Option<&ParamResult> {
         self.parameters.iter().find(|p| p.name == name)
+    }
+
+    /// The resolved layout of the model (derived once per model set).
+    pub fn layout(&self) -> Result<&Layout> {
+        if let Some(l) = self.resolved.get() {
+            return Ok(l);
+        }
+        let l = self.model.layout()?;
+        Ok(self.resolved.get_or_init(|| l))
     }
 
     /// The structure.

@@ -406,3 +406,11 @@ pub trait NonlinearitySet: Debug + Send + Sync {
             .all(|(b, &t)| b.interval.contains(t))
     }
 }
+
+/// The `type` tag of a model plugin.
+pub fn tag_of_model(m: &dyn NonlinearityModel) -> String {
+    serde_json::to_value(m)
+        .ok()
+        .and_then(|v| v.get("type").and_then(|t| t.as_str()).map(String::from))
+        .unwrap_or_default()
+}

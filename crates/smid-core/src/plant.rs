@@ -61,20 +61,7 @@ pub struct SimulatedPlant<'a> {
     pub dt: f64,
 }
 
-impl<'a> SimulatedPlant<'a> {
-    /// The simulator of a spec's `plant.simulator` (sample time 1).
-    pub fn from_spec(s: &'a crate::spec::SimulatorSpec) -> Self {
-        SimulatedPlant {
-            linear: s.linear(),
-            nonlinearity: s.nonlinearity.as_ref(),
-            structure: s.structure,
-            input: &s.input,
-            output: &s.output,
-            effects: &s.effects,
-            dt: 1.0,
-        }
-    }
-
+impl SimulatedPlant<'_> {
     /// The signal entering the linear block: the input through the input blocks (and the
     /// nonlinearity when Hammerstein).
     fn entering(&self, u: &[f64]) -> Vec<f64> {

@@ -87,6 +87,18 @@ pub struct SimulatorSpec {
 }
 
 impl SimulatorSpec {
+    /// The built-in simulator of this spec (sample time 1).
+    pub fn plant(&self) -> crate::plant::SimulatedPlant<'_> {
+        crate::plant::SimulatedPlant {
+            linear: self.linear(),
+            nonlinearity: self.nonlinearity.as_ref(),
+            structure: self.structure,
+            input: &self.input,
+            output: &self.output,
+            effects: &self.effects,
+            dt: 1.0,
+        }
+    }
     /// The linear block.
     pub fn linear(&self) -> LinearModel {
         LinearModel {
@@ -633,7 +645,7 @@ impl Spec {
                         format!("{}[{i}]", side.field()),
                         format!(
                             "the plugin `{}` cannot sit on the {} side",
-                            crate::model::tag_of_model(b.as_ref()),
+                            crate::nonlinearity::tag_of_model(b.as_ref()),
                             if side == crate::chain::Side::Input { "input" } else { "output" }
                         ),
                     ));

@@ -244,7 +244,7 @@ fn centre_out(model: &ModelSet) -> Vec<usize> {
 /// One cell against the training records plus `fresh`: `None` when consistent, else where
 /// the fresh data contradict it.
 fn check_cell(model: &ModelSet, k: usize, records: &[Record]) -> Result<Option<Falsification>> {
-    let layout = model.model.layout()?;
+    let layout = model.layout()?;
     let nt = model.training.records.len();
     let c = &model.cells[k];
     let err = match stage2(
@@ -469,7 +469,7 @@ fn inner_estimate(model: &ModelSet, point: &ModelPoint, rec: &Record) -> Result<
             Ok(rec.y.iter().zip(&s).map(|(y, s)| y - s).collect())
         }
         _ => {
-            let layout = model.model.layout()?;
+            let layout = model.layout()?;
             let c = &model.cells[0];
             let sig = stage2(
                 &model.model,
@@ -497,7 +497,7 @@ fn inner_estimate(model: &ModelSet, point: &ModelPoint, rec: &Record) -> Result<
 /// The free-run fit of the central member on records (warm start as in [`validate`]).
 pub fn free_run_fit(model: &ModelSet, records: &[Record]) -> Result<Fit> {
     let centre = members::centre(model)?;
-    let o = model.model.layout()?.orders;
+    let o = model.layout()?.orders;
     let warm = o.na + o.nb + o.nk;
     let mut sims = Vec::new();
     for rec in records {
@@ -528,7 +528,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
 
     let centre = members::centre(model)?;
     let members = members::axis_members(model);
-    let layout = model.model.layout()?;
+    let layout = model.layout()?;
     let o = layout.orders;
     let arx = Arx::fit(&model.training.records, o.na, o.nb, o.nk).ok();
     let mut warnings = Vec::new();

@@ -28,7 +28,7 @@ pub struct ExperimentData {
 
 /// The built-in simulator of a spec, if the spec's plant is one.
 pub fn builtin_plant(spec: &Spec) -> Option<SimulatedPlant<'_>> {
-    spec.plant.simulator.as_ref().map(SimulatedPlant::from_spec)
+    spec.plant.simulator.as_ref().map(|s| s.plant())
 }
 
 /// Run `plant` from rest on `u`; an output of the wrong length or a non-finite sample is an

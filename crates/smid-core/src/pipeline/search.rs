@@ -314,6 +314,7 @@ pub fn identify_with(
         parameters,
         search: summary,
         training,
+        resolved: std::sync::OnceLock::from(layout.clone()),
     };
     let snr_db = match data.records.first() {
         Some(Record {
