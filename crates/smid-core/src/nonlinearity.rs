@@ -386,6 +386,18 @@ pub trait NonlinearitySet: Debug + Send + Sync {
     fn invert_steady(&self, y: f64, dy: f64) -> Result<Interval> {
         Ok(self.invert(&[y], &[dy])?[0].interval)
     }
+    /// Whether steady-state points stay valid through this block on the input side: the
+    /// designed filter keeps the linear block's response to the filtered square wave free of
+    /// overshoot (Appendix), which a Wiener nonlinearity with memory would otherwise hold. A
+    /// linear block with a nonnegative impulse response of unit mass (a unit-gain lag, a
+    /// positive gain) keeps that property (its output's overshoot-free response is a convex
+    /// mixture of overshoot-free responses); a block that stops the signal abruptly (a
+    /// saturation clipping the wave: measured, the backlash then holds an overshoot of 3 % of
+    /// the step) does not, and neither is proven for a dead zone or a play. Default: no (then
+    /// the nonlinearity after it needs a prior box, not the polygons).
+    fn keeps_steady_design(&self) -> bool {
+        false
+    }
     /// The block's steady output for the steady input `u` (stage 1 of a chain whose input side
     /// holds this block before the nonlinearity that steady-state data bound). Default: the
     /// propagation of that one sample. A unit-gain filter returns `[u, u]`.

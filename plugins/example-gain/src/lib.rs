@@ -106,6 +106,10 @@ impl NonlinearityModel for GainModel {
 
 #[typetag::serde(name = "example_gain")]
 impl NonlinearitySet for GainSet {
+    /// Linear with a nonnegative impulse response: the designed square wave stays overshoot-free.
+    fn keeps_steady_design(&self) -> bool {
+        true
+    }
     /// Order-preserving (k > 0: nondecreasing), so a chain may feed it interval inputs.
     fn monotone(&self) -> bool {
         true

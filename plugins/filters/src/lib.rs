@@ -126,6 +126,10 @@ impl LagSet {
 
 #[typetag::serde(name = "lag")]
 impl NonlinearitySet for LagSet {
+    /// Linear with a nonnegative impulse response: the designed square wave stays overshoot-free.
+    fn keeps_steady_design(&self) -> bool {
+        true
+    }
     fn parameters(&self) -> Vec<ParameterBound> {
         vec![ParameterBound {
             name: "p".into(),

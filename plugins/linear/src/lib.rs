@@ -70,6 +70,10 @@ impl NonlinearityModel for LinearModel {
 
 #[typetag::serde(name = "linear")]
 impl NonlinearitySet for IdentitySet {
+    /// Linear with a nonnegative impulse response: the designed square wave stays overshoot-free.
+    fn keeps_steady_design(&self) -> bool {
+        true
+    }
     /// Order-preserving (the identity), so a chain may feed it interval inputs.
     fn monotone(&self) -> bool {
         true

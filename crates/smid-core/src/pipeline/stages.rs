@@ -68,6 +68,12 @@ pub fn stage1(
             // The steady input through the input blocks over their cell: an interval.
             let mut v = Interval::new(p.u - p.du, p.u + p.du);
             for b in &inputs {
+                if !b.keeps_steady_design() {
+                    return Err(SmidError::invalid(
+                        "model.input",
+                        "steady-state data reach the nonlinearity through an input block that may make the linear block overshoot under the designed square wave (a clipped or kinked wave; see NonlinearitySet::keeps_steady_design): give the nonlinearity's parameters a prior box (`model.prior`), or identify from records without the steady-state experiment",
+                    ));
+                }
                 let lo = b.propagate_steady(v.lo)?;
                 let hi = b.propagate_steady(v.hi)?;
                 if !b.monotone() && v.lo != v.hi {
