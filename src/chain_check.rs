@@ -43,8 +43,14 @@ fn plugins_for(side: Side) -> Vec<&'static str> {
 /// A true block of type `tag` (its registered example's parameters scaled by [0.8, 1.25],
 /// redrawn until the simulator accepts them) and a prior box around it that the model plugin
 /// accepts (shrunk toward the truth until it does). `None` when no draw is valid.
-fn draw_block(tag: &str, prefix: Option<&str>, rng: &mut impl Rng) -> Option<(Value, Vec<(String, [f64; 2])>)> {
-    let entry = registry::nonlinearities().into_iter().find(|e| e.tag == tag)?;
+fn draw_block(
+    tag: &str,
+    prefix: Option<&str>,
+    rng: &mut impl Rng,
+) -> Option<(Value, Vec<(String, [f64; 2])>)> {
+    let entry = registry::nonlinearities()
+        .into_iter()
+        .find(|e| e.tag == tag)?;
     let model = registry::models().into_iter().find(|e| e.tag == tag)?;
     for _ in 0..20 {
         // One factor for the whole block: the example's shape is kept (a backlash's two slopes
@@ -56,7 +62,9 @@ fn draw_block(tag: &str, prefix: Option<&str>, rng: &mut impl Rng) -> Option<(Va
             .into_iter()
             .map(|(n, v)| (n, v * f))
             .collect();
-        let Ok(sim) = registry::instantiate(tag, &params) else { continue };
+        let Ok(sim) = registry::instantiate(tag, &params) else {
+            continue;
+        };
         if sim.validate().is_err() {
             continue;
         }
@@ -74,7 +82,11 @@ fn draw_block(tag: &str, prefix: Option<&str>, rng: &mut impl Rng) -> Option<(Va
                 .zip(&widths)
                 .map(|((_, v), (a, b))| {
                     // Positive parameters keep a positive prior.
-                    let lo = if *v > 0.0 { (v - a).max(0.2 * v) } else { v - a };
+                    let lo = if *v > 0.0 {
+                        (v - a).max(0.2 * v)
+                    } else {
+                        v - a
+                    };
                     smid_core::interval::Interval::new(lo, v + b)
                 })
                 .collect();
@@ -126,12 +138,28 @@ pub fn random_chain(seed: u64) -> Result<Spec> {
         prior.extend(p);
     }
     // A second block on a side, now and then: blocks fed by blocks.
-    let input2 = input.and_then(|_| if rng.gen_range(0..4) == 0 { pick(&mut rng, &inputs) } else { None });
-    let output2 = output.and_then(|_| if rng.gen_range(0..4) == 0 { pick(&mut rng, &outputs) } else { None });
-    let mut side = |tags: [Option<&str>; 2], s: Side, rng: &mut rand_chacha::ChaCha8Rng| -> Result<(Vec<Value>, Vec<Value>)> {
+    let input2 = input.and_then(|_| {
+        if rng.gen_range(0..4) == 0 {
+            pick(&mut rng, &inputs)
+        } else {
+            None
+        }
+    });
+    let output2 = output.and_then(|_| {
+        if rng.gen_range(0..4) == 0 {
+            pick(&mut rng, &outputs)
+        } else {
+            None
+        }
+    });
+    let mut side = |tags: [Option<&str>; 2],
+                    s: Side,
+                    rng: &mut rand_chacha::ChaCha8Rng|
+     -> Result<(Vec<Value>, Vec<Value>)> {
         let (mut sims, mut models) = (Vec::new(), Vec::new());
         for t in tags.into_iter().flatten() {
-            let (v, p) = draw_block(t, Some(&s.prefix(sims.len() + 1)), rng).ok_or_else(|| no_draw(t))?;
+            let (v, p) =
+                draw_block(t, Some(&s.prefix(sims.len() + 1)), rng).ok_or_else(|| no_draw(t))?;
             prior.extend(p);
             sims.push(v);
             models.push(json!({ "type": t }));
@@ -146,7 +174,12 @@ pub fn random_chain(seed: u64) -> Result<Spec> {
     // an experiment to the plant.
     let mut impulse = vec![0.0; 400];
     impulse[0] = 1.0;
-    let l1: f64 = lin.simulate(&impulse).iter().map(|h| h.abs()).sum::<f64>().max(1.0);
+    let l1: f64 = lin
+        .simulate(&impulse)
+        .iter()
+        .map(|h| h.abs())
+        .sum::<f64>()
+        .max(1.0);
     let amplitude = rng.gen_range(0.5..1.5) / l1;
     let spec = json!({
         "name": format!("chain-{seed}"),
@@ -195,7 +228,9 @@ pub fn trial(seed: u64) -> Result<(Spec, Outcome)> {
                     .join(", ")
             )),
         },
-        Err(e @ SmidError::Inconsistent { .. }) => Outcome::Missed(format!("the true chain was found inconsistent: {e}")),
+        Err(e @ SmidError::Inconsistent { .. }) => {
+            Outcome::Missed(format!("the true chain was found inconsistent: {e}"))
+        }
         Err(e) => Outcome::NoBound(e.to_string()),
     };
     Ok((spec, outcome))

@@ -562,7 +562,12 @@ pub fn write_diagnosis(
         serde_norway::to_string(&s).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
     std::fs::write(&augmented, text).map_err(io(&augmented))?;
     out.push(augmented);
-    let series = |c: &Column| c.validation.as_ref().map(|v| v.series.clone()).unwrap_or_default();
+    let series = |c: &Column| {
+        c.validation
+            .as_ref()
+            .map(|v| v.series.clone())
+            .unwrap_or_default()
+    };
     let (bs, as_) = (series(before), series(after));
     for (k, (b, a)) in bs.iter().zip(&as_).enumerate() {
         let path = dir.join(format!("before_after_{k}.svg"));

@@ -71,12 +71,18 @@ pub fn cases() -> Vec<Case> {
         for side in [Side::Input, Side::Output] {
             let ex = (m.example)();
             // A plugin without a default prior is never a diagnosis candidate: no row.
-            if ex.supports(side.structure()) && ex.default_prior(side.structure(), (-1.0, 1.0)).is_some() {
+            if ex.supports(side.structure())
+                && ex.default_prior(side.structure(), (-1.0, 1.0)).is_some()
+            {
                 v.push(Case {
                     name: format!(
                         "{}@{}",
                         m.tag,
-                        if side == Side::Input { "input" } else { "output" }
+                        if side == Side::Input {
+                            "input"
+                        } else {
+                            "output"
+                        }
                     ),
                     kind: CaseKind::Block(m.tag, side),
                 });
@@ -108,7 +114,13 @@ fn fmu_case(name: &str) -> Option<(f64, &'static str)> {
 
 /// The spec of a trial: the paper's plant and model, classical stage 3 for speed; `levels`
 /// of the PRBS (2: binary).
-pub fn trial_spec(seed: u64, length: usize, plant: PlantKind, case: &str, levels: usize) -> Result<Spec> {
+pub fn trial_spec(
+    seed: u64,
+    length: usize,
+    plant: PlantKind,
+    case: &str,
+    levels: usize,
+) -> Result<Spec> {
     let plant_text = match plant {
         PlantKind::Simulator => "  simulator:
     a: [0.5, 0.7]
@@ -194,7 +206,11 @@ fn expected_label(kind: &CaseKind) -> Option<String> {
         CaseKind::Effect(t) => Some(t.to_string()),
         CaseKind::Block(t, side) => Some(format!(
             "`{t}` on the {} side",
-            if *side == Side::Input { "input" } else { "output" }
+            if *side == Side::Input {
+                "input"
+            } else {
+                "output"
+            }
         )),
     }
 }
@@ -205,7 +221,8 @@ fn scaled_effect(tag: &str, f: f64) -> Result<Box<dyn Effect>> {
         .into_iter()
         .find(|e| e.tag == tag)
         .ok_or_else(|| SmidError::invalid("case", format!("no effect `{tag}`")))?;
-    let mut v = serde_json::to_value((e.example)()).map_err(|e| SmidError::invalid("case", e.to_string()))?;
+    let mut v = serde_json::to_value((e.example)())
+        .map_err(|e| SmidError::invalid("case", e.to_string()))?;
     if let Some(o) = v.as_object_mut() {
         for (_, x) in o.iter_mut() {
             if let Some(n) = x.as_f64().filter(|_| !(x.is_u64() || x.is_i64())) {
@@ -247,7 +264,10 @@ fn drawn_block(
             }
         }
     }
-    Err(SmidError::invalid("case", format!("no valid draw of `{tag}` in its prior")))
+    Err(SmidError::invalid(
+        "case",
+        format!("no valid draw of `{tag}` in its prior"),
+    ))
 }
 /// Run one trial (`csv`: every record through CSV files first).
 pub fn trial(case: &Case, seed: u64, plant: PlantKind, csv: bool) -> TrialOutcome {
@@ -276,15 +296,19 @@ pub fn trial(case: &Case, seed: u64, plant: PlantKind, csv: bool) -> TrialOutcom
                 })
             }
         };
-        let (mut effects, mut input, mut output): (Vec<Box<dyn Effect>>, Vec<Box<dyn Nonlinearity>>, Vec<Box<dyn Nonlinearity>>) =
-            (Vec::new(), Vec::new(), Vec::new());
+        let (mut effects, mut input, mut output): (
+            Vec<Box<dyn Effect>>,
+            Vec<Box<dyn Nonlinearity>>,
+            Vec<Box<dyn Nonlinearity>>,
+        ) = (Vec::new(), Vec::new(), Vec::new());
         match &case.kind {
             CaseKind::None => {}
             CaseKind::Effect(t) => effects.push(scaled_effect(t, rng.gen_range(0.8..1.25))?),
             CaseKind::Block(t, side) => {
                 // The range the block sees: the base plant's own training data.
                 let mut base = sim.plant();
-                let scale = pipeline::data_scale(&pipeline::simulate_experiments(&spec, &mut base)?);
+                let scale =
+                    pipeline::data_scale(&pipeline::simulate_experiments(&spec, &mut base)?);
                 let b = drawn_block(t, *side, &scale, &mut rng)?;
                 match side {
                     Side::Input => input.push(b),
@@ -320,7 +344,9 @@ fn through_csv(
     let io = |e: std::io::Error| SmidError::invalid("--csv", e.to_string());
     let mut ss = String::from("u,y,t\n");
     for p in training.steady.iter().flat_map(|s| &s.points) {
-        let t = p.time.ok_or_else(|| SmidError::invalid("--csv", "a steady-state point without its time"))?;
+        let t = p
+            .time
+            .ok_or_else(|| SmidError::invalid("--csv", "a steady-state point without its time"))?;
         let _ = writeln!(ss, "{:e},{:e},{t}", p.u, p.y);
     }
     std::fs::write(dir.join("steady.csv"), ss).map_err(io)?;
@@ -335,12 +361,14 @@ fn through_csv(
     for (k, r) in holdout.iter().enumerate() {
         rec_csv(r, &format!("holdout{k}.csv"))?;
     }
-    let mut v = serde_json::to_value(spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
+    let mut v =
+        serde_json::to_value(spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
     v["plant"] = serde_json::json!({ "data": {
         "steady_state": { "file": "steady.csv", "u": "u", "y": "y", "t": "t" },
         "dynamic": { "file": "train.csv", "u": "u", "y": "y" },
     }});
-    let spec: Spec = serde_json::from_value(v).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
+    let spec: Spec =
+        serde_json::from_value(v).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
     let mut data = pipeline::load_data(&spec, dir)?;
     // The steady points' direction and step come with the design, as the experiment recorded
     // them (a CSV of measured steady states gives the sign of ū; the step heights are those of
@@ -409,10 +437,15 @@ fn run_trial(
         }
     };
     out.equivalent = !choice.added.is_empty()
-        && expected_label(kind).is_some_and(|w| choice.added[0] != w && tag_of_label(&choice.added[0]) != w);
+        && expected_label(kind)
+            .is_some_and(|w| choice.added[0] != w && tag_of_label(&choice.added[0]) != w);
     let (before, after) = diagnose::assess(&spec, &training, &choice, &holdout, 5)
         .map_err(at("before/after table"))?;
-    let fit = |c: &diagnose::Column| c.validation.as_ref().map_or(f64::NEG_INFINITY, |v| v.free_run.fit_percent);
+    let fit = |c: &diagnose::Column| {
+        c.validation
+            .as_ref()
+            .map_or(f64::NEG_INFINITY, |v| v.free_run.fit_percent)
+    };
     out.heldout_pass = after
         .validation
         .as_ref()
@@ -462,7 +495,10 @@ pub fn run(
             "--only",
             format!(
                 "no such case; expected some of: {}",
-                all.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", ")
+                all.iter()
+                    .map(|c| c.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ),
         ));
     }

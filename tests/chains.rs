@@ -17,12 +17,20 @@ fn random_chains_from_the_registry_hold_the_truth() {
         shapes.insert((m.input.len(), m.nonlinearity_tag(), m.output.len()));
         match outcome {
             Outcome::Contained => contained += 1,
-            Outcome::Missed(why) => panic!("seed {seed} ({}): {why}", spec.name.unwrap_or_default()),
+            Outcome::Missed(why) => {
+                panic!("seed {seed} ({}): {why}", spec.name.unwrap_or_default())
+            }
             Outcome::NoBound(why) => no_bound.push((seed, why)),
         }
     }
-    eprintln!("{contained} of {} contained; no bound: {no_bound:?}", seeds.len());
-    assert!(contained * 2 >= seeds.len(), "most trials must bound: {no_bound:?}");
+    eprintln!(
+        "{contained} of {} contained; no bound: {no_bound:?}",
+        seeds.len()
+    );
+    assert!(
+        contained * 2 >= seeds.len(),
+        "most trials must bound: {no_bound:?}"
+    );
     assert!(
         shapes.iter().any(|s| s.0 > 0) && shapes.iter().any(|s| s.2 > 0),
         "the draws must include input-side and output-side blocks: {shapes:?}"

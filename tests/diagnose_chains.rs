@@ -45,15 +45,23 @@ impl NonlinearityModel for TestGainModel {
 #[typetag::serde(name = "test_only_gain")]
 impl NonlinearitySet for TestGainSet {
     fn parameters(&self) -> Vec<ParameterBound> {
-        vec![ParameterBound { name: "k".into(), interval: self.0 }]
+        vec![ParameterBound {
+            name: "k".into(),
+            interval: self.0,
+        }]
     }
     fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
         Ok(y.iter()
             .zip(dy)
             .map(|(&y, &d)| InnerBound {
-                interval: Interval::hull_of([(y - d) / self.0.lo, (y - d) / self.0.hi, (y + d) / self.0.lo, (y + d) / self.0.hi])
-                    .unwrap()
-                    .outward(),
+                interval: Interval::hull_of([
+                    (y - d) / self.0.lo,
+                    (y - d) / self.0.hi,
+                    (y + d) / self.0.lo,
+                    (y + d) / self.0.hi,
+                ])
+                .unwrap()
+                .outward(),
                 kind: InnerKind::Inverted,
             })
             .collect())
@@ -61,7 +69,9 @@ impl NonlinearitySet for TestGainSet {
     fn propagate(&self, u: &[f64]) -> Result<Vec<InnerBound>> {
         Ok(u.iter()
             .map(|&u| InnerBound {
-                interval: Interval::hull_of([u * self.0.lo, u * self.0.hi]).unwrap().outward(),
+                interval: Interval::hull_of([u * self.0.lo, u * self.0.hi])
+                    .unwrap()
+                    .outward(),
                 kind: InnerKind::Inverted,
             })
             .collect())
@@ -87,10 +97,17 @@ fn a_plugin_registered_in_a_test_is_a_candidate_on_both_sides() {
         ..Default::default()
     };
     let choice = diagnose::choose(&spec, &data, &opts, &|_, _| {}).unwrap();
-    let labels: Vec<&str> = choice.rounds[0].candidates.iter().map(|c| c.label.as_str()).collect();
+    let labels: Vec<&str> = choice.rounds[0]
+        .candidates
+        .iter()
+        .map(|c| c.label.as_str())
+        .collect();
     assert_eq!(
         labels,
-        ["`test_only_gain` on the input side", "`test_only_gain` on the output side"],
+        [
+            "`test_only_gain` on the input side",
+            "`test_only_gain` on the output side"
+        ],
         "{labels:?}"
     );
     // Each candidate was identified and says what the data said (no error exit).
@@ -103,10 +120,20 @@ fn a_plugin_registered_in_a_test_is_a_candidate_on_both_sides() {
 fn an_undeclared_sensor_lag_is_found_and_the_after_model_holds() {
     let (spec, data) = paper_lag();
     let choice = diagnose::choose(&spec, &data, &Options::default(), &|_, _| {}).unwrap();
-    assert_eq!(choice.added, ["`lag` on the output side"], "{}", choice.summary());
-    let after = choice.after_set.as_ref().expect("the after-model is admissible");
+    assert_eq!(
+        choice.added,
+        ["`lag` on the output side"],
+        "{}",
+        choice.summary()
+    );
+    let after = choice
+        .after_set
+        .as_ref()
+        .expect("the after-model is admissible");
     // The truth of the lag lies in its bound.
-    let p = after.parameter("out1.p").expect("the lag's pole is reported");
+    let p = after
+        .parameter("out1.p")
+        .expect("the lag's pole is reported");
     assert!(p.lower <= 0.5 && 0.5 <= p.upper, "{p:?}");
     // Held-out records of the plant (other seeds), read once, for the table.
     let mut plant = pipeline::builtin_plant(&spec).unwrap();
@@ -115,6 +142,13 @@ fn an_undeclared_sensor_lag_is_found_and_the_after_model_holds() {
         .map(|&s| pipeline::fresh_record(&spec, &mut plant, s, 300).unwrap())
         .collect();
     let (_, after_col) = diagnose::assess(&spec, &data, &choice, &holdout, 5).unwrap();
-    assert!(after_col.validation.as_ref().unwrap().consistency.consistent);
+    assert!(
+        after_col
+            .validation
+            .as_ref()
+            .unwrap()
+            .consistency
+            .consistent
+    );
     assert!(!after_col.inflated);
 }

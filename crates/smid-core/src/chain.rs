@@ -149,7 +149,9 @@ fn invert_runs(block: &dyn NonlinearitySet, w: &[InnerBound]) -> Result<Vec<Inne
             return Err(SmidError::Inconsistent {
                 stage: Stage::InnerSignal,
                 sample: t,
-                detail: "the output side of the chain leaves no value for this sample over the cell".into(),
+                detail:
+                    "the output side of the chain leaves no value for this sample over the cell"
+                        .into(),
             });
         }
         if !w[t].interval.is_finite() {

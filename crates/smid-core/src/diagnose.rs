@@ -539,9 +539,7 @@ pub fn choose(
         let best_admissible = cands
             .iter()
             .enumerate()
-            .filter(|(_, (_, e))| {
-                e.train.admissible() && fit_of(&e.train) >= best_fit - FIT_SLACK
-            })
+            .filter(|(_, (_, e))| e.train.admissible() && fit_of(&e.train) >= best_fit - FIT_SLACK)
             .min_by(|(_, (_, a)), (_, (_, b))| {
                 a.added_parameters.cmp(&b.added_parameters).then(
                     fit_of(&b.train)

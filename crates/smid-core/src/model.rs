@@ -10,10 +10,10 @@
 //! which the stage-3 LP data are rebuilt exactly. It serialises whole into `result.json`.
 //!
 //! Concrete members of the set, which simulate, are in [`crate::members`].
+use crate::chain::{BlockLayout, Side};
 use crate::effect::{self, Orders, Signals};
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
-use crate::chain::{BlockLayout, Side};
 use crate::nonlinearity::{tag_of_model, NonlinearitySet, SteadyStateData, Structure};
 use crate::spec::{MethodSpec, ModelSpec};
 use serde::{Deserialize, Serialize};
@@ -280,7 +280,6 @@ impl ModelSpec {
         !(self.input.is_empty() && self.output.is_empty())
     }
 }
-
 
 /// One dynamic record: input, measured output and per-sample noise bound, with the noise-free
 /// signals when they are known (simulated plants).

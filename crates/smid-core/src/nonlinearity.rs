@@ -130,7 +130,10 @@ impl SteadyStateData {
                 return Err(SmidError::invalid(at(), "noise bound must be > 0"));
             }
             if !(p.du >= 0.0 && p.du.is_finite()) {
-                return Err(SmidError::invalid(at(), "input radius du must be finite and >= 0"));
+                return Err(SmidError::invalid(
+                    at(),
+                    "input radius du must be finite and >= 0",
+                ));
             }
             if !(p.alpha >= 0.0 && p.alpha.is_finite()) {
                 return Err(SmidError::invalid(at(), "α must be finite and >= 0"));

@@ -646,7 +646,11 @@ impl Spec {
                         format!(
                             "the plugin `{}` cannot sit on the {} side",
                             crate::nonlinearity::tag_of_model(b.as_ref()),
-                            if side == crate::chain::Side::Input { "input" } else { "output" }
+                            if side == crate::chain::Side::Input {
+                                "input"
+                            } else {
+                                "output"
+                            }
                         ),
                     ));
                 }

@@ -229,8 +229,12 @@ mod tests {
 
     #[test]
     fn bad_cells_and_poles_are_errors_naming_p() {
-        assert!(LagModel {}.set_from_box(&[Interval::new(0.5, 1.0)]).is_err());
-        assert!(LagModel {}.set_from_box(&[Interval::new(-0.1, 0.5)]).is_err());
+        assert!(LagModel {}
+            .set_from_box(&[Interval::new(0.5, 1.0)])
+            .is_err());
+        assert!(LagModel {}
+            .set_from_box(&[Interval::new(-0.1, 0.5)])
+            .is_err());
         let e = Lag { p: 1.0 }.validate().unwrap_err().to_string();
         assert!(e.contains('p') && e.contains("0 <= p < 1"), "{e}");
     }

@@ -2,6 +2,7 @@
 //! steady-state square waves and the PRBS of Section 3.2 and 4, bounded noise added here, eqs 4-5),
 //! measured CSV records named by a spec, the scale of the training data, and the truth of a plant
 //! in the model's names (`θ` from its total linear block, eq 1).
+use super::*;
 use crate::effect::DataScale;
 use crate::error::{Result, SmidError};
 use crate::experiment::{self, FilterDesign, SteadyRecord};
@@ -12,7 +13,6 @@ use crate::plant::{Plant, SimulatedPlant};
 use crate::spec::Spec;
 use rand::SeedableRng;
 use std::path::Path;
-use super::*;
 
 /// Everything measured (or simulated) for one identification.
 #[derive(Debug, Clone, Default)]
@@ -191,7 +191,12 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
                     let t = crate::data::read_table(&file, &[tc], ss.part.as_deref())?
                         .pop()
                         .expect("one column");
-                    Some(crate::data::sample_indices(&file, tc, &t, d.dt.unwrap_or(1.0))?)
+                    Some(crate::data::sample_indices(
+                        &file,
+                        tc,
+                        &t,
+                        d.dt.unwrap_or(1.0),
+                    )?)
                 }
             };
             Some(SteadyStateData {

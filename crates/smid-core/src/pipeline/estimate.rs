@@ -1,11 +1,11 @@
 //! Noise-bound estimation (`noise.estimate`): the smallest bound at which the training data are
 //! consistent with the model (by the branch and bound's cheap test), times a margin (eq 5).
+use super::*;
 use crate::cells::{self, Budget};
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
 use crate::model::Training;
 use crate::spec::Spec;
-use super::*;
 
 /// Whether the training data are consistent with the model at noise bound `d`, by the
 /// branch and bound's cheap test alone (classical outer sets, no bounds computed): `false`

@@ -1,6 +1,7 @@
 //! The search: the branch and bound over the bisected parameters ([`crate::cells`]) with the
 //! stages as its tests, the hulls over the surviving cells in report order, and the run's
 //! artifacts ([`Identification`]).
+use super::*;
 use crate::cells::{self, Budget};
 use crate::chain::{self};
 use crate::effect::DataScale;
@@ -12,7 +13,6 @@ use crate::model::{BoundSource, CellSet, Layout, ModelSet, SearchSummary, Traini
 use crate::noise;
 use crate::nonlinearity::{NonlinearitySet, Structure};
 use crate::spec::{AlphaSpec, ModelSpec, Spec};
-use super::*;
 
 /// Result of a whole identification: the model set and the run's artifacts.
 #[derive(Debug)]
@@ -80,7 +80,10 @@ pub(super) fn resolution(
         .iter()
         .flat_map(|e| e.resolution(delta, scale))
         .collect();
-    let first_effect = layout.effect_cells.first().map_or(layout.dims.len(), |r| r.start);
+    let first_effect = layout
+        .effect_cells
+        .first()
+        .map_or(layout.dims.len(), |r| r.start);
     layout.dims[..first_effect]
         .iter()
         .map(|d| (d.prior.hi - d.prior.lo) / h)

@@ -2,6 +2,7 @@
 //! from steady-state points, Section 3, eqs 13-20, carried through the chain's blocks), stage 2
 //! (inner-signal bounds, Section 4, eqs 23-27, through [`crate::chain`]), stage 3 (the linear
 //! block, Section 5, [`crate::stage3`]), and the branch and bound's cheap and full cell tests.
+use super::*;
 use crate::cells::Verdict;
 use crate::chain::{self, Side};
 use crate::effect::{self, Signals};
@@ -12,7 +13,6 @@ use crate::model::{CellSet, Layout, Training};
 use crate::nonlinearity::{NonlinearitySet, SteadyStateData, Structure};
 use crate::spec::{MethodSpec, ModelSpec};
 use crate::stage3::{EivProblem, EivResult, Regressor};
-use super::*;
 
 /// Stage 1 for one cell: the nonlinearity's feasible set from the steady-state points with the
 /// outputs corrected by the sensor terms over the cell (`ȳ - s`, `s` an interval: its centre
@@ -117,13 +117,15 @@ impl BlockSets {
                 Side::Input => &model.input[b.index],
                 Side::Output => &model.output[b.index],
             };
-            let set = plugin.set_from_box(&cell[b.cells.clone()]).map_err(|e| match e {
-                SmidError::Invalid { field, message } => SmidError::invalid(
-                    format!("{}[{}] ({field})", b.side.field(), b.index),
-                    message,
-                ),
-                o => o,
-            })?;
+            let set = plugin
+                .set_from_box(&cell[b.cells.clone()])
+                .map_err(|e| match e {
+                    SmidError::Invalid { field, message } => SmidError::invalid(
+                        format!("{}[{}] ({field})", b.side.field(), b.index),
+                        message,
+                    ),
+                    o => o,
+                })?;
             sets.push((b.side, set));
         }
         Ok(BlockSets { sets })
