@@ -369,16 +369,9 @@ fn through_csv(
     }});
     let spec: Spec =
         serde_json::from_value(v).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
-    let mut data = pipeline::load_data(&spec, dir)?;
-    // The steady points' direction and step come with the design, as the experiment recorded
-    // them (a CSV of measured steady states gives the sign of ū; the step heights are those of
-    // the designed square wave).
-    if let (Some(d), Some(s)) = (data.steady.as_mut(), training.steady.as_ref()) {
-        for (a, b) in d.points.iter_mut().zip(&s.points) {
-            a.rising = b.rising;
-            a.step = b.step;
-        }
-    }
+    // As measured steady states come: the sign of ū says the direction (`rising = ū > 0`), no
+    // step heights (the allowance α then assumes the paper's 2|ū|).
+    let data = pipeline::load_data(&spec, dir)?;
     let delta = spec.noise.delta()?;
     let held = (0..holdout.len())
         .map(|k| {

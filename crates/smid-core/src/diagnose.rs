@@ -153,8 +153,9 @@ fn mark_equivalences(
     evidence: &mut [Evidence],
     sets: &[Option<ModelSet>],
     base: Option<&ModelSet>,
-    delta: f64,
 ) {
+    // Each model's own bound (estimated bounds differ per model): the looser of the two.
+    let tol = |a: &ModelSet, b: &ModelSet| 2.0 * a.delta.max(b.delta);
     let runs: Vec<Option<Vec<Vec<f64>>>> = sets
         .iter()
         .map(|s| s.as_ref().and_then(centre_runs))
@@ -162,9 +163,11 @@ fn mark_equivalences(
     let base_runs = base.and_then(centre_runs);
     let skip = 20;
     for i in 0..evidence.len() {
-        let Some(ri) = &runs[i] else { continue };
-        if let Some(rb) = &base_runs {
-            if indistinguishable(ri, rb, 2.0 * delta, skip) {
+        let (Some(ri), Some(si)) = (&runs[i], &sets[i]) else {
+            continue;
+        };
+        if let (Some(rb), Some(b)) = (&base_runs, base) {
+            if indistinguishable(ri, rb, tol(si, b), skip) {
                 evidence[i].equivalent_to.push(AS_DECLARED.into());
             }
         }
@@ -172,8 +175,8 @@ fn mark_equivalences(
             if i == j {
                 continue;
             }
-            if let Some(rj) = &runs[j] {
-                if indistinguishable(ri, rj, 2.0 * delta, skip) {
+            if let (Some(rj), Some(sj)) = (&runs[j], &sets[j]) {
+                if indistinguishable(ri, rj, tol(si, sj), skip) {
                     let l = evidence[j].label.clone();
                     evidence[i].equivalent_to.push(l);
                 }
@@ -584,7 +587,6 @@ pub fn choose(
             &mut round.candidates,
             &sets,
             base_set.as_ref().filter(|_| base_train.admissible()),
-            spec.noise.delta().unwrap_or(f64::NAN),
         );
         match pick {
             Some(i) => {
