@@ -49,6 +49,27 @@ pub fn check_outputs(y: &[f64], dy: &[f64]) -> crate::Result<()> {
     }
 }
 
+/// Stage 2 of a static (memoryless) block on the input side: `f(u_t)` is a guaranteed interval
+/// of the block's output for the known input `u_t` over the whole set; the result is widened
+/// outward. A non-finite input is an error naming the sample.
+pub fn propagate_static(u: &[f64], f: impl Fn(f64) -> Interval) -> crate::Result<Vec<InnerBound>> {
+    u.iter()
+        .enumerate()
+        .map(|(t, &u)| {
+            if !u.is_finite() {
+                return Err(crate::SmidError::invalid(
+                    format!("dynamic sample {t}"),
+                    "non-finite input",
+                ));
+            }
+            Ok(InnerBound {
+                interval: f(u).outward(),
+                kind: InnerKind::Inverted,
+            })
+        })
+        .collect()
+}
+
 /// How a sample of the inner signal was bounded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]

@@ -50,7 +50,9 @@ pub use schemars;
 pub mod prelude {
     pub use crate::error::{Result, SmidError, Stage};
     pub use crate::interval::Interval;
-    pub use crate::inversion::{check_outputs, invert_branch, InnerBound, InnerKind};
+    pub use crate::inversion::{
+        check_outputs, invert_branch, propagate_static, InnerBound, InnerKind,
+    };
     pub use crate::nonlinearity::{
         two_branch_polygons, two_branch_regions, two_branches_contain, Nonlinearity,
         NonlinearityModel, NonlinearitySet, ParameterBound, Region, SteadyPoint, SteadyStateData,

@@ -289,21 +289,7 @@ impl NonlinearitySet for DeadZoneSet {
     }
 
     fn propagate(&self, u: &[f64]) -> Result<Vec<InnerBound>> {
-        u.iter()
-            .enumerate()
-            .map(|(t, &u)| {
-                if !u.is_finite() {
-                    return Err(SmidError::invalid(
-                        format!("dynamic sample {t}"),
-                        "non-finite input",
-                    ));
-                }
-                Ok(InnerBound {
-                    interval: self.propagate_sample(u).outward(),
-                    kind: InnerKind::Inverted,
-                })
-            })
-            .collect()
+        propagate_static(u, |u| self.propagate_sample(u))
     }
 
     fn regions(&self, truth: Option<&[f64]>) -> Vec<Region> {

@@ -360,27 +360,14 @@ impl NonlinearitySet for SaturationSet {
     /// each branch's set (a superset of the staircase: sound): monotone in `m` and `s`, so the
     /// interval ends suffice.
     fn propagate(&self, u: &[f64]) -> Result<Vec<InnerBound>> {
-        u.iter()
-            .enumerate()
-            .map(|(t, &u)| {
-                if !u.is_finite() {
-                    return Err(SmidError::invalid(
-                        format!("dynamic sample {t}"),
-                        "non-finite input",
-                    ));
-                }
-                let (r, l) = (&self.right, &self.left);
-                let i = if u >= 0.0 {
-                    Interval::new((r.m.lo * u).min(r.s.lo), (r.m.hi * u).min(r.s.hi))
-                } else {
-                    Interval::new((l.m.hi * u).max(-l.s.hi), (l.m.lo * u).max(-l.s.lo))
-                };
-                Ok(InnerBound {
-                    interval: i.outward(),
-                    kind: InnerKind::Inverted,
-                })
-            })
-            .collect()
+        let (r, l) = (&self.right, &self.left);
+        propagate_static(u, |u| {
+            if u >= 0.0 {
+                Interval::new((r.m.lo * u).min(r.s.lo), (r.m.hi * u).min(r.s.hi))
+            } else {
+                Interval::new((l.m.hi * u).max(-l.s.hi), (l.m.lo * u).max(-l.s.lo))
+            }
+        })
     }
     /// Nondecreasing in the input for every member (positive slopes).
     fn monotone(&self) -> bool {
@@ -500,6 +487,32 @@ mod tests {
             let inner = set.invert(&y, &vec![d; y.len()]).unwrap();
             for (b, x) in inner.iter().zip(&xs) {
                 prop_assert!(b.interval.contains(*x), "{:?} misses {}", b, x);
+            }
+        }
+    }
+
+    proptest! {
+        /// A saturating actuator (an input block): for every member of a box the output of
+        /// every input lies in the propagated interval.
+        #[test]
+        fn propagation_over_a_box_holds_every_member(
+            m in 0.5f64..2.0, s in 0.2f64..2.0, w in 0.0f64..0.3, f in 0.0f64..1.0,
+            u in proptest::collection::vec(-3.0f64..3.0, 1..40),
+        ) {
+            let b = |v: f64| Interval::new(v, v * (1.0 + w));
+            let set = SaturationModel {}
+                .set_from_box(&[b(m), b(s), b(m * 1.1), b(s * 0.9)])
+                .unwrap();
+            let truth = Saturation {
+                m_l: m * (1.0 + w * f),
+                s_l: s * (1.0 + w * f),
+                m_r: m * 1.1 * (1.0 + w * (1.0 - f)),
+                s_r: s * 0.9 * (1.0 + w * f),
+            };
+            let v = set.propagate(&u).unwrap();
+            for (k, &ut) in u.iter().enumerate() {
+                let x = truth.simulate(&[ut])[0];
+                prop_assert!(v[k].interval.contains(x), "{:?} misses {}", v[k], x);
             }
         }
     }
