@@ -216,6 +216,10 @@ pub fn trial(seed: u64) -> Result<(Spec, Outcome)> {
     let spec = random_chain(seed)?;
     debug_assert_eq!(spec.model.structure, Structure::Wiener);
     let outcome = match pipeline_run(&spec) {
+        Ok(id) if !id.model.member_outside_bounds().is_empty() => Outcome::Missed(format!(
+            "the certified simulation member lies outside the bounds: {}",
+            id.model.member_outside_bounds().join(", ")
+        )),
         Ok(id) => match id.all_contain_truth() {
             Some(true) => Outcome::Contained,
             _ => Outcome::Missed(format!(

@@ -286,7 +286,11 @@ pub fn format_validation(v: &Validation, records: &[Record]) -> String {
             );
         }
     }
-    let _ = writeln!(s, "{}", fit_line("free run (centre member)", &v.free_run));
+    let _ = writeln!(s, "member: {}", v.member);
+    let _ = writeln!(s, "{}", fit_line("free run", &v.free_run));
+    if let Some(c) = &v.centre_free_run {
+        let _ = writeln!(s, "{}", fit_line("free run of the centre", c));
+    }
     let _ = writeln!(s, "{}", fit_line("one-step prediction", &v.one_step));
     let _ = writeln!(
         s,

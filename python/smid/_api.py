@@ -146,7 +146,8 @@ class InnerBounds:
 
 @dataclass(frozen=True)
 class Simulation:
-    """Free run from rest of a model set: the central member's output ``y`` (inner signal
+    """Free run from rest of a model set: the simulation member's output ``y`` (the central
+    member's when none was certified; inner signal
     ``x``, nonlinearity output ``w``) and the envelope ``[lower, upper]`` over the axis members
     (indicative, not a guarantee)."""
 
@@ -210,6 +211,18 @@ class ModelSet:
     @property
     def parameters(self) -> List[Parameter]:
         return [_parameter(p) for p in self._result.get("parameters", [])]
+
+    @property
+    def simulation_member(self) -> Optional[Dict[str, Any]]:
+        """The member certified consistent whose free run fits the training records best:
+        ``values`` (name -> value), ``training_fit`` and the centre's ``centre_training_fit``
+        (%), ``cell``, ``consistency``; ``None`` when none was certified (the centre stands in)."""
+        m = self.model.get("simulation_member")
+        if m is None:
+            return None
+        out = dict(m)
+        out["values"] = {n: float(v) for n, v in m["values"]}
+        return out
 
     def validate(self, records: RecordsLike, *, k: int = 5) -> "Validation":
         """See :func:`validate`."""
@@ -453,8 +466,20 @@ class Validation:
 
     @property
     def fit(self) -> float:
-        """Free-run fit % (MATLAB ``compare``) of the centre member over the records."""
+        """Free-run fit % (MATLAB ``compare``) over the records of the member named by
+        :attr:`member` (the simulation member when certified, else the centre)."""
         return _num(self.data["free_run"]["fit_percent"], -math.inf)
+
+    @property
+    def member(self) -> str:
+        """Which member the free run and the predictions use."""
+        return str(self.data.get("member", ""))
+
+    @property
+    def centre_fit(self) -> Optional[float]:
+        """The central member's free-run fit %, reported beside the simulation member's."""
+        c = self.data.get("centre_free_run")
+        return None if c is None else _num(c["fit_percent"], -math.inf)
 
     @property
     def baseline_fit(self) -> Optional[float]:
@@ -532,7 +557,8 @@ def diagnose(
 
 
 def simulate(model: Union[ModelSet, Identification, Mapping[str, Any], str, "os.PathLike[str]"], u: ArrayLike, *, dt: Optional[float] = None) -> Simulation:
-    """Free run of a model set from rest on the input ``u``: centre and envelope."""
+    """Free run of a model set from rest on the input ``u``: the simulation member (the centre
+    when none was certified) and the envelope."""
     text = _model_text(model)
     s = json.loads(_native.simulate(text, _vector(u, "u"), dt))
     arr = lambda k: np.asarray([np.nan if v is None else v for v in s[k]], dtype=float)  # noqa: E731

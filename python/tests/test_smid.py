@@ -187,6 +187,28 @@ def test_validate_equals_the_cli_and_simulate_gives_centre_and_envelope(tmp_path
     assert not smid.validate(model, [("bad", u, bad)]).verdict.consistent
 
 
+def test_the_simulation_member_is_certified_inside_the_bounds_and_used(tmp_path):
+    for spec in (PAPER, ROOT / "examples" / "hammerstein-wiener.yaml"):
+        r = smid.identify(spec)
+        m = r.model.simulation_member
+        assert m is not None, spec
+        assert m["consistency"] < 0
+        b = r.bounds()
+        inside = [n for n, v in m["values"].items() if n in b and b[n][0] <= v <= b[n][1]]
+        assert len(inside) == len(b), (spec, m["values"], b)
+        rec = smid.simulate_plant(spec, seed=9)
+        v = r.model.validate((rec.u, rec.y))
+        assert "simulation member" in v.member
+        assert v.centre_fit is not None and v.fit > 90.0
+    # A model set without a member (an old result.json) falls back to the centre, and says so.
+    raw = json.loads(r.model.to_json())
+    del raw["model"]["simulation_member"]
+    old = smid.ModelSet(raw)
+    assert old.simulation_member is None
+    v = old.validate((rec.u, rec.y))
+    assert "central member" in v.member and v.centre_fit is None
+
+
 def test_diagnose_from_a_model_set_names_nothing_for_a_complete_model(tmp_path):
     r = smid.identify(PAPER)
     run_cli("simulate", PAPER, "--seed", "91", "--out", tmp_path, cwd=ROOT)

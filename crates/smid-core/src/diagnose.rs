@@ -122,7 +122,7 @@ pub const AS_DECLARED: &str = "the model as declared";
 
 /// Free runs from rest of the centre member of `set` on each training record.
 fn centre_runs(set: &ModelSet) -> Option<Vec<Vec<f64>>> {
-    let c = crate::members::centre(set).ok()?;
+    let c = crate::members::representative(set).ok()?;
     let runs: Vec<Vec<f64>> = set
         .training
         .records
@@ -333,7 +333,7 @@ fn try_model(
     }
 }
 
-/// Free-run fit % of the central member on the model's own training records.
+/// Free-run fit % of the representative member (see [`crate::members::representative`]) on the model's own training records.
 pub fn training_fit(m: &ModelSet) -> Result<f64> {
     Ok(validate::free_run_fit(m, &m.training.records)?.fit_percent)
 }

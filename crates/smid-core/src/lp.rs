@@ -492,6 +492,14 @@ impl Polytope {
         }
     }
 
+    /// The simplex's optimal vertex of `min c·θ` (a measurement, as [`Self::vertex_optimum`]).
+    pub fn vertex_point(&self, c: &[f64]) -> Option<Vec<f64>> {
+        match self.simplex(c) {
+            Simplex::Optimal { basis, .. } => self.vertex(&basis),
+            _ => None,
+        }
+    }
+
     /// Whether the polytope is non-empty: `false` is a proof (over the artificial box).
     pub fn feasible(&self) -> Result<bool> {
         match self.simplex(&vec![0.0; self.n]) {

@@ -462,10 +462,32 @@ pub struct ModelSet {
     /// Cells evaluated, discarded, and whether the budget stopped the bisection.
     pub search: SearchSummary,
     pub training: Training,
+    /// The simulation member (issue 27): the certified-consistent member whose free run fits
+    /// the training records best; `None` when none was certified (the centre stands in).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub simulation_member: Option<SimulationMember>,
     /// The model's resolved layout (checked once, like linfa's checked hyper-parameters): set
     /// by identification, resolved on first use after reading a `result.json`.
     #[serde(skip)]
     pub resolved: std::sync::OnceLock<Layout>,
+}
+
+/// The member of the identified set that simulates the training records best (see
+/// [`crate::members::simulation`]): certified consistent with the stage-2 bounds of its cell
+/// by the exact LP at fixed `θ`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SimulationMember {
+    /// Every parameter by name (nonlinearity, `θ`, bisected).
+    pub values: Vec<(String, f64)>,
+    /// The surviving cell it lies in.
+    pub cell: usize,
+    /// The consistency measure at it (negative: strictly inside the scaled error boxes).
+    pub consistency: f64,
+    /// Free-run fit % on the training records (warm start as `validate`'s), and the centre's.
+    pub training_fit: f64,
+    pub centre_training_fit: f64,
+    /// Cost evaluations spent by the search.
+    pub evaluations: usize,
 }
 
 /// What the branch and bound did.
@@ -481,6 +503,24 @@ impl ModelSet {
     pub fn duplicate(&self) -> ModelSet {
         serde_json::from_value(serde_json::to_value(self).expect("model sets serialise"))
             .expect("a serialised model set deserialises")
+    }
+
+    /// The parameters (`name = value ∉ [lower, upper]`) whose reported bounds miss the
+    /// simulation member, beyond the LPs' tolerance. A certified member lies in the feasible
+    /// set, so inside every guaranteed bound: anything listed here is a bug.
+    pub fn member_outside_bounds(&self) -> Vec<String> {
+        let Some(m) = &self.simulation_member else {
+            return Vec::new();
+        };
+        m.values
+            .iter()
+            .filter_map(|(n, v)| {
+                let p = self.parameter(n)?;
+                let tol = 1e-9 * (1.0 + v.abs());
+                (!(p.lower - tol <= *v && *v <= p.upper + tol))
+                    .then(|| format!("{n} = {v} ∉ [{}, {}]", p.lower, p.upper))
+            })
+            .collect()
     }
 
     /// A parameter by name.

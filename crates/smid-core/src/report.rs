@@ -33,13 +33,15 @@ pub fn table(id: &Identification) -> String {
     }
     let _ = writeln!(
         s,
-        "{:<6} {:>10} {:>10} {:>10} {:>10} {:>10} {:>6}",
-        "param", "true", "center", "radius", "lower", "upper", "inside"
+        "{:<6} {:>10} {:>10} {:>10} {:>10} {:>10} {:>6} {:>10}",
+        "param", "true", "center", "radius", "lower", "upper", "inside", "member"
     );
+    let member = id.model.simulation_member.as_ref();
     for p in id.parameters() {
+        let value = member.and_then(|m| m.values.iter().find(|(n, _)| *n == p.name).map(|v| v.1));
         let _ = writeln!(
             s,
-            "{:<6} {:>10} {:>10.6} {:>10.2e} {:>10.6} {:>10.6} {:>6}",
+            "{:<6} {:>10} {:>10.6} {:>10.2e} {:>10.6} {:>10.6} {:>6} {:>10}",
             p.name,
             fmt_opt(p.truth),
             p.center,
@@ -50,8 +52,24 @@ pub fn table(id: &Identification) -> String {
                 Some(true) => "yes",
                 Some(false) => "NO",
                 None => "-",
-            }
+            },
+            fmt_opt(value)
         );
+    }
+    match member {
+        Some(m) => {
+            let _ = writeln!(
+                s,
+                "member: the simulation member (certified consistent, cell {}): training free-run fit {:.2} % (the centre: {:.2} %)",
+                m.cell, m.training_fit, m.centre_training_fit
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "member: no point certified consistent within the search budget (the exact LP at fixed θ found none); the centre (not certified) stands in for free runs"
+            );
+        }
     }
     let inverted = id
         .inner

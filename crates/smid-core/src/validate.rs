@@ -9,7 +9,7 @@
 //!   offending sample. The smallest noise bound of the fresh records for which they are
 //!   consistent (bisection; below it the data provably contradict the model) is compared with
 //!   the declared bound: PASS when it is within it.
-//! * **Free-run simulation** of the central member ([`crate::members`]) from the input alone
+//! * **Free-run simulation** of the representative member (the simulation member, else the central one) ([`crate::members`]) from the input alone
 //!   after an initial condition taken from the first `na + nb + nk` measured samples (as
 //!   MATLAB's `compare` estimates one; the figures leave those samples out), with an envelope
 //!   over members at the ends of each bound (indicative, not a guarantee: those members lie in
@@ -23,8 +23,7 @@
 //!   a noise bound estimated from the data, a cell budget that stopped the bisection.
 use crate::baseline::Arx;
 use crate::error::{Result, SmidError, Stage};
-use crate::inversion::InnerKind;
-use crate::members::{self, ModelPoint};
+use crate::members;
 use crate::model::{BoundSource, ModelSet, Record};
 use crate::pipeline::{stage2, stage3, StageSignals};
 use rayon::prelude::*;
@@ -205,6 +204,11 @@ pub struct Validation {
     /// The smallest consistent bound is within the declared one.
     pub pass: bool,
     pub free_run: Fit,
+    /// The member the free run and predictions use ([`members::representative_label`]).
+    pub member: String,
+    /// The central member's free-run fit on the same records, when the simulation member
+    /// stands in for the set (both are reported).
+    pub centre_free_run: Option<Fit>,
     pub one_step: Fit,
     pub k: usize,
     pub k_step: Fit,
@@ -457,52 +461,15 @@ pub fn smallest_bound(
     Ok(Some(((hi * (1.0 - res)).max(lo_set), hi)))
 }
 
-/// The inner-signal estimate a k-step predictor starts from: Hammerstein without output blocks
-/// `y - s` (the centre member's sensor terms), otherwise the centres of the stage-2 bounds of
-/// the first cell where inverted, the free-run inner signal elsewhere.
-fn inner_estimate(model: &ModelSet, point: &ModelPoint, rec: &Record) -> Result<Vec<f64>> {
-    let free = point.simulate(&rec.u, rec.dt);
-    // A Hammerstein model without output blocks measures the linear block's output directly.
-    match model.model.structure {
-        crate::nonlinearity::Structure::Hammerstein if model.model.output.is_empty() => {
-            let s = point.sensor_terms(rec.y.len());
-            Ok(rec.y.iter().zip(&s).map(|(y, s)| y - s).collect())
-        }
-        _ => {
-            let layout = model.layout()?;
-            let c = &model.cells[0];
-            let sig = stage2(
-                &model.model,
-                &layout,
-                c.nonlinearity.as_ref(),
-                &c.cell,
-                std::slice::from_ref(rec),
-            )?;
-            Ok(sig
-                .output
-                .iter()
-                .zip(&free.x)
-                .map(|(b, xf)| {
-                    if b.interval.is_finite() && b.kind == InnerKind::Inverted {
-                        b.interval.center()
-                    } else {
-                        *xf
-                    }
-                })
-                .collect())
-        }
-    }
-}
-
-/// The free-run fit of the central member on records (warm start as in [`validate`]).
+/// The free-run fit of the representative member on records (warm start as in [`validate`]).
 pub fn free_run_fit(model: &ModelSet, records: &[Record]) -> Result<Fit> {
-    let centre = members::centre(model)?;
+    let centre = members::representative(model)?;
     let o = model.layout()?.orders;
     let warm = o.na + o.nb + o.nk;
     let mut sims = Vec::new();
     for rec in records {
         let w0 = warm.min(rec.y.len());
-        let xd = inner_estimate(model, &centre, rec)?;
+        let xd = members::inner_estimate(model, &centre, rec)?;
         let free = centre.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y;
         sims.push((rec.y[w0..].to_vec(), free[w0..].to_vec()));
     }
@@ -526,7 +493,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     let smallest = smallest_bound(model, &fresh, opts.bound_resolution)?;
     let pass = consistency.consistent && smallest.is_some_and(|(_, hi)| hi <= model.delta);
 
-    let centre = members::centre(model)?;
+    let centre = members::representative(model)?;
     let members = members::axis_members(model);
     let layout = model.layout()?;
     let o = layout.orders;
@@ -534,7 +501,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     let mut warnings = Vec::new();
     if !centre.stable() {
         warnings.push(format!(
-            "the centre model is unstable (largest pole modulus {:.4}): its free run diverges",
+            "the representative member is unstable (largest pole modulus {:.4}): its free run diverges",
             centre.linear.spectral_radius()
         ));
     }
@@ -583,7 +550,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     for rec in &fresh {
         let n = rec.y.len();
         let w0 = warm.min(n);
-        let xd = inner_estimate(model, &centre, rec)?;
+        let xd = members::inner_estimate(model, &centre, rec)?;
         let free = centre.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y;
         let one = centre.predict(&rec.u, Some(&xd), rec.dt, 1, w0).y;
         let kst = centre.predict(&rec.u, Some(&xd), rec.dt, opts.k, w0).y;
@@ -616,6 +583,24 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
         Fit::of(&v)
     };
     let free_run = pairs(&|s| &s.free_run);
+    let centre_free_run = match model.simulation_member {
+        Some(_) => {
+            let c = members::centre(model)?;
+            let mut runs = Vec::new();
+            for rec in &fresh {
+                let w0 = warm.min(rec.y.len());
+                let xd = members::inner_estimate(model, &c, rec)?;
+                let y = c.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y;
+                runs.push((rec.y[w0..].to_vec(), y[w0..].to_vec()));
+            }
+            let v: Vec<(&[f64], &[f64])> = runs
+                .iter()
+                .map(|(a, b)| (a.as_slice(), b.as_slice()))
+                .collect();
+            Some(Fit::of(&v))
+        }
+        None => None,
+    };
     let k_step = pairs(&|s| &s.k_step);
     let one_step = pairs(&|s| &s.one_step);
     let baseline = arx.as_ref().map(|_| {
@@ -636,6 +621,8 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
         smallest_bound: smallest,
         pass,
         free_run,
+        member: members::representative_label(model).to_string(),
+        centre_free_run,
         one_step,
         k: opts.k,
         k_step,

@@ -302,7 +302,7 @@ pub fn identify_with(
             .filter(|(v, b)| b.interval.is_finite() && !b.interval.contains(**v))
             .count()
     });
-    let set = ModelSet {
+    let mut set = ModelSet {
         name: spec.name.clone().unwrap_or_else(|| "smid".into()),
         model: model.duplicate(),
         method: method.clone(),
@@ -317,8 +317,10 @@ pub fn identify_with(
         parameters,
         search: summary,
         training,
+        simulation_member: None,
         resolved: std::sync::OnceLock::from(layout.clone()),
     };
+    set.simulation_member = crate::members::simulation_member(&set, &Default::default())?;
     let snr_db = match data.records.first() {
         Some(Record {
             w: Some(w),

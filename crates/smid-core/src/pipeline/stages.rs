@@ -261,7 +261,7 @@ pub fn stage2(
 }
 
 /// The stage-3 problem of stage-2 signals, with an optional prior box on `θ`.
-pub(super) fn eiv_problem<'a>(
+pub fn eiv_problem<'a>(
     model: &ModelSpec,
     layout: &Layout,
     method: &MethodSpec,

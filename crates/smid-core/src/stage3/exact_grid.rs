@@ -243,6 +243,93 @@ impl Grid<'_, '_, '_> {
     }
 }
 
+/// The consistency measure at a whole parameter vector `theta` (θ order, fixed entries
+/// included): the smallest `s` for which the equations (eq 1) hold with every inner-signal
+/// sample inside its stage-2 box scaled by `1 + s`. The exact extra columns enter at their
+/// values, and each uncertain input sample is an LP column inside its interval (exact at a
+/// fixed `θ`). So `s <= INSIDE` **certifies** `theta`
+/// consistent with the stage-2 bounds, up to the LP's tolerances; `+inf` when `theta` breaks
+/// the unit gain (eq 8) or the solver gave no conclusion. Uncertain extra columns are refused
+/// (as by the method).
+pub fn consistency_at(prob: &EivProblem, theta: &[f64]) -> Result<f64> {
+    let times = prob.equation_times();
+    check_extras(prob, &times)?;
+    if prob.unit_gain {
+        let gain: f64 = (0..prob.n_ab()).map(|k| prob.gain_sign(k) * theta[k]).sum();
+        let scale: f64 = 1.0 + theta[..prob.n_ab()].iter().map(|v| v.abs()).sum::<f64>();
+        if (gain - 1.0).abs() > 1e-9 * scale {
+            return Ok(f64::INFINITY);
+        }
+    }
+    // Every θ entry is given: the fixed-`a` LP with all entries as grid values (its unit-gain
+    // row has no column left and was checked above).
+    let flat = EivProblem {
+        unit_gain: false,
+        ..prob.clone()
+    };
+    let dims: Vec<usize> = (0..prob.p()).filter(|&k| prob.fixed[k].is_none()).collect();
+    let a: Vec<f64> = dims.iter().map(|&k| theta[k]).collect();
+    let mut at = AtA {
+        prob: &flat,
+        dims,
+        times,
+        tb: vec![Interval::entire(); prob.p()],
+        lps: 0,
+        input_vars: true,
+    };
+    let s = at.slack(&a)?;
+    Ok(if s.is_nan() { f64::INFINITY } else { s })
+}
+
+/// At fixed values `a` of the free `a`'s (in θ order), the smallest consistency measure over
+/// the free `b`'s and extra coefficients inside `tb` (the unit gain imposed), and a `θ` that
+/// attains it (`None` when the solver gave no point). A measurement to search with: a point
+/// it gives is certified afterwards by [`consistency_at`].
+pub fn best_at_a(prob: &EivProblem, tb: &[Interval], a: &[f64]) -> Result<(f64, Option<Vec<f64>>)> {
+    let times = prob.equation_times();
+    check_extras(prob, &times)?;
+    let dims: Vec<usize> = (0..prob.na).filter(|&k| prob.fixed[k].is_none()).collect();
+    let at = AtA {
+        prob,
+        dims: dims.clone(),
+        times,
+        tb: tb.to_vec(),
+        lps: 0,
+        input_vars: false,
+    };
+    let m = at.lp(a, true);
+    let mut c = vec![0.0; m.lp.n];
+    c[m.s] = 1.0;
+    let x = match m.lp.dense(DENSE_MAX).and_then(|p| p.vertex_point(&c)) {
+        Some(x) => x,
+        None => {
+            let mut s = m.lp.solver()?;
+            match s.minimise(m.s)? {
+                Optimum::Value(_) => s.point().to_vec(),
+                _ => return Ok((f64::INFINITY, None)),
+            }
+        }
+    };
+    let mut theta: Vec<f64> = prob.fixed.iter().map(|f| f.unwrap_or(0.0)).collect();
+    for (d, &k) in dims.iter().enumerate() {
+        theta[k] = a[d];
+    }
+    for (k, col) in m.col_theta.iter().enumerate() {
+        if let Some(col) = col {
+            theta[k] = x[*col];
+        }
+    }
+    let s = x[m.s];
+    Ok((if s.is_nan() { f64::INFINITY } else { s }, Some(theta)))
+}
+
+/// The margin below which [`consistency_at`] certifies a point (far above the LPs' pads).
+pub const CERTIFIED: f64 = INSIDE;
+
+/// Relative radius above which an input sample counts as uncertain in [`consistency_at`]
+/// (below it, the outward rounding pads of an exact propagation).
+const UNCERTAIN: f64 = 1e-9;
+
 /// Columns up to which the fixed-`a` LPs go to the dense simplex ([`crate::lp::Polytope`]).
 const DENSE_MAX: usize = 24;
 
@@ -262,6 +349,9 @@ struct AtA<'p, 'a> {
     /// A guaranteed box (bounds the free `b`'s; a superset of the exact set).
     tb: Vec<Interval>,
     lps: usize,
+    /// Uncertain input samples become LP columns inside their intervals where their `b` is
+    /// given (exact at a fixed θ); otherwise the input enters at its centres.
+    input_vars: bool,
 }
 
 /// An affine function `c + Σ coef·z_col`.
@@ -294,6 +384,8 @@ impl AtA<'_, '_> {
                 n += 1;
             }
         }
+        // Uncertain input samples as columns (sample -> column).
+        let mut input_cols: std::collections::BTreeMap<usize, usize> = Default::default();
         // x_s = c + Σ coef·z over the columns; None: not reached by any equation.
         let len = prob.output.len();
         let mut x: Vec<Option<Affine>> = vec![None; len];
@@ -315,8 +407,20 @@ impl AtA<'_, '_> {
                 }
             }
             for j in 0..=prob.nb {
-                let u = prob.input[t - j].center();
+                let ui = prob.input[t - j];
+                let u = ui.center();
                 match (theta[prob.na + j], col_theta[prob.na + j]) {
+                    (Some(v), _)
+                        if self.input_vars
+                            && ui.radius() > UNCERTAIN * (1.0 + u.abs())
+                            && v != 0.0 =>
+                    {
+                        let col = *input_cols.entry(t - j).or_insert_with(|| {
+                            n += 1;
+                            n - 1
+                        });
+                        row.push((col, v));
+                    }
                     (Some(v), _) => c += v * u,
                     (None, Some(col)) => row.push((col, u)),
                     (None, None) => {}
@@ -350,6 +454,11 @@ impl AtA<'_, '_> {
             let mut down: Vec<(usize, f64)> = row.iter().map(|&(k, v)| (k, -v)).collect();
             down.push((s_col, -r));
             lp.le(down, c - iv.lo);
+        }
+        for (&t, &col) in &input_cols {
+            let iv = prob.input[t];
+            lp.le(vec![(col, -1.0)], -iv.lo);
+            lp.le(vec![(col, 1.0)], iv.hi);
         }
         if slack {
             lp.le(vec![(s_col, -1.0)], 1.0);
@@ -580,6 +689,7 @@ pub fn solve_from(
         times: model.times.clone(),
         tb: start.bounds.clone(),
         lps: 0,
+        input_vars: false,
     };
     // The exact LPs at fixed `a` need an exact input (they substitute it in the equations).
     let exact_input = model
@@ -748,6 +858,63 @@ mod tests {
         }
     }
 
+    /// The certificate at a whole `θ`: the truth is consistent (its noise is inside the
+    /// bounds), a `θ` moved by several radii of the guaranteed box is not, a `θ` off the unit
+    /// gain is refused; with the input made uncertain around the truth (a block's unknown
+    /// initial state), the truth stays certified only because the input samples become LP
+    /// columns (at the input's perturbed centres it would not be).
+    #[test]
+    fn consistency_at_certifies_the_truth_and_rejects_far_points() {
+        let mut checked_uncertain = 0;
+        for seed in 0..12 {
+            let (m, out, input) = random_case(seed, 40);
+            let prob = problem(&out, &input, true);
+            let truth: Vec<f64> = m.a.iter().chain(&m.b).copied().collect();
+            let s = consistency_at(&prob, &truth).unwrap();
+            assert!(s <= 1e-7, "seed {seed}: the truth measures {s}");
+            let shared = shared::solve(&prob, &SharedOptions::default()).unwrap();
+            let mut far = truth.clone();
+            far[0] += 4.0 * shared.bounds[0].radius().max(1e-3);
+            far[3] += 4.0 * shared.bounds[0].radius().max(1e-3);
+            let gain = |t: &[f64]| t[2] + t[3] + t[4] - t[0] - t[1];
+            assert!((gain(&far) - 1.0).abs() < 1e-12);
+            let s_far = consistency_at(&prob, &far).unwrap();
+            assert!(
+                s_far > CERTIFIED,
+                "seed {seed}: a far point measures {s_far}"
+            );
+            let mut off = truth.clone();
+            off[3] += 0.1;
+            assert_eq!(consistency_at(&prob, &off).unwrap(), f64::INFINITY);
+            // The first samples' input uncertain, its centre moved off the true input.
+            let mut uncertain = input.clone();
+            for v in uncertain.iter_mut().take(6) {
+                let c = v.center();
+                *v = Interval::new(c - 0.5, c + 0.3);
+            }
+            let mut p2 = prob.clone();
+            p2.input = &uncertain;
+            let s2 = consistency_at(&p2, &truth).unwrap();
+            assert!(
+                s2 <= 1e-7,
+                "seed {seed}: uncertain input, the truth measures {s2}"
+            );
+            let centred: Vec<Interval> = uncertain
+                .iter()
+                .map(|v| Interval::new(v.center(), v.center()))
+                .collect();
+            let mut p3 = prob.clone();
+            p3.input = &centred;
+            if consistency_at(&p3, &truth).unwrap() > 0.0 {
+                checked_uncertain += 1;
+            }
+        }
+        assert!(
+            checked_uncertain > 0,
+            "the input columns were never needed: the test of them is vacuous"
+        );
+    }
+
     /// The fixed-`a` LP (equations substituted) and the shared-error LP over a degenerate `a`
     /// box (equations as rows, products exact) describe the same set: they must agree on
     /// consistency, at the truth (consistent: the noise is inside its bound) and far from it.
@@ -764,6 +931,7 @@ mod tests {
                 times: model.times.clone(),
                 tb: shared.bounds.clone(),
                 lps: 0,
+                input_vars: false,
             };
             let r = [shared.bounds[0].radius(), shared.bounds[1].radius()];
             for (shift, consistent) in [(0.0, Some(true)), (3.0, Some(false)), (-3.0, Some(false))]
@@ -844,6 +1012,7 @@ mod tests {
                 times: shared.equations.clone(),
                 tb: shared.bounds.clone(),
                 lps: 0,
+                input_vars: false,
             };
             let r = [shared.bounds[0].radius(), shared.bounds[1].radius()];
             let a = [case.m.a[0], case.m.a[1]];

@@ -15,6 +15,9 @@ use crate::model::ModelSet;
 use crate::nonlinearity::{Nonlinearity, Structure};
 use std::ops::Range;
 
+pub mod simulation;
+pub use simulation::simulation_member;
+
 /// The index of the central cell: the one whose centre is nearest the centre of the hull of
 /// the bisected parameters (relative to the hull's widths).
 pub fn central_cell(set: &ModelSet) -> usize {
@@ -38,7 +41,7 @@ pub fn central_cell(set: &ModelSet) -> usize {
 /// `θ` by least squares on a cell's stage-2 centres over the training records (equations whose
 /// samples were all inverted), subject to the fixed coefficients and the unit gain, inside the
 /// cell's bounds (an active set). `None` when too few equations.
-fn least_squares_theta(set: &ModelSet, k: usize) -> Result<Option<Vec<f64>>> {
+pub(super) fn least_squares_theta(set: &ModelSet, k: usize) -> Result<Option<Vec<f64>>> {
     let layout = set.layout()?;
     let c = &set.cells[k];
     let sig = crate::pipeline::stage2(
@@ -222,6 +225,24 @@ pub fn centre(set: &ModelSet) -> Result<ModelPoint> {
     point(set, &central_values(set)?)
 }
 
+/// The member that stands for the set in free runs, predictions and plots: the simulation
+/// member when one was certified ([`simulation`]), else the central member (uncertified).
+pub fn representative(set: &ModelSet) -> Result<ModelPoint> {
+    match &set.simulation_member {
+        Some(m) => point(set, &m.values),
+        None => centre(set),
+    }
+}
+
+/// Which member [`representative`] gives, in words.
+pub fn representative_label(set: &ModelSet) -> &'static str {
+    if set.simulation_member.is_some() {
+        "the simulation member (certified consistent, best training free run)"
+    } else {
+        "the central member (no certified member found)"
+    }
+}
+
 /// Members for an envelope: the central member and, per identified parameter, its lower and
 /// upper bound with the others central. They lie in the outer bounds, not necessarily in the
 /// feasible set, so their envelope is indicative, not a guarantee.
@@ -301,7 +322,7 @@ pub fn simulate_set(set: &ModelSet, u: &[f64], dt: f64) -> Result<SetSimulation>
             format!("{dt}: expected a positive sample time"),
         ));
     }
-    let c = centre(set)?;
+    let c = representative(set)?;
     let sim = c.simulate(u, dt);
     let members = axis_members(set);
     let (lower, upper) = envelope(&sim.y, &members, |m| m.simulate(u, dt).y);
@@ -396,7 +417,7 @@ pub fn point(set: &ModelSet, values: &[(String, f64)]) -> Result<ModelPoint> {
 
 /// The centre of an interval, or its finite end when the other is infinite (a saturation
 /// limit never reached is `[lo, inf)`: its member is the largest finite value).
-fn finite_centre(i: Interval) -> f64 {
+pub(super) fn finite_centre(i: Interval) -> f64 {
     match (i.lo.is_finite(), i.hi.is_finite()) {
         (true, true) => i.center(),
         (true, false) => f64::MAX.min(i.lo.abs().max(1.0) * 1e6),
@@ -623,5 +644,46 @@ impl ModelPoint {
             x -= a * xi;
         }
         x
+    }
+}
+
+/// The inner-signal estimate a k-step predictor starts from: Hammerstein without output blocks
+/// `y - s` (the centre member's sensor terms), otherwise the centres of the stage-2 bounds of
+/// the first cell where inverted, the free-run inner signal elsewhere.
+pub fn inner_estimate(
+    model: &ModelSet,
+    point: &ModelPoint,
+    rec: &crate::pipeline::Record,
+) -> Result<Vec<f64>> {
+    let free = point.simulate(&rec.u, rec.dt);
+    // A Hammerstein model without output blocks measures the linear block's output directly.
+    match model.model.structure {
+        crate::nonlinearity::Structure::Hammerstein if model.model.output.is_empty() => {
+            let s = point.sensor_terms(rec.y.len());
+            Ok(rec.y.iter().zip(&s).map(|(y, s)| y - s).collect())
+        }
+        _ => {
+            let layout = model.layout()?;
+            let c = &model.cells[0];
+            let sig = crate::pipeline::stage2(
+                &model.model,
+                &layout,
+                c.nonlinearity.as_ref(),
+                &c.cell,
+                std::slice::from_ref(rec),
+            )?;
+            Ok(sig
+                .output
+                .iter()
+                .zip(&free.x)
+                .map(|(b, xf)| {
+                    if b.interval.is_finite() && b.kind == crate::inversion::InnerKind::Inverted {
+                        b.interval.center()
+                    } else {
+                        *xf
+                    }
+                })
+                .collect())
+        }
     }
 }

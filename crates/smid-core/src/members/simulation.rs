@@ -1,0 +1,545 @@
+//! The simulation member (issue 27): the member of the identified set whose free run (eqs 1-2
+//! with the chain's blocks and the effects) fits the training records best, in the
+//! least-squares norm: the sum of squared free-run errors over the training records after the
+//! warm-start samples (what the fit % of MATLAB's `compare` ranks).
+//!
+//! The search keeps to points **certified** consistent. Per cell (the central cell first), the
+//! nonlinearity and bisected parameters are put at a point of the cell's set, stage 2 bounds
+//! the inner signal at that point (eqs 20-27), and a `θ` counts only when the exact LP at
+//! fixed `θ` ([`consistency_at`], as exact-grid certifies its inner hull) proves the equations
+//! hold inside the stage-2 boxes. Nelder-Mead (argmin) first reaches a certified `θ` from the
+//! centre's (minimising the consistency measure), then minimises the free-run error with the
+//! uncertified points as an extreme barrier, so the member it returns is certified.
+use super::{
+    central_cell, central_values, finite_centre, inner_estimate, least_squares_theta, point,
+};
+use crate::error::Result;
+use crate::interval::Interval;
+use crate::model::{CellSet, ModelSet, SimulationMember};
+use crate::stage3::exact_grid::{best_at_a, consistency_at, CERTIFIED};
+use argmin::core::{CostFunction, Error as ArgminError, Executor, State};
+use argmin::solver::neldermead::NelderMead;
+use std::cell::Cell;
+
+/// How hard the search tries.
+#[derive(Debug, Clone, Copy)]
+pub struct Options {
+    /// Cells searched (the best by their probe).
+    pub cells: usize,
+    /// Cells probed (one measure each, nearest the central cell first).
+    pub probe: usize,
+    /// Nelder-Mead iterations per run.
+    pub iterations: u64,
+    /// Runs of the search for a certified point (each from the best point so far).
+    pub restarts: usize,
+}
+
+impl Options {
+    /// 64 cells probed, the best 3 searched, 150 iterations per run, up to 4 runs for a
+    /// certified point.
+    pub const DEFAULT: Options = Options {
+        cells: 3,
+        probe: 64,
+        iterations: 150,
+        restarts: 4,
+    };
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// A cost for argmin from a closure (non-finite values count as `+inf`).
+struct Cost<'f>(&'f dyn Fn(&[f64]) -> f64);
+
+impl CostFunction for Cost<'_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, p: &Self::Param) -> std::result::Result<f64, ArgminError> {
+        let v = (self.0)(p);
+        Ok(if v.is_nan() { f64::INFINITY } else { v })
+    }
+}
+
+/// Nelder-Mead from `z0` with steps `step` along each axis: the best point and its cost.
+fn nelder_mead(
+    f: &dyn Fn(&[f64]) -> f64,
+    z0: &[f64],
+    step: f64,
+    iterations: u64,
+    target: f64,
+) -> Option<(Vec<f64>, f64)> {
+    let f0 = f(z0);
+    if z0.is_empty() || f0 <= target {
+        return Some((z0.to_vec(), f0));
+    }
+    let mut simplex = vec![z0.to_vec()];
+    for d in 0..z0.len() {
+        let mut v = z0.to_vec();
+        v[d] += step;
+        simplex.push(v);
+    }
+    let solver = NelderMead::new(simplex).with_sd_tolerance(1e-12).ok()?;
+    let res = Executor::new(Cost(f), solver)
+        .configure(|s| s.max_iters(iterations).target_cost(target))
+        .run()
+        .ok()?;
+    let st = res.state();
+    let best = st.get_best_param()?.clone();
+    let c = st.get_best_cost();
+    (c <= f0).then_some((best, c)).or(Some((z0.to_vec(), f0)))
+}
+
+/// A point of the cell's nonlinearity set: the centre of its parameter bounds when the set
+/// holds it, else the grid point (5 levels per parameter, up to 625) nearest that centre.
+fn nonlinearity_point(c: &CellSet) -> Option<Vec<f64>> {
+    let bounds: Vec<Interval> = c
+        .nonlinearity
+        .parameters()
+        .iter()
+        .map(|b| b.interval)
+        .collect();
+    let centre: Vec<f64> = bounds.iter().map(|i| finite_centre(*i)).collect();
+    if c.nonlinearity.contains(&centre) {
+        return Some(centre);
+    }
+    let n = bounds.len();
+    if n == 0 || n > 4 {
+        return None;
+    }
+    let levels = [0.5, 0.3, 0.7, 0.1, 0.9];
+    let mut best: Option<(f64, Vec<f64>)> = None;
+    for idx in 0..levels.len().pow(n as u32) {
+        let mut p = Vec::with_capacity(n);
+        let mut dist = 0.0;
+        let mut r = idx;
+        for b in &bounds {
+            let l = levels[r % levels.len()];
+            r /= levels.len();
+            let (lo, hi) = (b.lo, b.hi);
+            if !(lo.is_finite() && hi.is_finite()) {
+                p.push(finite_centre(*b));
+                continue;
+            }
+            p.push(lo + l * (hi - lo));
+            dist += (l - 0.5) * (l - 0.5);
+        }
+        if best.as_ref().is_some_and(|(d, _)| *d <= dist) {
+            continue;
+        }
+        if c.nonlinearity.contains(&p) {
+            best = Some((dist, p));
+        }
+    }
+    best.map(|(_, p)| p)
+}
+
+/// What the search shares between cells: the training records, their warm starts (the
+/// centre's, as `validate`'s free run) and their spread.
+struct Search<'s> {
+    set: &'s ModelSet,
+    layout: &'s crate::model::Layout,
+    x_warm: Vec<Vec<f64>>,
+    spread: f64,
+    evaluations: Cell<usize>,
+}
+
+/// One cell's search space: a point of the cell (nonlinearity parameters, then bisected
+/// ones) moved along the coordinates whose bound has a positive radius.
+struct CellSpace<'c> {
+    cell: &'c CellSet,
+    k: usize,
+    names: Vec<String>,
+    base: Vec<f64>,
+    radius: Vec<f64>,
+    moved: Vec<usize>,
+    /// Nonlinearity parameters at the front of `base`.
+    ng: usize,
+    theta0: Vec<f64>,
+}
+
+impl CellSpace<'_> {
+    fn at(&self, from: &[f64], z: &[f64]) -> Vec<f64> {
+        let mut g = from.to_vec();
+        for (&i, zi) in self.moved.iter().zip(z) {
+            g[i] = from[i] + self.radius[i] * zi;
+        }
+        g
+    }
+
+    /// The radius of `θ_i`'s bound over the cell, or a tenth of `|θ_i|` when unbounded.
+    fn theta_scale(&self, i: usize, th: &[f64]) -> f64 {
+        let r = self.cell.theta[i].radius();
+        if r.is_finite() && r > 0.0 {
+            r
+        } else {
+            0.1 * (th[i].abs() + 1e-3)
+        }
+    }
+}
+
+impl<'s> Search<'s> {
+    /// Squared free-run error over the training records (`+inf` when it diverges).
+    fn sse(&self, values: &[(String, f64)]) -> f64 {
+        let Ok(m) = point(self.set, values) else {
+            return f64::INFINITY;
+        };
+        let o = self.layout.orders;
+        let warm = o.na + o.nb + o.nk;
+        let mut e2 = 0.0;
+        for (r, xd) in self.set.training.records.iter().zip(&self.x_warm) {
+            let w0 = warm.min(r.y.len());
+            let y = m.predict(&r.u, Some(xd), r.dt, usize::MAX, w0).y;
+            for (a, b) in r.y[w0..].iter().zip(&y[w0..]) {
+                e2 += (a - b) * (a - b);
+            }
+        }
+        if e2.is_finite() {
+            e2
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    fn fit(&self, e2: f64) -> f64 {
+        if self.spread > 0.0 {
+            100.0 * (1.0 - (e2 / self.spread).sqrt())
+        } else {
+            f64::NAN
+        }
+    }
+
+    fn space(&self, k: usize) -> Result<Option<CellSpace<'s>>> {
+        let c = &self.set.cells[k];
+        let Some(gamma0) = nonlinearity_point(c) else {
+            return Ok(None);
+        };
+        let params = c.nonlinearity.parameters();
+        let mut base = gamma0.clone();
+        base.extend(c.cell.iter().map(|i| i.center()));
+        let radius: Vec<f64> = params
+            .iter()
+            .map(|b| b.interval)
+            .chain(c.cell.iter().copied())
+            .map(|b| {
+                let r = b.radius();
+                if r.is_finite() && r > 0.0 {
+                    r
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let theta0 = match least_squares_theta(self.set, k)? {
+            Some(t) => t,
+            None => c.theta.iter().map(|i| finite_centre(*i)).collect(),
+        };
+        Ok(Some(CellSpace {
+            cell: c,
+            k,
+            names: params.iter().map(|b| b.name.clone()).collect(),
+            moved: (0..radius.len()).filter(|&i| radius[i] > 0.0).collect(),
+            base,
+            radius,
+            ng: gamma0.len(),
+            theta0,
+        }))
+    }
+
+    /// Stage 2 at a point `g` (nonlinearity, then bisected parameters) of the cell: `None`
+    /// outside the cell's set, or when the training data reject that point.
+    fn signals_at(&self, sp: &CellSpace, g: &[f64]) -> Option<crate::pipeline::StageSignals> {
+        let (gamma, psi) = g.split_at(sp.ng);
+        if !sp.cell.nonlinearity.contains(gamma)
+            || !psi.iter().zip(&sp.cell.cell).all(|(v, b)| b.contains(*v))
+        {
+            return None;
+        }
+        let b: Vec<Interval> = gamma.iter().map(|&v| Interval::new(v, v)).collect();
+        let pset = self.set.model.nonlinearity.set_from_box(&b).ok()?;
+        let cell: Vec<Interval> = psi.iter().map(|&v| Interval::new(v, v)).collect();
+        let records = &self.set.training.records;
+        crate::pipeline::stage2(&self.set.model, &self.layout, pset.as_ref(), &cell, records).ok()
+    }
+
+    fn values_of(&self, sp: &CellSpace, g: &[f64], th: &[f64]) -> Vec<(String, f64)> {
+        let mut v: Vec<(String, f64)> = sp.names.iter().cloned().zip(g.iter().copied()).collect();
+        v.extend(
+            self.layout
+                .theta_names
+                .iter()
+                .cloned()
+                .zip(th.iter().copied()),
+        );
+        v.extend(
+            self.layout
+                .dims
+                .iter()
+                .zip(&g[sp.ng..])
+                .map(|(d, x)| (d.name.clone(), *x)),
+        );
+        v
+    }
+
+    fn a_free(&self) -> Vec<usize> {
+        (0..self.layout.orders.na)
+            .filter(|&i| self.layout.fixed[i].is_none())
+            .collect()
+    }
+
+    /// The phase-1 measure at `z` (moved coordinates, then the free `a`'s scaled): the
+    /// smallest consistency measure over the `b`'s and extra coefficients by the LP at fixed
+    /// `a`, with the uncertain input samples (a block's unknown initial state) at the member's
+    /// own run; and the `θ` attaining it.
+    fn measure_at_a(&self, sp: &CellSpace, z: &[f64]) -> (f64, Option<Vec<f64>>) {
+        self.evaluations.set(self.evaluations.get() + 1);
+        let split = sp.moved.len();
+        let g = sp.at(&sp.base, &z[..split]);
+        let Some(sig) = self.signals_at(sp, &g) else {
+            return (f64::INFINITY, None);
+        };
+        let input = realised_input(self.set, &self.values_of(sp, &g, &sp.theta0), &sig);
+        let mut prob = crate::pipeline::eiv_problem(
+            &self.set.model,
+            &self.layout,
+            &self.set.method,
+            &sig,
+            None,
+        );
+        prob.input = &input;
+        let a: Vec<f64> = self
+            .a_free()
+            .iter()
+            .zip(&z[split..])
+            .map(|(&i, zi)| sp.theta0[i] + sp.theta_scale(i, &sp.theta0) * zi)
+            .collect();
+        best_at_a(&prob, &sp.cell.theta, &a).unwrap_or((f64::INFINITY, None))
+    }
+
+    /// The exact consistency measure at a whole point (the certificate).
+    fn certify(&self, sp: &CellSpace, g: &[f64], th: &[f64]) -> f64 {
+        self.evaluations.set(self.evaluations.get() + 1);
+        let Some(sig) = self.signals_at(sp, g) else {
+            return f64::INFINITY;
+        };
+        let prob = crate::pipeline::eiv_problem(
+            &self.set.model,
+            &self.layout,
+            &self.set.method,
+            &sig,
+            None,
+        );
+        consistency_at(&prob, th).unwrap_or(f64::INFINITY)
+    }
+
+    /// `θ` with the unit gain (eq 8) made exact through the last free `b`; that `b`'s index.
+    fn gain_slot(&self) -> Option<usize> {
+        let o = self.layout.orders;
+        self.set
+            .model
+            .unit_gain
+            .then(|| {
+                (o.na..=o.na + o.nb)
+                    .rev()
+                    .find(|&i| self.layout.fixed[i].is_none())
+            })
+            .flatten()
+    }
+
+    fn fix_gain(&self, th: &mut [f64]) {
+        let o = self.layout.orders;
+        if let Some(g) = self.gain_slot() {
+            let sign = |i: usize| if i < o.na { -1.0 } else { 1.0 };
+            let others: f64 = (0..o.na + o.nb + 1)
+                .filter(|&i| i != g)
+                .map(|i| sign(i) * th[i])
+                .sum();
+            th[g] = 1.0 - others;
+        }
+    }
+
+    /// The best certified member of one cell: `(squared error, member)`.
+    fn search(&self, sp: &CellSpace, opts: &Options) -> Option<(f64, SimulationMember)> {
+        let split = sp.moved.len();
+        // Phase 1: a certified point, restarting from the best point so far (Nelder-Mead
+        // stalls on kinked measures).
+        let mut z1 = vec![0.0; split + self.a_free().len()];
+        let mut step = 0.1;
+        let mut last = f64::INFINITY;
+        for _ in 0..opts.restarts.max(1) {
+            let (z, m) = nelder_mead(
+                &|z| self.measure_at_a(sp, z).0,
+                &z1,
+                step,
+                opts.iterations,
+                2.0 * CERTIFIED,
+            )?;
+            z1 = z;
+            // Certified, or a run that gained less than 1 % of the measure: stop.
+            if m <= 2.0 * CERTIFIED || (last.is_finite() && last - m < 0.01 * last.abs()) {
+                break;
+            }
+            last = m;
+            step *= 0.5;
+        }
+        let g1 = sp.at(&sp.base, &z1[..split]);
+        let mut theta1 = self.measure_at_a(sp, &z1).1?;
+        self.fix_gain(&mut theta1);
+        if self.certify(sp, &g1, &theta1) > CERTIFIED {
+            return None;
+        }
+        // Phase 2: the best free run among certified points, from the certified one.
+        let gain = self.gain_slot();
+        let t_free: Vec<usize> = (0..self.layout.p())
+            .filter(|&i| self.layout.fixed[i].is_none() && Some(i) != gain)
+            .collect();
+        let t_scale: Vec<f64> = t_free.iter().map(|&i| sp.theta_scale(i, &theta1)).collect();
+        let point_of = |z: &[f64]| -> (Vec<f64>, Vec<f64>) {
+            let g = sp.at(&g1, &z[..split]);
+            let mut th = theta1.clone();
+            for ((&i, s), zi) in t_free.iter().zip(&t_scale).zip(&z[split..]) {
+                th[i] = theta1[i] + s * zi;
+            }
+            self.fix_gain(&mut th);
+            (g, th)
+        };
+        let cost = |z: &[f64]| -> f64 {
+            let (g, th) = point_of(z);
+            if self.certify(sp, &g, &th) > CERTIFIED {
+                return f64::INFINITY;
+            }
+            self.sse(&self.values_of(sp, &g, &th))
+        };
+        let z0 = vec![0.0; split + t_free.len()];
+        let (z2, e2) = nelder_mead(&cost, &z0, 0.01, opts.iterations, f64::NEG_INFINITY)?;
+        let (g2, th2) = point_of(&z2);
+        let m2 = self.certify(sp, &g2, &th2);
+        (m2 <= CERTIFIED && e2.is_finite()).then(|| {
+            (
+                e2,
+                SimulationMember {
+                    values: self.values_of(sp, &g2, &th2),
+                    cell: sp.k,
+                    consistency: m2,
+                    training_fit: self.fit(e2),
+                    centre_training_fit: f64::NAN,
+                    evaluations: 0,
+                },
+            )
+        })
+    }
+}
+
+/// The simulation member of `set` (see the module doc); `None` when no certified point was
+/// found in the cells tried (the centre then stands in, uncertified). The cells are ranked by
+/// the phase-1 measure at their centres (the nearest `opts.probe` to the central cell are
+/// probed) and the best `opts.cells` are searched.
+pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<SimulationMember>> {
+    if set.cells.is_empty() {
+        return Ok(None);
+    }
+    let layout = set.layout()?;
+    let o = layout.orders;
+    let warm = o.na + o.nb + o.nk;
+    let centre_values = central_values(set)?;
+    let centre = point(set, &centre_values)?;
+    let records = &set.training.records;
+    let search = Search {
+        set,
+        x_warm: records
+            .iter()
+            .map(|r| inner_estimate(set, &centre, r))
+            .collect::<Result<_>>()?,
+        spread: records
+            .iter()
+            .map(|r| {
+                let y = &r.y[warm.min(r.y.len())..];
+                let m = y.iter().sum::<f64>() / y.len().max(1) as f64;
+                y.iter().map(|v| (v - m) * (v - m)).sum::<f64>()
+            })
+            .sum(),
+        layout,
+        evaluations: Cell::new(0),
+    };
+    let centre_fit = search.fit(search.sse(&centre_values));
+
+    // Cells nearest the central one first; the probed ones ranked by their phase-1 measure.
+    let k0 = central_cell(set);
+    let dist = |k: usize| -> f64 {
+        set.cells[k]
+            .cell
+            .iter()
+            .zip(&set.cells[k0].cell)
+            .map(|(a, b)| {
+                let w = (b.hi - b.lo).abs().max(f64::MIN_POSITIVE);
+                ((a.center() - b.center()) / w).powi(2)
+            })
+            .sum()
+    };
+    let mut order: Vec<usize> = (0..set.cells.len()).collect();
+    order.sort_by(|&a, &b| dist(a).total_cmp(&dist(b)));
+    let mut spaces: Vec<(f64, CellSpace)> = Vec::new();
+    for &k in order.iter().take(opts.probe.max(1)) {
+        if let Some(sp) = search.space(k)? {
+            let z0 = vec![0.0; sp.moved.len() + search.a_free().len()];
+            let m = search.measure_at_a(&sp, &z0).0;
+            spaces.push((m, sp));
+        }
+    }
+    spaces.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut best: Option<(f64, SimulationMember)> = None;
+    for (_, sp) in spaces.iter().take(opts.cells.max(1)) {
+        if let Some((e2, m)) = search.search(sp, opts) {
+            if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
+                best = Some((e2, m));
+            }
+        }
+    }
+    Ok(best.map(|(_, mut m)| {
+        m.centre_training_fit = centre_fit;
+        m.evaluations = search.evaluations.get();
+        m
+    }))
+}
+
+/// The linear block's input as the member with `values` produces it from its blocks' initial
+/// state, clamped into the stage-2 intervals (one admissible realisation of an uncertain
+/// input: a block's unknown initial state); exact samples and gaps as they are.
+fn realised_input(
+    set: &ModelSet,
+    values: &[(String, f64)],
+    sig: &crate::pipeline::StageSignals,
+) -> Vec<Interval> {
+    let mut out = sig.input.clone();
+    if out
+        .iter()
+        .all(|i| !i.is_finite() || i.radius() <= 1e-9 * (1.0 + i.center().abs()))
+    {
+        return out;
+    }
+    let Ok(m) = point(set, values) else {
+        return out;
+    };
+    for (r, rec) in set.training.records.iter().enumerate() {
+        let mut v = rec.u.clone();
+        for b in &m.input {
+            v = b.simulate(&v);
+        }
+        if m.structure == crate::nonlinearity::Structure::Hammerstein {
+            v = m.nonlinearity.simulate(&v);
+        }
+        let s0 = sig.starts.get(r).copied().unwrap_or(0);
+        for t in 0..v.len() {
+            let Some(iv) = out.get_mut(s0 + t + m.nk) else {
+                break;
+            };
+            if iv.is_finite() && iv.radius() > 0.0 && v[t].is_finite() {
+                let x = v[t].clamp(iv.lo, iv.hi);
+                *iv = Interval::new(x, x);
+            }
+        }
+    }
+    out
+}
