@@ -370,7 +370,15 @@ pub fn write_validation(v: &Validation, dir: &Path, prefix: &str) -> Result<Vec<
         plot::series_svg(
             &format!("{}: {}", v.model, s.name),
             &lines,
-            Some((&s.envelope.0, &s.envelope.1, "envelope (indicative)")),
+            Some((
+                &s.envelope.0,
+                &s.envelope.1,
+                if v.envelope.starts_with("certified") {
+                    "envelope of certified members (inner approximation)"
+                } else {
+                    "envelope of axis members (indicative)"
+                },
+            )),
             &path,
         )?;
         out.push(path);

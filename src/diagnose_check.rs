@@ -29,6 +29,7 @@ use smid_core::pipeline::{self, ExperimentData, Record};
 use smid_core::plant::{Plant, SimulatedPlant};
 use smid_core::registry;
 use smid_core::spec::Spec;
+use smid_core::validate;
 use smid_core::{Result, SmidError};
 use std::fmt::Write as _;
 
@@ -425,13 +426,16 @@ fn run_trial(
             // The case, or an explanation the diagnosis itself reports as indistinguishable
             // from the one it chose.
             let is = |l: &str| l == want || tag_of_label(l) == want;
-            choice.added.len() == 1
-                && (is(&choice.added[0]) || choice.equivalents().iter().any(|l| is(l)))
+            (choice.added.len() == 1 && is(&choice.added[0]))
+                || (choice.added.len() <= 1 && choice.equivalents().iter().any(|l| is(l)))
         }
     };
-    out.equivalent = !choice.added.is_empty()
-        && expected_label(kind)
-            .is_some_and(|w| choice.added[0] != w && tag_of_label(&choice.added[0]) != w);
+    out.equivalent = expected_label(kind).is_some_and(|w| {
+        choice
+            .added
+            .first()
+            .is_none_or(|a| *a != w && tag_of_label(a) != w)
+    });
     let (before, after) = diagnose::assess(&spec, &training, &choice, &holdout, 5)
         .map_err(at("before/after table"))?;
     let fit = |c: &diagnose::Column| {
@@ -450,10 +454,27 @@ fn run_trial(
         .as_ref()
         .and_then(|v| v.baseline)
         .map_or(f64::NAN, |b| b.fit_percent);
-    let after_spec = diagnose::with_model(spec, &choice.after);
+    // Named through an explanation reported as indistinguishable: that model is the one the
+    // case's truth is stated in, so it is the one checked (held out and truth).
+    let equivalent = expected_label(kind).and_then(|want| {
+        choice
+            .equivalent_models
+            .iter()
+            .find(|(l, _, _)| *l == want || tag_of_label(l) == want)
+    });
+    let (after_model, after_set) = match equivalent {
+        Some((_, m, set)) if out.equivalent => {
+            let v = validate::validate(set, &holdout, &validate::Options::default())
+                .map_err(at("validation of the equivalent model"))?;
+            out.heldout_pass = v.consistency.consistent && v.pass;
+            (m, Some(set))
+        }
+        _ => (&choice.after, after.model.as_ref()),
+    };
+    let after_spec = diagnose::with_model(spec, after_model);
     let truth = pipeline::plant_truth(&after_spec, plant)?;
 
-    let Some(model) = after.model.as_ref() else {
+    let Some(model) = after_set else {
         return Ok(());
     };
     out.truth_inside = truth.iter().all(|(n, v)| {

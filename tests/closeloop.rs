@@ -126,7 +126,19 @@ fn the_diagnosis_names_an_undeclared_delay_and_adds_nothing_when_nothing_is_miss
     let c = diagnose::choose(&spec, &data, &only(&["delay", "actuator_lag"]), &|_, _| {}).unwrap();
     assert!(c.added.is_empty() && c.after_admissible, "{}", c.summary());
     assert!(c.summary().starts_with("no missing effect found"));
-    assert!(c.rounds.is_empty());
+    // One round tells the equivalent explanations apart from the model as declared; it adds
+    // nothing, and whatever it lists as equivalent was identified and admitted.
+    assert_eq!(c.rounds.len(), 1);
+    assert!(c.rounds[0].candidates.iter().all(|e| !e.chosen));
+    for (label, _, set) in &c.equivalent_models {
+        let e = c.rounds[0]
+            .candidates
+            .iter()
+            .find(|e| &e.label == label)
+            .unwrap();
+        assert!(e.train.admissible() && !set.cells.is_empty(), "{label}");
+        assert!(e.equivalent_to.iter().any(|l| l == diagnose::AS_DECLARED));
+    }
 }
 
 /// The choice is made on the training records only: corrupting the held-out record changes

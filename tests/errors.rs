@@ -53,6 +53,25 @@ fn wrong_type_names_the_field() {
 }
 
 #[test]
+fn member_search_budget_is_checked_with_its_field() {
+    let with = |member: &str| PAPER.replace("method:\n", &format!("method:\n  member: {member}\n"));
+    assert!(PAPER.contains("method:\n"));
+    let e = err(&with("{ iterations: 0 }"));
+    assert!(
+        e.contains("method.member.iterations") && e.contains("got 0"),
+        "{e}"
+    );
+    let e = err(&with("{ restarts: 1000 }"));
+    assert!(e.contains("method.member.restarts"), "{e}");
+    let e = err(&with("{ probe: 0 }"));
+    assert!(e.contains("method.member") && e.contains("probe 0"), "{e}");
+    let e = err(&with("{ iterations: 5, sarch: false }"));
+    assert!(e.contains("sarch") && e.contains("search"), "{e}");
+    let ok = parse(&with("{ search: false, spread: false, iterations: 20 }")).unwrap();
+    assert!(!ok.method.member.search && ok.method.member.iterations == 20);
+}
+
+#[test]
 fn non_positive_noise_bound_is_rejected() {
     for bad in ["delta: 0.0", "delta: -1.0e-3", "delta: .nan"] {
         let e = err(&PAPER.replace("encoder_bits: 15", bad));

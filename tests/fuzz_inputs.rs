@@ -56,7 +56,7 @@ const EXTREMES: [&str; 22] = [
 ];
 
 /// Fields with an extreme value, inserted into a section of the spec.
-const INSERTS: [(&str, &str); 12] = [
+const INSERTS: [(&str, &str); 14] = [
     ("experiment:", "  filter: { a_bar: 1.0, tol: 1.0e-300 }"),
     ("experiment:", "  filter: { pole: 0.9999999999999999 }"),
     ("experiment:", "  filter: { settle: 18446744073709551615 }"),
@@ -73,6 +73,14 @@ const INSERTS: [(&str, &str); 12] = [
     (
         "method:",
         "  cells: { depth: 60, max_cells: 18446744073709551615 }",
+    ),
+    (
+        "method:",
+        "  member: { iterations: 0, restarts: 1000, probe: 0 }",
+    ),
+    (
+        "method:",
+        "  member: { iterations: 18446744073709551615, cells: 18446744073709551615 }",
     ),
     ("method:", "  eiv: shared"),
     ("method:", "  eiv: exact-grid"),
@@ -171,6 +179,13 @@ fn cheap(spec: &Spec) -> bool {
         && e.filter.settle <= 5000
         && e.filter.pole.map_or(true, |p| p <= 0.999)
         && spec.method.cells.max_cells <= 5000
+        && spec
+            .method
+            .member
+            .iterations
+            .saturating_mul(spec.method.member.restarts as u64)
+            <= 5000
+        && spec.method.member.probe <= 1000
         && (spec.model.na + spec.model.nb) <= 8
 }
 

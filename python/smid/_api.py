@@ -148,8 +148,10 @@ class InnerBounds:
 class Simulation:
     """Free run from rest of a model set: the simulation member's output ``y`` (the central
     member's when none was certified; inner signal
-    ``x``, nonlinearity output ``w``) and the envelope ``[lower, upper]`` over the axis members
-    (indicative, not a guarantee)."""
+    ``x``, nonlinearity output ``w``) and the envelope ``[lower, upper]``: over members
+    certified consistent when the identification found them (an inner approximation of the
+    set's output range), else over the axis members (indicative, not a guarantee);
+    ``envelope`` says which."""
 
     y: np.ndarray
     lower: np.ndarray
@@ -158,6 +160,7 @@ class Simulation:
     w: np.ndarray
     stable_members: int
     members: int
+    envelope: str = ""
 
 
 def _pandas():
@@ -563,7 +566,8 @@ def simulate(model: Union[ModelSet, Identification, Mapping[str, Any], str, "os.
     s = json.loads(_native.simulate(text, _vector(u, "u"), dt))
     arr = lambda k: np.asarray([np.nan if v is None else v for v in s[k]], dtype=float)  # noqa: E731
     return Simulation(y=arr("y"), lower=arr("lower"), upper=arr("upper"), x=arr("x"), w=arr("w"),
-                      stable_members=int(s["stable_members"]), members=int(s["members"]))
+                      stable_members=int(s["stable_members"]), members=int(s["members"]),
+                      envelope=str(s.get("envelope", "")))
 
 
 @dataclass(frozen=True)

@@ -200,6 +200,10 @@ def test_the_simulation_member_is_certified_inside_the_bounds_and_used(tmp_path)
         v = r.model.validate((rec.u, rec.y))
         assert "simulation member" in v.member
         assert v.centre_fit is not None and v.fit > 90.0
+        # The envelope is drawn over certified members, and says so.
+        sim = r.model.simulate(rec.u)
+        assert sim.envelope.startswith("certified members"), sim.envelope
+        assert np.all(sim.lower <= sim.y) and np.all(sim.y <= sim.upper)
     # A model set without a member (an old result.json) falls back to the centre, and says so.
     raw = json.loads(r.model.to_json())
     del raw["model"]["simulation_member"]

@@ -79,7 +79,7 @@ pub enum TrainVerdict {
 }
 
 impl TrainVerdict {
-    fn admissible(&self) -> bool {
+    pub fn admissible(&self) -> bool {
         matches!(self, TrainVerdict::Consistent { .. })
     }
     /// How far into the data the model holds: later is better.
@@ -214,13 +214,22 @@ pub struct Choice {
     /// The stage options the diagnosis identified with (its cell budget).
     #[serde(skip)]
     pub method: crate::spec::MethodSpec,
+    /// The candidates of the last round reported as indistinguishable from the chosen one on
+    /// the training records (label, model, its set): offered beside the choice, not instead.
+    #[serde(skip)]
+    pub equivalent_models: Vec<(String, ModelSpec, ModelSet)>,
 }
 
 impl Choice {
     /// "no missing effect found" or the effects added.
     pub fn summary(&self) -> String {
         if self.added.is_empty() {
-            if self.after_admissible {
+            if self.after_admissible && !self.equivalent_models.is_empty() {
+                format!(
+                    "no missing effect found: the training data are consistent with the model as declared; the training records cannot tell it apart from the model with {} (an equivalent explanation, not a missing effect)",
+                    self.equivalents().join(", or with ")
+                )
+            } else if self.after_admissible {
                 "no missing effect found: the training data are consistent with the model as declared".into()
             } else {
                 "no candidate made the training data consistent; the model is unchanged".into()
@@ -247,6 +256,14 @@ impl Choice {
     /// The labels the training records cannot tell from the chosen ones (equivalent
     /// explanations), including [`AS_DECLARED`] when the model without them simulates alike.
     pub fn equivalents(&self) -> Vec<String> {
+        if self.added.is_empty() {
+            // The model as declared stands: the candidates that simulate alike.
+            return self
+                .equivalent_models
+                .iter()
+                .map(|(l, _, _)| l.clone())
+                .collect();
+        }
         self.rounds
             .iter()
             .flat_map(|r| r.candidates.iter().filter(|e| e.chosen))
@@ -331,6 +348,25 @@ fn try_model(
             None,
         ),
     }
+}
+
+/// Identify each candidate on the training records: its verdict into its evidence, its set
+/// (when admissible) returned in the same order.
+fn try_candidates(
+    spec: &Spec,
+    cands: &mut [(ModelSpec, Evidence)],
+    training: &ExperimentData,
+    progress: &dyn Fn(usize, usize),
+) -> Vec<Option<ModelSet>> {
+    let total = cands.len();
+    let mut sets = Vec::with_capacity(total);
+    for (i, (m, ev)) in cands.iter_mut().enumerate() {
+        let (t, id) = try_model(spec, m, training);
+        ev.train = t;
+        sets.push(id.map(|id| id.model));
+        progress(i + 1, total);
+    }
+    sets
 }
 
 /// Free-run fit % of the representative member (see [`crate::members::representative`]) on the model's own training records.
@@ -497,15 +533,20 @@ pub fn choose(
     let mut base = spec.model.duplicate();
     // Candidates that bisect a nonlinearity's parameters get a diagnosis budget (coarser cells);
     // the augmented spec keeps it, so its results reproduce.
+    let member_budget = spec.method.member;
     let mut dspec = with_model(spec, &spec.model);
     dspec.method.cells.nonlinearity_halvings = dspec.method.cells.nonlinearity_halvings.min(4);
     dspec.method.cells.max_cells = dspec.method.cells.max_cells.min(2000);
     dspec.method.cells.max_leaves = dspec.method.cells.max_leaves.min(64);
+    // Each candidate's simulation member on a light budget (its fit decides; the envelope is
+    // the after-model's, identified with the spec's own budget).
+    dspec.method.member = crate::spec::MemberSpec::LIGHT;
     let spec = &dspec;
     let (mut base_train, first) = try_model(spec, &base, training);
     let mut base_set = first.map(|id| id.model);
     let mut rounds = Vec::new();
     let mut added = Vec::new();
+    let mut equivalent_models = Vec::new();
     let estimated = spec.noise.estimated();
     let rule = if estimated {
         format!("the noise bound is estimated per model (the smallest bound consistent with the training records, × margin), so every model is admissible: a candidate is kept when its bound falls below {PER_PARAMETER} × the base model's bound per added parameter (an information criterion on the training data, in the ℓ∞ sense) and its free-run fit on the training records is no worse than the base model's (by more than {FIT_SLACK} points: a candidate that explains samples away, as a saturation that swallows the worst ones, does not simulate better), the lowest bound first")
@@ -522,14 +563,7 @@ pub fn choose(
     };
     while (estimated || !base_train.admissible()) && added.len() < opts.max_effects {
         let mut cands = candidates(&base, &scale, opts, training.steady.is_some());
-        let total = cands.len();
-        let mut sets: Vec<Option<ModelSet>> = Vec::new();
-        for (i, (m, ev)) in cands.iter_mut().enumerate() {
-            let (t, id) = try_model(spec, m, training);
-            ev.train = t;
-            sets.push(id.map(|id| id.model));
-            progress(i + 1, total);
-        }
+        let mut sets = try_candidates(spec, &mut cands, training, progress);
         // Admissible candidates whose centre members simulate the training records within
         // FIT_SLACK points of the best one; among them the fewest added parameters, then the
         // best fit. (Fewest parameters alone let a wide, uninformative set win: a lag whose
@@ -590,6 +624,15 @@ pub fn choose(
         );
         match pick {
             Some(i) => {
+                equivalent_models = round.candidates[i]
+                    .equivalent_to
+                    .iter()
+                    .filter_map(|l| {
+                        let j = round.candidates.iter().position(|e| &e.label == l)?;
+                        let set = sets[j].as_ref()?.duplicate();
+                        Some((l.clone(), cands[j].0.duplicate(), set))
+                    })
+                    .collect();
                 round.candidates[i].chosen = true;
                 added.push(round.candidates[i].label.clone());
                 base_train = round.candidates[i].train.clone();
@@ -603,12 +646,48 @@ pub fn choose(
             }
         }
     }
+    if !estimated && added.is_empty() && base_train.admissible() {
+        // The model as declared is consistent: one round tells which candidates the training
+        // records cannot tell apart from it (an output offset on a backlash is a shift of its
+        // plays); none is added.
+        let mut cands = candidates(&base, &scale, opts, training.steady.is_some());
+        let sets = try_candidates(spec, &mut cands, training, progress);
+        let mut round = Round {
+            base: label_of(&base),
+            base_train: base_train.clone(),
+            candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
+        };
+        mark_equivalences(&mut round.candidates, &sets, base_set.as_ref());
+        equivalent_models = round
+            .candidates
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| e.equivalent_to.iter().any(|l| l == AS_DECLARED))
+            .filter_map(|(j, e)| {
+                let set = sets[j].as_ref()?.duplicate();
+                Some((e.label.clone(), cands[j].0.duplicate(), set))
+            })
+            .collect();
+        rounds.push(round);
+    }
     let after_admissible = base_train.admissible();
     if !after_admissible {
         // Nothing made the data consistent: keep the model as declared.
         base = before.duplicate();
         added.clear();
+        equivalent_models.clear();
     }
+    // The after-model's simulation member and envelope on the spec's own budget.
+    let mut method = dspec.method.clone();
+    method.member = member_budget;
+    let after_set = match (after_admissible, base_set) {
+        (true, Some(mut set)) => {
+            set.method.member = member_budget;
+            set.simulation_member = crate::members::simulation_member(&set, &member_budget)?;
+            Some(set)
+        }
+        _ => None,
+    };
     Ok(Choice {
         rule,
         rounds,
@@ -616,8 +695,9 @@ pub fn choose(
         before,
         after: base,
         after_admissible,
-        after_set: if after_admissible { base_set } else { None },
-        method: dspec.method.clone(),
+        after_set,
+        method,
+        equivalent_models,
     })
 }
 

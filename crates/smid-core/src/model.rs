@@ -488,6 +488,12 @@ pub struct SimulationMember {
     pub centre_training_fit: f64,
     /// Cost evaluations spent by the search.
     pub evaluations: usize,
+    /// Further members certified consistent, spread over the set (the farthest certified point
+    /// along each searched coordinate from this member, the extremes of each `b` and extra
+    /// coefficient at its `a`, moved inwards): the envelope of their free runs is an **inner**
+    /// approximation of the set's output range.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub envelope: Vec<Vec<(String, f64)>>,
 }
 
 /// What the branch and bound did.
@@ -506,14 +512,16 @@ impl ModelSet {
     }
 
     /// The parameters (`name = value ∉ [lower, upper]`) whose reported bounds miss the
-    /// simulation member, beyond the LPs' tolerance. A certified member lies in the feasible
-    /// set, so inside every guaranteed bound: anything listed here is a bug.
+    /// simulation member or one of its certified envelope members, beyond the LPs' tolerance.
+    /// A certified member lies in the feasible set, so inside every guaranteed bound: anything
+    /// listed here is a bug.
     pub fn member_outside_bounds(&self) -> Vec<String> {
         let Some(m) = &self.simulation_member else {
             return Vec::new();
         };
-        m.values
-            .iter()
+        std::iter::once(&m.values)
+            .chain(&m.envelope)
+            .flatten()
             .filter_map(|(n, v)| {
                 let p = self.parameter(n)?;
                 let tol = 1e-9 * (1.0 + v.abs());

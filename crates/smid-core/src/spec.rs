@@ -441,6 +441,69 @@ pub struct MethodSpec {
     /// Budget of the branch and bound over the bisected parameters (see [`CellSpec`]).
     #[serde(default)]
     pub cells: CellSpec,
+    /// The search for the simulation member (see [`MemberSpec`]).
+    #[serde(default)]
+    pub member: MemberSpec,
+}
+
+/// Budget of the search for the simulation member ([`crate::members::simulation`]): the
+/// cells probed (nearest the central cell), the best ones searched, Nelder-Mead iterations per
+/// run and runs for a certified point, and whether certified members are spread over the set
+/// for the envelope. `search: false` skips it (the centre, not certified, stands in).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MemberSpec {
+    #[serde(default = "d_true")]
+    pub search: bool,
+    #[serde(default = "d_probe")]
+    pub probe: usize,
+    #[serde(default = "d_member_cells")]
+    pub cells: usize,
+    #[serde(default = "d_iterations")]
+    pub iterations: u64,
+    #[serde(default = "d_restarts")]
+    pub restarts: usize,
+    #[serde(default = "d_true")]
+    pub spread: bool,
+}
+
+fn d_probe() -> usize {
+    64
+}
+fn d_member_cells() -> usize {
+    3
+}
+fn d_iterations() -> u64 {
+    150
+}
+fn d_restarts() -> usize {
+    4
+}
+
+impl Default for MemberSpec {
+    fn default() -> Self {
+        MemberSpec {
+            search: true,
+            probe: d_probe(),
+            cells: d_member_cells(),
+            iterations: d_iterations(),
+            restarts: d_restarts(),
+            spread: true,
+        }
+    }
+}
+
+impl MemberSpec {
+    /// The light budget the diagnosis gives each candidate (its choice needs a fit, not the
+    /// envelope): 16 cells probed, two searched, no spread.
+    pub const LIGHT: MemberSpec = MemberSpec {
+        search: true,
+        probe: 16,
+        cells: 2,
+        iterations: 150,
+        restarts: 4,
+        spread: false,
+    };
 }
 
 fn d_depth() -> u32 {
@@ -709,7 +772,7 @@ impl Spec {
     fn validate_budgets(&self) -> Result<()> {
         use crate::experiment::{MAX_EXPERIMENT_SAMPLES, MAX_SETTLE, MIN_FILTER_TOL};
         let f = &self.experiment.filter;
-        let checks: [(bool, &str, String); 7] = [
+        let checks: [(bool, &str, String); 10] = [
             (
                 f.pole.is_some() || (f.tol >= MIN_FILTER_TOL && f.tol < 1.0),
                 "experiment.filter.tol",
@@ -757,6 +820,30 @@ impl Spec {
                     "expected 1 <= max_cells <= {}, got {}",
                     crate::cells::MAX_CELLS,
                     self.method.cells.max_cells
+                ),
+            ),
+            (
+                (1..=100_000).contains(&self.method.member.iterations),
+                "method.member.iterations",
+                format!(
+                    "expected 1 <= iterations <= 100000, got {}",
+                    self.method.member.iterations
+                ),
+            ),
+            (
+                (1..=100).contains(&self.method.member.restarts),
+                "method.member.restarts",
+                format!(
+                    "expected 1 <= restarts <= 100, got {}",
+                    self.method.member.restarts
+                ),
+            ),
+            (
+                self.method.member.probe >= 1 && self.method.member.cells >= 1,
+                "method.member",
+                format!(
+                    "expected probe >= 1 and cells >= 1, got probe {} and cells {}",
+                    self.method.member.probe, self.method.member.cells
                 ),
             ),
         ];

@@ -225,24 +225,10 @@ pub struct Validation {
     pub series: Vec<Series>,
 }
 
-/// The cells of a model set from the centre of the bisected parameters outwards (the centre
-/// cells are the likeliest to admit fresh data, which ends a consistency search early).
+/// The cells of a model set from the centre outwards (the centre cells are the likeliest to
+/// admit fresh data, which ends a consistency search early).
 fn centre_out(model: &ModelSet) -> Vec<usize> {
-    let hull = crate::cells::hull_of_boxes(model.cells.iter().map(|c| c.cell.as_slice()));
-    let dist = |k: usize| -> f64 {
-        model.cells[k]
-            .cell
-            .iter()
-            .zip(&hull)
-            .map(|(c, h)| {
-                let w = (h.hi - h.lo).max(f64::MIN_POSITIVE);
-                ((c.center() - h.center()) / w).powi(2)
-            })
-            .sum()
-    };
-    let mut order: Vec<usize> = (0..model.cells.len()).collect();
-    order.sort_by(|&a, &b| dist(a).total_cmp(&dist(b)));
-    order
+    members::cells_from_centre(model)
 }
 
 /// One cell against the training records plus `fresh`: `None` when consistent, else where
@@ -463,13 +449,17 @@ pub fn smallest_bound(
 
 /// The free-run fit of the representative member on records (warm start as in [`validate`]).
 pub fn free_run_fit(model: &ModelSet, records: &[Record]) -> Result<Fit> {
-    let centre = members::representative(model)?;
+    member_fit(model, &members::representative(model)?, records)
+}
+
+/// The free-run fit of one member of `model` on records (warm start as in [`validate`]).
+fn member_fit(model: &ModelSet, centre: &members::ModelPoint, records: &[Record]) -> Result<Fit> {
     let o = model.layout()?.orders;
     let warm = o.na + o.nb + o.nk;
     let mut sims = Vec::new();
     for rec in records {
         let w0 = warm.min(rec.y.len());
-        let xd = members::inner_estimate(model, &centre, rec)?;
+        let xd = members::inner_estimate(model, centre, rec)?;
         let free = centre.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y;
         sims.push((rec.y[w0..].to_vec(), free[w0..].to_vec()));
     }
@@ -494,7 +484,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     let pass = consistency.consistent && smallest.is_some_and(|(_, hi)| hi <= model.delta);
 
     let centre = members::representative(model)?;
-    let members = members::axis_members(model);
+    let (members, envelope) = members::envelope_members(model);
     let layout = model.layout()?;
     let o = layout.orders;
     let arx = Arx::fit(&model.training.records, o.na, o.nb, o.nk).ok();
@@ -533,12 +523,6 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
             "the cell budget stopped the branch and bound: the bounds hold but are looser than the resolution asked for".into(),
         );
     }
-    let unstable_members = members.iter().filter(|(_, m)| !m.stable()).count();
-    let envelope = format!(
-        "axis members: the central member and each identified parameter at its lower and upper bound ({} stable members of {}; unstable ones left out). They lie in the outer bounds, not necessarily in the feasible set: the envelope is indicative, not a guarantee",
-        members.len() - unstable_members,
-        members.len()
-    );
 
     let mut series = Vec::new();
     let mut per_record = Vec::new();
@@ -584,21 +568,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     };
     let free_run = pairs(&|s| &s.free_run);
     let centre_free_run = match model.simulation_member {
-        Some(_) => {
-            let c = members::centre(model)?;
-            let mut runs = Vec::new();
-            for rec in &fresh {
-                let w0 = warm.min(rec.y.len());
-                let xd = members::inner_estimate(model, &c, rec)?;
-                let y = c.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y;
-                runs.push((rec.y[w0..].to_vec(), y[w0..].to_vec()));
-            }
-            let v: Vec<(&[f64], &[f64])> = runs
-                .iter()
-                .map(|(a, b)| (a.as_slice(), b.as_slice()))
-                .collect();
-            Some(Fit::of(&v))
-        }
+        Some(_) => Some(member_fit(model, &members::centre(model)?, &fresh)?),
         None => None,
     };
     let k_step = pairs(&|s| &s.k_step);

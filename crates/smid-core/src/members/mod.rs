@@ -18,9 +18,9 @@ use std::ops::Range;
 pub mod simulation;
 pub use simulation::simulation_member;
 
-/// The index of the central cell: the one whose centre is nearest the centre of the hull of
-/// the bisected parameters (relative to the hull's widths).
-pub fn central_cell(set: &ModelSet) -> usize {
+/// The cells of a model set from the centre of the bisected parameters outwards: by the
+/// distance of each cell's centre to the centre of the hull (relative to the hull's widths).
+pub fn cells_from_centre(set: &ModelSet) -> Vec<usize> {
     let hull = crate::cells::hull_of_boxes(set.cells.iter().map(|c| c.cell.as_slice()));
     let dist = |k: usize| -> f64 {
         set.cells[k]
@@ -33,9 +33,15 @@ pub fn central_cell(set: &ModelSet) -> usize {
             })
             .sum()
     };
-    (0..set.cells.len())
-        .min_by(|&a, &b| dist(a).total_cmp(&dist(b)))
-        .unwrap_or(0)
+    let mut order: Vec<usize> = (0..set.cells.len()).collect();
+    order.sort_by(|&a, &b| dist(a).total_cmp(&dist(b)));
+    order
+}
+
+/// The index of the central cell: the one whose centre is nearest the centre of the hull of
+/// the bisected parameters (relative to the hull's widths).
+pub fn central_cell(set: &ModelSet) -> usize {
+    cells_from_centre(set).first().copied().unwrap_or(0)
 }
 
 /// `θ` by least squares on a cell's stage-2 centres over the training records (equations whose
@@ -243,6 +249,44 @@ pub fn representative_label(set: &ModelSet) -> &'static str {
     }
 }
 
+/// The members an envelope is drawn over, and what the envelope then is: the simulation
+/// member and its spread of certified members when there are any (an inner approximation of
+/// the set's output range), else the axis members (indicative, see [`axis_members`]).
+pub fn envelope_members(set: &ModelSet) -> (Vec<(String, ModelPoint)>, String) {
+    if let Some(m) = set
+        .simulation_member
+        .as_ref()
+        .filter(|m| !m.envelope.is_empty())
+    {
+        let mut out = Vec::new();
+        for (i, v) in std::iter::once(&m.values).chain(&m.envelope).enumerate() {
+            if let Ok(p) = point(set, v) {
+                let name = if i == 0 {
+                    "simulation member".to_string()
+                } else {
+                    format!("certified member {i}")
+                };
+                out.push((name, p));
+            }
+        }
+        let stable = out.iter().filter(|(_, p)| p.stable()).count();
+        let label = format!(
+            "certified members: the simulation member and {} further points each proved consistent by the exact LP at fixed θ ({stable} stable of {}); their envelope is an inner approximation of the set's output range (the set's output range holds it)",
+            out.len().saturating_sub(1),
+            out.len()
+        );
+        return (out, label);
+    }
+    let members = axis_members(set);
+    let unstable = members.iter().filter(|(_, m)| !m.stable()).count();
+    let label = format!(
+        "axis members: the central member and each identified parameter at its lower and upper bound ({} stable members of {}; unstable ones left out). They lie in the outer bounds, not necessarily in the feasible set: the envelope is indicative, not a guarantee",
+        members.len() - unstable,
+        members.len()
+    );
+    (members, label)
+}
+
 /// Members for an envelope: the central member and, per identified parameter, its lower and
 /// upper bound with the others central. They lie in the outer bounds, not necessarily in the
 /// feasible set, so their envelope is indicative, not a guarantee.
@@ -302,9 +346,11 @@ pub struct SetSimulation {
     pub w: Vec<f64>,
     pub lower: Vec<f64>,
     pub upper: Vec<f64>,
-    /// Stable members in the envelope, and all axis members.
+    /// Stable members in the envelope, and all its members.
     pub stable_members: usize,
     pub members: usize,
+    /// What the envelope is made of ([`envelope_members`]).
+    pub envelope: String,
 }
 
 /// Simulate a model set from rest on the input `u` (sample time `dt`): see [`SetSimulation`].
@@ -324,9 +370,10 @@ pub fn simulate_set(set: &ModelSet, u: &[f64], dt: f64) -> Result<SetSimulation>
     }
     let c = representative(set)?;
     let sim = c.simulate(u, dt);
-    let members = axis_members(set);
+    let (members, label) = envelope_members(set);
     let (lower, upper) = envelope(&sim.y, &members, |m| m.simulate(u, dt).y);
     Ok(SetSimulation {
+        envelope: label,
         stable_members: members.iter().filter(|(_, m)| m.stable()).count(),
         members: members.len(),
         y: sim.y,

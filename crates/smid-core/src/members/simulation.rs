@@ -11,45 +11,18 @@
 //! centre's (minimising the consistency measure), then minimises the free-run error with the
 //! uncertified points as an extreme barrier, so the member it returns is certified.
 use super::{
-    central_cell, central_values, finite_centre, inner_estimate, least_squares_theta, point,
+    cells_from_centre, central_values, finite_centre, inner_estimate, least_squares_theta, point,
 };
 use crate::error::Result;
 use crate::interval::Interval;
 use crate::model::{CellSet, ModelSet, SimulationMember};
-use crate::stage3::exact_grid::{best_at_a, consistency_at, CERTIFIED};
+use crate::stage3::exact_grid::{best_at_a, consistency_at, extreme_at_a, CERTIFIED};
 use argmin::core::{CostFunction, Error as ArgminError, Executor, State};
 use argmin::solver::neldermead::NelderMead;
 use std::cell::Cell;
 
-/// How hard the search tries.
-#[derive(Debug, Clone, Copy)]
-pub struct Options {
-    /// Cells searched (the best by their probe).
-    pub cells: usize,
-    /// Cells probed (one measure each, nearest the central cell first).
-    pub probe: usize,
-    /// Nelder-Mead iterations per run.
-    pub iterations: u64,
-    /// Runs of the search for a certified point (each from the best point so far).
-    pub restarts: usize,
-}
-
-impl Options {
-    /// 64 cells probed, the best 3 searched, 150 iterations per run, up to 4 runs for a
-    /// certified point.
-    pub const DEFAULT: Options = Options {
-        cells: 3,
-        probe: 64,
-        iterations: 150,
-        restarts: 4,
-    };
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Self::DEFAULT
-    }
-}
+/// How hard the search tries: the spec's `method.member` ([`crate::spec::MemberSpec`]).
+pub use crate::spec::MemberSpec as Options;
 
 /// A cost for argmin from a closure (non-finite values count as `+inf`).
 struct Cost<'f>(&'f dyn Fn(&[f64]) -> f64);
@@ -283,6 +256,11 @@ impl<'s> Search<'s> {
         v
     }
 
+    /// The stage-3 problem of signals at a point of a cell.
+    fn problem<'p>(&self, sig: &'p crate::pipeline::StageSignals) -> crate::stage3::EivProblem<'p> {
+        crate::pipeline::eiv_problem(&self.set.model, self.layout, &self.set.method, sig, None)
+    }
+
     fn a_free(&self) -> Vec<usize> {
         (0..self.layout.orders.na)
             .filter(|&i| self.layout.fixed[i].is_none())
@@ -301,13 +279,7 @@ impl<'s> Search<'s> {
             return (f64::INFINITY, None);
         };
         let input = realised_input(self.set, &self.values_of(sp, &g, &sp.theta0), &sig);
-        let mut prob = crate::pipeline::eiv_problem(
-            &self.set.model,
-            &self.layout,
-            &self.set.method,
-            &sig,
-            None,
-        );
+        let mut prob = self.problem(&sig);
         prob.input = &input;
         let a: Vec<f64> = self
             .a_free()
@@ -324,13 +296,7 @@ impl<'s> Search<'s> {
         let Some(sig) = self.signals_at(sp, g) else {
             return f64::INFINITY;
         };
-        let prob = crate::pipeline::eiv_problem(
-            &self.set.model,
-            &self.layout,
-            &self.set.method,
-            &sig,
-            None,
-        );
+        let prob = self.problem(&sig);
         consistency_at(&prob, th).unwrap_or(f64::INFINITY)
     }
 
@@ -426,9 +392,92 @@ impl<'s> Search<'s> {
                     training_fit: self.fit(e2),
                     centre_training_fit: f64::NAN,
                     evaluations: 0,
+                    envelope: Vec::new(),
                 },
             )
         })
+    }
+
+    /// Certified members spread around the member `(g, th)` of the cell: along each searched
+    /// coordinate (the cell's point and the `a`'s, the `b`'s re-solved by the LP at fixed `a`)
+    /// the farthest certified point up to the cell's radius (bisection), and at the member's
+    /// `a` the extremes of each free `b` and extra coefficient, moved towards the member until
+    /// certified.
+    fn spread_members(&self, sp: &CellSpace, g: &[f64], th: &[f64]) -> Vec<Vec<(String, f64)>> {
+        let split = sp.moved.len();
+        let a_free = self.a_free();
+        let mut z: Vec<f64> = sp
+            .moved
+            .iter()
+            .map(|&i| (g[i] - sp.base[i]) / sp.radius[i])
+            .collect();
+        z.extend(
+            a_free
+                .iter()
+                .map(|&i| (th[i] - sp.theta0[i]) / sp.theta_scale(i, &sp.theta0)),
+        );
+        let certified_at = |zz: &[f64]| -> Option<(Vec<f64>, Vec<f64>)> {
+            let (m, t) = self.measure_at_a(sp, zz);
+            if m > 2.0 * CERTIFIED {
+                return None;
+            }
+            let gg = sp.at(&sp.base, &zz[..split]);
+            let mut t = t?;
+            self.fix_gain(&mut t);
+            (self.certify(sp, &gg, &t) <= CERTIFIED).then_some((gg, t))
+        };
+        let mut out = Vec::new();
+        for d in 0..z.len() {
+            for dir in [-1.0, 1.0] {
+                let at = |t: f64| {
+                    let mut zz = z.clone();
+                    zz[d] += dir * t;
+                    zz
+                };
+                let (mut lo, mut hi) = (0.0, 1.0);
+                let mut found = certified_at(&at(hi)).map(|p| (hi, p));
+                if found.is_none() {
+                    for _ in 0..10 {
+                        let mid = 0.5 * (lo + hi);
+                        match certified_at(&at(mid)) {
+                            Some(p) => {
+                                lo = mid;
+                                found = Some((mid, p));
+                            }
+                            None => hi = mid,
+                        }
+                    }
+                }
+                if let Some((t, (gg, tt))) = found {
+                    if t > 0.0 {
+                        out.push(self.values_of(sp, &gg, &tt));
+                    }
+                }
+            }
+        }
+        // The `b` and extra-coefficient extremes at the member's `a`.
+        if let Some(sig) = self.signals_at(sp, g) {
+            let prob = self.problem(&sig);
+            let a: Vec<f64> = a_free.iter().map(|&i| th[i]).collect();
+            let o = self.layout.orders;
+            for k in (o.na..self.layout.p()).filter(|&k| self.layout.fixed[k].is_none()) {
+                for max in [false, true] {
+                    let Ok(Some(v)) = extreme_at_a(&prob, &sp.cell.theta, &a, k, max) else {
+                        continue;
+                    };
+                    for w in [0.98, 0.9, 0.5] {
+                        let mut t: Vec<f64> =
+                            th.iter().zip(&v).map(|(m, e)| m + w * (e - m)).collect();
+                        self.fix_gain(&mut t);
+                        if self.certify(sp, g, &t) <= CERTIFIED {
+                            out.push(self.values_of(sp, g, &t));
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+        out
     }
 }
 
@@ -437,7 +486,7 @@ impl<'s> Search<'s> {
 /// the phase-1 measure at their centres (the nearest `opts.probe` to the central cell are
 /// probed) and the best `opts.cells` are searched.
 pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<SimulationMember>> {
-    if set.cells.is_empty() {
+    if set.cells.is_empty() || !opts.search {
         return Ok(None);
     }
     let layout = set.layout()?;
@@ -465,21 +514,8 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
     };
     let centre_fit = search.fit(search.sse(&centre_values));
 
-    // Cells nearest the central one first; the probed ones ranked by their phase-1 measure.
-    let k0 = central_cell(set);
-    let dist = |k: usize| -> f64 {
-        set.cells[k]
-            .cell
-            .iter()
-            .zip(&set.cells[k0].cell)
-            .map(|(a, b)| {
-                let w = (b.hi - b.lo).abs().max(f64::MIN_POSITIVE);
-                ((a.center() - b.center()) / w).powi(2)
-            })
-            .sum()
-    };
-    let mut order: Vec<usize> = (0..set.cells.len()).collect();
-    order.sort_by(|&a, &b| dist(a).total_cmp(&dist(b)));
+    // Cells from the centre outwards; the probed ones ranked by their phase-1 measure.
+    let order = cells_from_centre(set);
     let mut spaces: Vec<(f64, CellSpace)> = Vec::new();
     for &k in order.iter().take(opts.probe.max(1)) {
         if let Some(sp) = search.space(k)? {
@@ -497,11 +533,48 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
             }
         }
     }
+    if let Some((_, m)) = best.as_mut().filter(|_| opts.spread) {
+        let sp = spaces
+            .iter()
+            .find(|(_, sp)| sp.k == m.cell)
+            .map(|(_, sp)| sp);
+        if let Some(sp) = sp {
+            let (g, th) = split_values(&search, sp, &m.values);
+            m.envelope = search.spread_members(sp, &g, &th);
+        }
+    }
     Ok(best.map(|(_, mut m)| {
         m.centre_training_fit = centre_fit;
         m.evaluations = search.evaluations.get();
         m
     }))
+}
+
+/// A member's values back as the cell's point (nonlinearity, then bisected) and `θ`.
+fn split_values(search: &Search, sp: &CellSpace, values: &[(String, f64)]) -> (Vec<f64>, Vec<f64>) {
+    let get = |n: &str| values.iter().find(|(k, _)| k == n).map(|v| v.1);
+    let mut g: Vec<f64> = sp
+        .names
+        .iter()
+        .zip(&sp.base)
+        .map(|(n, b)| get(n).unwrap_or(*b))
+        .collect();
+    g.extend(
+        search
+            .layout
+            .dims
+            .iter()
+            .zip(&sp.base[sp.ng..])
+            .map(|(d, b)| get(&d.name).unwrap_or(*b)),
+    );
+    let th = search
+        .layout
+        .theta_names
+        .iter()
+        .zip(&sp.theta0)
+        .map(|(n, t)| get(n).unwrap_or(*t))
+        .collect();
+    (g, th)
 }
 
 /// The linear block's input as the member with `values` produces it from its blocks' initial

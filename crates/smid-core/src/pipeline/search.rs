@@ -320,7 +320,7 @@ pub fn identify_with(
         simulation_member: None,
         resolved: std::sync::OnceLock::from(layout.clone()),
     };
-    set.simulation_member = crate::members::simulation_member(&set, &Default::default())?;
+    set.simulation_member = crate::members::simulation_member(&set, &method.member)?;
     let snr_db = match data.records.first() {
         Some(Record {
             w: Some(w),

@@ -377,18 +377,7 @@ pub fn test_cell(
     let outcome = (|| {
         let set = stage1(model, layout, training.steady.as_ref(), cell)?;
         let sig = stage2(model, layout, set.as_ref(), cell, &training.records)?;
-        let o = layout.orders;
-        let problem = EivProblem {
-            na: o.na,
-            nb: o.nb,
-            fixed: layout.fixed.clone(),
-            unit_gain: model.unit_gain,
-            output: &sig.output,
-            input: &sig.input,
-            extra: &sig.extra,
-            prior: None,
-            use_band_samples: method.use_band_samples(),
-        };
+        let problem = eiv_problem(model, layout, method, &sig, None);
         if crate::stage3::feasible(&problem)? {
             Ok(())
         } else {

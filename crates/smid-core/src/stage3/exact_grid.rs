@@ -286,6 +286,29 @@ pub fn consistency_at(prob: &EivProblem, theta: &[f64]) -> Result<f64> {
 /// attains it (`None` when the solver gave no point). A measurement to search with: a point
 /// it gives is certified afterwards by [`consistency_at`].
 pub fn best_at_a(prob: &EivProblem, tb: &[Interval], a: &[f64]) -> Result<(f64, Option<Vec<f64>>)> {
+    point_at_a(prob, tb, a, None)
+}
+
+/// At fixed `a` (as [`best_at_a`]), a `θ` of the exact set that minimises (`max`: maximises)
+/// `θ_k` over the free `b`'s and extra coefficients: a vertex of the set's slice, on its
+/// boundary (`None` when the slice is empty or the solver gave no point). A measurement: move
+/// it inwards and certify it with [`consistency_at`] before calling it a member.
+pub fn extreme_at_a(
+    prob: &EivProblem,
+    tb: &[Interval],
+    a: &[f64],
+    k: usize,
+    max: bool,
+) -> Result<Option<Vec<f64>>> {
+    Ok(point_at_a(prob, tb, a, Some((k, max)))?.1)
+}
+
+fn point_at_a(
+    prob: &EivProblem,
+    tb: &[Interval],
+    a: &[f64],
+    objective: Option<(usize, bool)>,
+) -> Result<(f64, Option<Vec<f64>>)> {
     let times = prob.equation_times();
     check_extras(prob, &times)?;
     let dims: Vec<usize> = (0..prob.na).filter(|&k| prob.fixed[k].is_none()).collect();
@@ -297,14 +320,26 @@ pub fn best_at_a(prob: &EivProblem, tb: &[Interval], a: &[f64]) -> Result<(f64, 
         lps: 0,
         input_vars: false,
     };
-    let m = at.lp(a, true);
+    let m = at.lp(a, objective.is_none());
     let mut c = vec![0.0; m.lp.n];
-    c[m.s] = 1.0;
+    let col = match objective {
+        None => m.s,
+        Some((k, _)) => match m.col_theta.get(k).copied().flatten() {
+            Some(col) => col,
+            None => return Ok((f64::INFINITY, None)),
+        },
+    };
+    let sign = if matches!(objective, Some((_, true))) {
+        -1.0
+    } else {
+        1.0
+    };
+    c[col] = sign;
     let x = match m.lp.dense(DENSE_MAX).and_then(|p| p.vertex_point(&c)) {
         Some(x) => x,
         None => {
             let mut s = m.lp.solver()?;
-            match s.minimise(m.s)? {
+            match s.optimise(col, sign < 0.0)? {
                 Optimum::Value(_) => s.point().to_vec(),
                 _ => return Ok((f64::INFINITY, None)),
             }
