@@ -270,9 +270,7 @@ fn jobs_or_cores(jobs: Option<usize>) -> usize {
 }
 
 fn parse_method(m: &str) -> Result<smid::core::spec::EivMethod> {
-    smid::core::spec::EivMethod::from_name(m.trim()).with_context(|| {
-        format!("unknown stage-3 method `{m}`; expected one of: classical, shared, sdp, exact-grid")
-    })
+    Ok(smid::core::spec::EivMethod::parse(m)?)
 }
 
 /// `out/<spec stem>/<what>`.

@@ -74,14 +74,6 @@ fn check_prior(name: &str, p: &[f64; 2]) -> Result<Interval> {
     Ok(Interval::new(p[0], p[1]))
 }
 
-/// Names of `a1..a_na`, `b0..b_nb`.
-pub fn linear_names(na: usize, nb: usize) -> Vec<String> {
-    (1..=na)
-        .map(|i| format!("a{i}"))
-        .chain((0..=nb).map(|j| format!("b{j}")))
-        .collect()
-}
-
 impl ModelSpec {
     /// The linear orders as declared (before effects).
     pub fn base_orders(&self) -> Orders {
@@ -124,7 +116,7 @@ impl ModelSpec {
             .into_iter()
             .map(|c| c.name)
             .collect();
-        let mut theta_names = linear_names(orders.na, orders.nb);
+        let mut theta_names = crate::stage3::theta_names(orders.na, orders.nb);
         theta_names.extend(extra_names.iter().cloned());
         let mut dims = Vec::new();
         // The plugin's parameters are bisected when the prior names any of them (identification

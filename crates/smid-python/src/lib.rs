@@ -299,11 +299,7 @@ fn simulate_plant(
 
 fn parse_method(m: Option<&str>) -> PyResult<Option<smid::core::spec::EivMethod>> {
     m.map(|m| {
-        smid::core::spec::EivMethod::from_name(m.trim()).ok_or_else(|| {
-            InvalidError::new_err(format!(
-                "unknown stage-3 method `{m}`; expected one of: classical, shared, sdp, exact-grid"
-            ))
-        })
+        smid::core::spec::EivMethod::parse(m).map_err(|e| InvalidError::new_err(e.to_string()))
     })
     .transpose()
 }

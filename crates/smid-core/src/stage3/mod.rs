@@ -288,6 +288,19 @@ impl EivMethod {
             .into_iter()
             .find(|m| m.name() == s || m.name().replace('-', "_") == s)
     }
+    /// Parse a name given by a user (surrounding blanks ignored): an error naming the valid
+    /// ones (the CLI's `--method` and the Python package's `method=` both use it).
+    pub fn parse(s: &str) -> Result<Self> {
+        Self::from_name(s.trim()).ok_or_else(|| {
+            SmidError::invalid(
+                "method",
+                format!(
+                    "unknown stage-3 method `{s}`; expected one of: {}",
+                    Self::ALL.map(|m| m.name()).join(", ")
+                ),
+            )
+        })
+    }
 }
 
 /// A stage-3 method: maps an [`EivProblem`] to guaranteed θ intervals.
@@ -425,6 +438,24 @@ pub fn solve(m: EivMethod, prob: &EivProblem) -> Result<EivResult> {
 mod tests {
     use super::*;
     use crate::stage3::testutil::random_extra_case;
+
+    /// The one parser of user-given method names: every method by its name (blanks and the
+    /// `_` spelling of `exact-grid` accepted); an unknown name lists every valid one.
+    #[test]
+    fn method_names_parse_and_unknown_ones_list_the_valid_names() {
+        for m in EivMethod::ALL {
+            assert_eq!(EivMethod::parse(&format!(" {} ", m.name())).unwrap(), m);
+        }
+        assert_eq!(
+            EivMethod::parse("exact_grid").unwrap(),
+            EivMethod::ExactGrid
+        );
+        let e = EivMethod::parse("clasical").unwrap_err().to_string();
+        assert!(e.contains("clasical"), "{e}");
+        for m in EivMethod::ALL {
+            assert!(e.contains(m.name()), "{e}");
+        }
+    }
 
     /// The methods this build runs.
     fn methods() -> impl Iterator<Item = (EivMethod, &'static dyn Stage3Method)> {
