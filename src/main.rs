@@ -290,7 +290,35 @@ fn join(files: &[PathBuf]) -> String {
         .join(", ")
 }
 
+/// The CLI's logger: the core's diagnostics (the `log` facade; solvers never read the
+/// environment) printed on stderr at the level `SMID_LOG` names (`error` .. `trace`; off when
+/// unset).
+struct StderrLog;
+
+impl log::Log for StderrLog {
+    fn enabled(&self, m: &log::Metadata) -> bool {
+        m.level() <= log::max_level()
+    }
+    fn log(&self, r: &log::Record) {
+        if self.enabled(r.metadata()) {
+            eprintln!("[{} {}] {}", r.level(), r.target(), r.args());
+        }
+    }
+    fn flush(&self) {}
+}
+
+fn init_log() {
+    let level = std::env::var("SMID_LOG")
+        .ok()
+        .and_then(|v| v.trim().parse::<log::LevelFilter>().ok())
+        .unwrap_or(log::LevelFilter::Off);
+    if log::set_logger(&StderrLog).is_ok() {
+        log::set_max_level(level);
+    }
+}
+
 fn main() {
+    init_log();
     if let Err(e) = real_main() {
         eprintln!("error: {e:#}");
         std::process::exit(1);

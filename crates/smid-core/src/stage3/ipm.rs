@@ -1107,8 +1107,9 @@ impl<'p, 'a> Ipm<'p, 'a> {
         let npairs = (mi + 2 * n) as f64;
         let mut best: Option<f64> = None;
         let mut stale = 0;
-        // `IPM_TRACE=1`: one line per iteration on stderr (read once, not per iteration).
-        let trace = std::env::var_os("IPM_TRACE").is_some();
+        // `trace` level of the `log` facade (target `smid::stage3`; `SMID_LOG=trace` in the CLI):
+        // one line per iteration (asked once, not per iteration).
+        let trace = log::log_enabled!(target: "smid::stage3", log::Level::Trace);
         for _it in 0..MAX_ITER {
             // Residuals.
             let mut rd = self
@@ -1169,7 +1170,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
             }
             if trace {
                 let obj: f64 = (0..n).map(|j| self.q[j] * self.z[j]).sum();
-                eprintln!("it {_it} ep {ep:.2e} ed {ed:.2e} mu {mu_c:.2e} obj {obj:.12e}");
+                log::trace!(target: "smid::stage3", "ipm: it {_it} ep {ep:.2e} ed {ed:.2e} mu {mu_c:.2e} obj {obj:.12e}");
             }
 
             if self.stop_at.is_some_and(|t| mu_c < t) {

@@ -111,9 +111,10 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
             gain = gain.max(g);
             tb[k] = new;
         }
-        if std::env::var_os("WS_TRACE").is_some() {
-            eprintln!("round {round}: radii shrank by up to {gain:.4}, conclusive: {conclusive}");
-        }
+        log::debug!(
+            target: "smid::stage3",
+            "shared: round {round}: radii shrank by up to {gain:.4}, conclusive: {conclusive}"
+        );
         if gain < opts.min_improvement && conclusive {
             break;
         }

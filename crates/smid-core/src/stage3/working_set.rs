@@ -54,7 +54,7 @@
 //! unfinished later rounds (either way), a set without the block form, or a set past half the
 //! record retire the working set: the later rounds solve the whole LP.
 //!
-//! **Measured** (WS_TRACE, this machine). Order 4, N = 1e5: the first set is 480 equations; the
+//! **Measured** (`SMID_LOG=debug`, this machine). Order 4, N = 1e5: the first set is 480 equations; the
 //! first round's 4 generations grow each end's to about 1430; later rounds start from 150-330
 //! per end and end at 300-1600, in 3-5 generations; 4 rounds, 14 s for the whole run, every
 //! radius within 1e-4 (relative) of the shared set's run. Order 4, N = 1e4: within 1.2e-4 of
@@ -63,8 +63,9 @@
 //! round (each end's set ending at 3 % of the record at N = 1e5, 26 % at 1e4), one in the
 //! second.
 //!
-//! `WS_TRACE=1` prints one line per generation on stderr (open ends, LPs, set sizes, misses
-//! per open end, how far the open ends moved) and one per round (`shared.rs`).
+//! At `debug` level of the `log` facade (target `smid::stage3`; the CLI prints it with
+//! `SMID_LOG=debug`) one line per generation (open ends, LPs, set sizes, misses per open end, how
+//! far the open ends moved) and one per round (`shared.rs`).
 use super::ipm::SparseRow;
 use super::relax::{bound_free, pair_ends, solve_ends, End, Ends, FreeBounds, SharedModel};
 use super::EivProblem;
@@ -332,7 +333,7 @@ pub(crate) fn bound_free_ws(
     // Equations times ends solved by this round's generations: past the whole LP's, or with a
     // set past half the record, the whole LP is the cheaper way to finish the open ends.
     let mut spent = 0;
-    let trace = std::env::var_os("WS_TRACE").is_some();
+    let trace = log::log_enabled!(target: "smid::stage3", log::Level::Debug);
     // A guard (cost, size, no block form) stopped the generations: the whole LP finishes.
     let mut guarded = false;
     let first = ws.rounds == 0;
@@ -346,7 +347,7 @@ pub(crate) fn bound_free_ws(
         ws.prune(all, model.prob.na.max(1));
         if trace {
             let after: usize = ws.sets.iter().map(Vec::len).sum();
-            eprintln!("working set: pruned {before} -> {after} (all ends)");
+            log::debug!(target: "smid::stage3", "working set: pruned {before} -> {after} (all ends)");
         }
     }
     ws.rounds += 1;
@@ -397,7 +398,8 @@ pub(crate) fn bound_free_ws(
                 .iter()
                 .flat_map(|f| &f.2)
                 .fold(0.0f64, |a, m| a.max(m.0));
-            eprintln!(
+            log::debug!(
+                target: "smid::stage3",
                 "working set: {} open ends in {} LPs, sets of {}-{} equations, misses {n:?}, \
                  worst {worst:.1e}",
                 open.len(),
@@ -418,7 +420,7 @@ pub(crate) fn bound_free_ws(
                     _ => f64::INFINITY,
                 })
                 .fold(0.0f64, f64::max);
-            eprintln!("working set: the open ends moved by up to {moved:.1e} of their width");
+            log::debug!(target: "smid::stage3", "working set: the open ends moved by up to {moved:.1e} of their width");
         }
         if generation > 0 && open.iter().all(|&i| settled(&before, &value, i)) {
             return Ok(Some((pair_ends(&value), true)));
