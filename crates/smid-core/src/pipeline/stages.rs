@@ -294,11 +294,7 @@ pub fn stage3(
     match crate::stage3::solve(method.eiv, &problem) {
         // Solver trouble: another method's outer bound is as guaranteed.
         Err(SmidError::Solver(first)) => {
-            let other = if method.eiv == crate::stage3::EivMethod::Shared {
-                crate::stage3::EivMethod::Classical
-            } else {
-                crate::stage3::EivMethod::Shared
-            };
+            let other = crate::stage3::method(method.eiv).fallback();
             crate::stage3::solve(other, &problem).map_err(|e| match e {
                 SmidError::Solver(second) => SmidError::Solver(format!(
                     "{first}; with the {} method too: {second}",

@@ -361,6 +361,12 @@ pub trait Stage3Method: Send + Sync {
         None
     }
 
+    /// The method the pipeline retries with when this one reports solver trouble
+    /// ([`SmidError::Solver`]); its outer bound is as guaranteed. Default: `shared`.
+    fn fallback(&self) -> EivMethod {
+        EivMethod::Shared
+    }
+
     /// Refuse a problem this method cannot handle (before any start is computed), with an
     /// error saying why; `Ok` by default.
     fn check(&self, _prob: &EivProblem) -> Result<()> {
@@ -441,6 +447,22 @@ mod tests {
 
     /// The one parser of user-given method names: every method by its name (blanks and the
     /// `_` spelling of `exact-grid` accepted); an unknown name lists every valid one.
+    /// Each method names its own fallback, another method this build can run (a retry with
+    /// itself would repeat the trouble).
+    #[test]
+    fn every_method_falls_back_to_another_runnable_method() {
+        for (m, imp) in all() {
+            let f = imp.fallback();
+            assert_ne!(f, m, "{} falls back to itself", m.name());
+            assert!(
+                method(f).available(),
+                "{} falls back to {}",
+                m.name(),
+                f.name()
+            );
+        }
+    }
+
     #[test]
     fn method_names_parse_and_unknown_ones_list_the_valid_names() {
         for m in EivMethod::ALL {

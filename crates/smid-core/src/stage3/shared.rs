@@ -63,6 +63,10 @@ impl Stage3Method for Shared {
     fn start(&self) -> Option<EivMethod> {
         Some(EivMethod::Classical)
     }
+    /// Its own start's method: the classical outer box.
+    fn fallback(&self) -> EivMethod {
+        EivMethod::Classical
+    }
     fn solve_from(&self, prob: &EivProblem, start: EivResult) -> Result<EivResult> {
         solve_from(prob, start, &self.opts)
     }
