@@ -67,6 +67,17 @@ fn a_record_with_an_undeclared_delay_falsifies_the_model_at_a_sample() {
     assert!(f.sample < 200);
     assert!(!v.pass);
     assert!(v.smallest_bound.unwrap().0 > v.bound);
+
+    // Behind a clean record, the same record is named as the second one, at a sample inside it.
+    let mut clean_plant = SimulatedPlant {
+        effects: &[],
+        ..plant
+    };
+    let clean = pipeline::fresh_record(&spec, &mut clean_plant, 1002, 300).unwrap();
+    let v = validate_on(&id.model, &[clean, fresh]);
+    let g = v.consistency.falsified_at.as_ref().unwrap();
+    assert_eq!(g.record, 1, "{g:?}");
+    assert!(g.sample < 200, "{g:?}");
 }
 
 #[test]

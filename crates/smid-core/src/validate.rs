@@ -25,7 +25,7 @@ use crate::baseline::Arx;
 use crate::error::{Result, SmidError, Stage};
 use crate::members;
 use crate::model::{BoundSource, ModelSet, Record};
-use crate::pipeline::{stage2, stage3, StageSignals};
+use crate::pipeline::{stage2, stage3};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -237,38 +237,53 @@ fn check_cell(model: &ModelSet, k: usize, records: &[Record]) -> Result<Option<F
     let layout = model.layout()?;
     let nt = model.training.records.len();
     let c = &model.cells[k];
-    let err = match stage2(
+    let sig = match stage2(
         &model.model,
         &layout,
         c.nonlinearity.as_ref(),
         &c.cell,
         records,
     ) {
-        Err(e) => e,
-        Ok(sig) => match stage3(&model.model, &layout, &model.method, &sig, None) {
-            // Unbounded is not a contradiction.
-            Ok(_) | Err(SmidError::Unbounded { .. }) => return Ok(None),
-            Err(e) => relabel(e, &sig, nt),
-        },
-    };
-    if let SmidError::Solver(_) = err {
-        return Err(err);
-    }
-    match err {
-        SmidError::Inconsistent {
+        Ok(sig) => sig,
+        Err(SmidError::Inconsistent {
             stage,
             sample,
             detail,
-        } => {
-            let (record, sample) = decode(sample);
-            Ok(Some(Falsification {
-                record,
+        }) => {
+            return Ok(Some(Falsification {
+                record: 0,
                 sample,
                 stage,
                 detail,
             }))
         }
-        e => Err(e),
+        Err(e) => return Err(e),
+    };
+    match stage3(&model.model, &layout, &model.method, &sig, None) {
+        // Unbounded is not a contradiction.
+        Ok(_) | Err(SmidError::Unbounded { .. }) => Ok(None),
+        // Where the joint equations fail: `(fresh record, sample)` from the concatenation; an
+        // inconsistency inside the training records (possible only when the training set
+        // changed) is reported as record 0 and named in the detail.
+        Err(SmidError::Inconsistent {
+            stage,
+            sample,
+            detail,
+        }) => {
+            let (r, t) = sig.locate(sample);
+            let detail = detail.replace(&format!("t = {sample}"), &format!("sample {t}"));
+            Ok(Some(Falsification {
+                record: r.saturating_sub(nt),
+                sample: t,
+                stage,
+                detail: if r < nt {
+                    format!("in the training record {r}: {detail}")
+                } else {
+                    detail
+                },
+            }))
+        }
+        Err(e) => Err(e),
     }
 }
 
@@ -330,39 +345,6 @@ pub fn consistency(model: &ModelSet, fresh: &[Record]) -> Result<Consistency> {
         falsified_at: if unchecked > 0 { None } else { worst },
         unchecked,
     })
-}
-
-/// Pack `(record, sample)` into one index for [`relabel`] (records below 2^20 samples).
-const PACK: usize = 1 << 20;
-fn decode(s: usize) -> (usize, usize) {
-    (s / PACK, s % PACK)
-}
-
-/// Map a stage-3 inconsistency on the joint signals to `(fresh record, sample)`; an
-/// inconsistency inside the training records (possible only when the training set changed) is
-/// reported as record 0 of the training data.
-fn relabel(e: SmidError, sig: &StageSignals, n_train: usize) -> SmidError {
-    match e {
-        SmidError::Inconsistent {
-            stage,
-            sample,
-            detail,
-        } => {
-            let (r, t) = sig.locate(sample);
-            let detail = detail.replace(&format!("t = {sample}"), &format!("sample {t}"));
-            let fresh = r.saturating_sub(n_train);
-            SmidError::Inconsistent {
-                stage,
-                sample: fresh * PACK + t.min(PACK - 1),
-                detail: if r < n_train {
-                    format!("in the training record {r}: {detail}")
-                } else {
-                    detail
-                },
-            }
-        }
-        e => e,
-    }
 }
 
 /// The smallest noise bound of the fresh records for which they are consistent with the
