@@ -356,17 +356,23 @@ fn try_candidates(
     spec: &Spec,
     cands: &mut [(ModelSpec, Evidence)],
     training: &ExperimentData,
-    progress: &dyn Fn(usize, usize),
+    progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Vec<Option<ModelSet>> {
+    use rayon::prelude::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    // The candidates are independent: identified in parallel, results in candidate order (so
+    // the choice does not depend on the thread timing).
     let total = cands.len();
-    let mut sets = Vec::with_capacity(total);
-    for (i, (m, ev)) in cands.iter_mut().enumerate() {
-        let (t, id) = try_model(spec, m, training);
-        ev.train = t;
-        sets.push(id.map(|id| id.model));
-        progress(i + 1, total);
-    }
-    sets
+    let done = AtomicUsize::new(0);
+    cands
+        .par_iter_mut()
+        .map(|(m, ev)| {
+            let (t, id) = try_model(spec, m, training);
+            ev.train = t;
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+            id.map(|id| id.model)
+        })
+        .collect()
 }
 
 /// Free-run fit % of the representative member (see [`crate::members::representative`]) on the model's own training records.
@@ -526,7 +532,7 @@ pub fn choose(
     spec: &Spec,
     training: &ExperimentData,
     opts: &Options,
-    progress: &dyn Fn(usize, usize),
+    progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Choice> {
     let scale = data_scale(training);
     let before = spec.model.duplicate();
