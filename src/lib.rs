@@ -83,13 +83,7 @@ pub fn run_spec(
 ) -> Result<Identification> {
     if spec.plant.data.is_some() {
         let data = pipeline::load_data(spec, base)?;
-        let truth: Vec<(String, f64)> = spec
-            .plant
-            .truth
-            .iter()
-            .map(|(k, v)| (k.clone(), *v))
-            .collect();
-        return pipeline::identify_with(spec, data, &truth, progress);
+        return pipeline::identify_with(spec, data, &pipeline::declared_truth(spec), progress);
     }
     closeloop::with_plant(spec, base, |plant| {
         let data = pipeline::simulate_experiments(spec, plant)?;

@@ -313,6 +313,15 @@ pub fn plant_truth(spec: &Spec, plant: &dyn Plant) -> Result<Vec<(String, f64)>>
     Ok(truth)
 }
 
+/// The true values a data spec declares (`plant.truth`), by name.
+pub fn declared_truth(spec: &Spec) -> Vec<(String, f64)> {
+    spec.plant
+        .truth
+        .iter()
+        .map(|(k, v)| (k.clone(), *v))
+        .collect()
+}
+
 /// Acquire data for a spec whose plant is the built-in simulator or CSV data, then identify.
 /// (Other plant kinds are built by the crates that provide them; see [`run_with_plant`].)
 pub fn run(spec: &Spec, base: &Path) -> Result<Identification> {
@@ -321,13 +330,7 @@ pub fn run(spec: &Spec, base: &Path) -> Result<Identification> {
     }
     if spec.plant.data.is_some() {
         let data = load_data(spec, base)?;
-        let truth: Vec<(String, f64)> = spec
-            .plant
-            .truth
-            .iter()
-            .map(|(k, v)| (k.clone(), *v))
-            .collect();
-        return identify(spec, data, &truth);
+        return identify(spec, data, &declared_truth(spec));
     }
     Err(SmidError::invalid(
         "plant",
