@@ -4,6 +4,7 @@
 //! truth is the worst bug smid can have; this is the release-mode check that hunts for one.
 use rand::{Rng, SeedableRng};
 use smid_core::linear::LinearModel;
+use smid_core::model::UndecidedCause;
 use smid_core::noise::NoiseSpec;
 use smid_core::pipeline::{self, Identification};
 use smid_core::plant::SimulatedPlant;
@@ -166,6 +167,41 @@ pub struct Summary {
     pub missed: Vec<u64>,
     /// Trials that ended in an error (e.g. too few invertible samples): seed and message.
     pub errors: Vec<(u64, String)>,
+    /// Trials whose every bound holds but some `θ` bound is infinite (cells left unbounded
+    /// when the refinement budget was spent): seed and cause. Not counted in `contained`.
+    #[serde(default)]
+    pub partial: Vec<(u64, String)>,
+}
+
+/// The cause of a trial without a finite bound, for the counts `smid check` prints: an
+/// unbounded stage 3, an LP solver failure, an inconsistency, or another error.
+pub fn cause_of(message: &str) -> &'static str {
+    if message.starts_with(UndecidedCause::Solver.label()) || message.contains("LP solver") {
+        UndecidedCause::Solver.label()
+    } else if message.starts_with(UndecidedCause::Unbounded.label())
+        || message.contains("do not bound")
+        || message.contains("unbounded")
+    {
+        UndecidedCause::Unbounded.label()
+    } else if message.contains("inconsistent") || message.contains("falsif") {
+        "the data falsify the model"
+    } else {
+        "other error"
+    }
+}
+
+/// Trials without a finite bound (partial and errors) counted by cause, most frequent first.
+pub fn causes(s: &Summary) -> Vec<(&'static str, usize)> {
+    let mut out: Vec<(&'static str, usize)> = Vec::new();
+    for (_, m) in s.partial.iter().chain(&s.errors) {
+        let c = cause_of(m);
+        match out.iter_mut().find(|(k, _)| *k == c) {
+            Some((_, n)) => *n += 1,
+            None => out.push((c, 1)),
+        }
+    }
+    out.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(b.0)));
+    out
 }
 
 impl Summary {
@@ -178,9 +214,11 @@ impl Summary {
             s.contained += p.contained;
             s.missed.extend(&p.missed);
             s.errors.extend(p.errors.iter().cloned());
+            s.partial.extend(p.partial.iter().cloned());
         }
         s.missed.sort_unstable();
         s.errors.sort_by_key(|e| e.0);
+        s.partial.sort_by_key(|e| e.0);
         s
     }
 }
@@ -213,7 +251,7 @@ pub fn run_seeds(
 ) -> Summary {
     let n = seeds.len();
     let jobs = jobs.clamp(1, n.max(1));
-    let mut outcomes: Vec<(u64, std::result::Result<bool, String>)> = std::thread::scope(|sc| {
+    let mut outcomes: Vec<(u64, std::result::Result<Outcome, String>)> = std::thread::scope(|sc| {
         let handles: Vec<_> = (0..jobs)
             .map(|j| {
                 let (tick, trial) = (&tick, &trial);
@@ -223,8 +261,7 @@ pub fn run_seeds(
                         let o = match trial(seed) {
                             // A certified simulation member outside the bounds is a miss
                             // too (it lies in the feasible set).
-                            Ok(id) => Ok(id.all_contain_truth() == Some(true)
-                                && id.model.member_outside_bounds().is_empty()),
+                            Ok(id) => Ok(outcome(&id)),
                             Err(e) => Err(e.to_string()),
                         };
                         v.push((seed, o));
@@ -249,12 +286,38 @@ pub fn run_seeds(
     };
     for (seed, o) in outcomes {
         match o {
-            Ok(true) => s.contained += 1,
-            Ok(false) => s.missed.push(seed),
+            Ok(Outcome::Contained) => s.contained += 1,
+            Ok(Outcome::Missed) => s.missed.push(seed),
+            Ok(Outcome::Partial(cause)) => s.partial.push((seed, cause)),
             Err(e) => s.errors.push((seed, e)),
         }
     }
     s
+}
+
+/// What one trial showed.
+enum Outcome {
+    /// Every bound finite and holding the truth.
+    Contained,
+    /// Every bound holds, some `θ` bound infinite (the cause).
+    Partial(String),
+    /// A bound misses the truth, or a certified member lies outside a bound.
+    Missed,
+}
+
+fn outcome(id: &Identification) -> Outcome {
+    // A certified simulation member outside the bounds is a miss too (it lies in the
+    // feasible set).
+    if id.all_contain_truth() != Some(true) || !id.model.member_outside_bounds().is_empty() {
+        return Outcome::Missed;
+    }
+    match id.model.search.unbounded.first() {
+        Some(u) => Outcome::Partial(format!("{}: {}", u.cause.label(), u.detail)),
+        None if id.parameters().iter().any(|p| !p.interval().is_finite()) => Outcome::Partial(
+            format!("{}: an infinite bound", UndecidedCause::Unbounded.label()),
+        ),
+        None => Outcome::Contained,
+    }
 }
 
 impl Trial {

@@ -254,14 +254,29 @@ pub fn run(
 /// The summary lines `smid check` prints.
 pub fn report(plugin: &str, s: &Summary) -> String {
     let mut out = format!(
-        "{plugin}: {} trials: truth inside every bound in {}, missed in {}, no bound (error) in {}\n",
+        "{plugin}: {} trials: truth inside every bound in {}, missed in {}, θ unbounded (the other bounds hold) in {}, no bound (error) in {}\n",
         s.trials,
         s.contained,
         s.missed.len(),
+        s.partial.len(),
         s.errors.len()
     );
+    let causes = montecarlo::causes(s);
+    if !causes.is_empty() {
+        out.push_str(&format!(
+            "  without a finite bound, by cause: {}\n",
+            causes
+                .iter()
+                .map(|(c, n)| format!("{c} {n}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
     for seed in &s.missed {
         out.push_str(&format!("  MISSED: seed {seed}\n"));
+    }
+    for (seed, c) in s.partial.iter().take(10) {
+        out.push_str(&format!("  θ unbounded: seed {seed}: {c}\n"));
     }
     for (seed, e) in s.errors.iter().take(20) {
         out.push_str(&format!("  error: seed {seed}: {e}\n"));

@@ -9,6 +9,12 @@
 //! When the cell budget runs out, the cells not yet evaluated keep their parent's result, so
 //! the hull stays guaranteed, only looser, and the result says so.
 //!
+//! A finished cell whose results are not finite (stage 3 unbounded over it, or its solvers
+//! failed) is **refined**: halved further (below the resolution, down to `depth`) and its
+//! halves finished, within a second budget of `max_leaves` more evaluations. Only what is
+//! left undecided when that budget is spent comes back as a leaf without a value, with its
+//! cause: the caller reports it (an unbounded cell still bounds the bisected parameters).
+//!
 //! Cells of one level are evaluated in parallel (rayon).
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
@@ -21,9 +27,9 @@ pub enum Verdict<T> {
     Infeasible(SmidError),
     /// The cell may hold consistent parameters; `T` holds guaranteed results over the cell.
     Feasible(T),
-    /// The cell may hold consistent parameters but the results are not finite (e.g. stage 3
-    /// did not bound a parameter): kept.
-    Undecided,
+    /// The cell may hold consistent parameters but the results are not finite (stage 3 did
+    /// not bound a parameter, or a solver failed; the string says which): refined, else kept.
+    Undecided(String),
 }
 
 /// Largest accepted `method.cells.depth` (halvings per parameter; 2^-60 of a prior box is
@@ -52,6 +58,8 @@ pub struct Leaf<T> {
     pub cell: Vec<Interval>,
     /// The result over this cell (`None`: undecided).
     pub value: Option<T>,
+    /// Why the cell is undecided (`None` when it has a value).
+    pub cause: Option<String>,
 }
 
 /// The outcome of the search.
@@ -64,6 +72,9 @@ pub struct Search<T> {
     /// The budget stopped the bisection before the resolution was reached, or the leaves were
     /// merged back to stay within `max_leaves`.
     pub budget_stopped: bool,
+    /// Undecided cells halved further after the first evaluation (each refinement evaluates
+    /// two halves).
+    pub refined: usize,
 }
 
 impl<T> Search<T> {
@@ -101,10 +112,23 @@ pub struct Progress {
 
 /// Halve `cell` along the parameter widest against its resolution, among those wider than it
 /// with halvings left; `None` when every parameter has reached its resolution.
-fn bisect(cell: &[Interval], depth: &[u32], b: &Budget) -> Option<[(Vec<Interval>, Vec<u32>); 2]> {
+/// With `below_resolution`, any parameter with halvings left may be halved (refinement of an
+/// undecided cell).
+fn bisect(
+    cell: &[Interval],
+    depth: &[u32],
+    b: &Budget,
+    below_resolution: bool,
+) -> Option<[(Vec<Interval>, Vec<u32>); 2]> {
     let ratio = |k: usize| (cell[k].hi - cell[k].lo) / b.resolution.get(k).copied().unwrap_or(0.0);
     let k = (0..cell.len())
-        .filter(|&k| depth[k] < b.depth && cell[k].hi > cell[k].lo && ratio(k) > 1.0)
+        .filter(|&k| {
+            depth[k] < b.depth
+                && cell[k].hi > cell[k].lo
+                && cell[k].center() > cell[k].lo
+                && cell[k].center() < cell[k].hi
+                && (below_resolution || ratio(k) > 1.0)
+        })
         .max_by(|&i, &j| ratio(i).total_cmp(&ratio(j)).then(j.cmp(&i)))?;
     let mid = cell[k].center();
     let mut a = cell.to_vec();
@@ -176,7 +200,7 @@ pub fn search<T: Send + Sync>(
                     continue;
                 }
                 kept.push(cell.clone());
-                match bisect(&cell, &depth, &budget) {
+                match bisect(&cell, &depth, &budget, false) {
                     Some(children) => {
                         for (c, d) in children {
                             let mut a = ancestors.clone();
@@ -220,20 +244,49 @@ pub fn search<T: Send + Sync>(
         }
         finals = tree.into_iter().map(|(c, _)| c).collect();
     }
-    let done: Vec<Result<Verdict<T>>> = finals.par_iter().map(|c| finish(c)).collect();
-    evaluated += finals.len();
     let mut leaves = Vec::new();
-    for (cell, v) in finals.into_iter().zip(done) {
-        match v? {
-            Verdict::Infeasible(e) => {
-                discarded += 1;
-                note(e, &mut worst);
+    let mut refined = 0usize;
+    let mut spare = budget.max_leaves.max(1);
+    let mut round: Vec<(Vec<Interval>, Vec<u32>)> = finals
+        .into_iter()
+        .map(|c| {
+            let d = depth_of(&c, prior);
+            (c, d)
+        })
+        .collect();
+    while !round.is_empty() {
+        let done: Vec<Result<Verdict<T>>> = round.par_iter().map(|(c, _)| finish(c)).collect();
+        evaluated += round.len();
+        let mut undecided: Vec<(Vec<Interval>, Vec<u32>, String)> = Vec::new();
+        for ((cell, depth), v) in round.into_iter().zip(done) {
+            match v? {
+                Verdict::Infeasible(e) => {
+                    discarded += 1;
+                    note(e, &mut worst);
+                }
+                Verdict::Feasible(t) => leaves.push(Leaf {
+                    cell,
+                    value: Some(t),
+                    cause: None,
+                }),
+                Verdict::Undecided(why) => undecided.push((cell, depth, why)),
             }
-            Verdict::Feasible(t) => leaves.push(Leaf {
-                cell,
-                value: Some(t),
-            }),
-            Verdict::Undecided => leaves.push(Leaf { cell, value: None }),
+        }
+        // Refine the undecided cells while the second budget lasts: both halves or none.
+        round = Vec::new();
+        for (cell, depth, why) in undecided {
+            match bisect(&cell, &depth, &budget, true) {
+                Some(children) if spare >= 2 => {
+                    spare -= 2;
+                    refined += 1;
+                    round.extend(children);
+                }
+                _ => leaves.push(Leaf {
+                    cell,
+                    value: None,
+                    cause: Some(why),
+                }),
+            }
         }
     }
     if leaves.is_empty() {
@@ -262,7 +315,23 @@ pub fn search<T: Send + Sync>(
         evaluated,
         discarded,
         budget_stopped: budget_stopped || coarsened,
+        refined,
     })
+}
+
+/// Halvings of each parameter of `cell` from `prior` (by widths; a bisection halves exactly).
+fn depth_of(cell: &[Interval], prior: &[Interval]) -> Vec<u32> {
+    cell.iter()
+        .zip(prior)
+        .map(|(c, p)| {
+            let (w, pw) = (c.hi - c.lo, p.hi - p.lo);
+            if w > 0.0 && pw > 0.0 {
+                (pw / w).log2().round().max(0.0) as u32
+            } else {
+                0
+            }
+        })
+        .collect()
 }
 
 /// Whether inconsistency `a` names a later point of the data than `b` (stage, then sample).
@@ -344,6 +413,46 @@ mod tests {
                 "{p:?} not covered"
             );
         }
+    }
+
+    /// Cells wider than 1/32 around 0.5 are undecided (as a stage 3 left unbounded over a
+    /// wide cell): they are halved below the resolution until decided, within the second
+    /// budget; past it they come back without a value and with their cause.
+    #[test]
+    fn undecided_cells_are_refined_within_the_budget() {
+        let eval = |c: &[Interval]| -> Result<Verdict<f64>> {
+            Ok(if c[0].contains(0.5) && c[0].hi - c[0].lo > 1.0 / 32.0 {
+                Verdict::Undecided("too wide".into())
+            } else {
+                Verdict::Feasible(c[0].lo)
+            })
+        };
+        let test = |c: &[Interval]| eval(c).map(|_| Verdict::Feasible(()));
+        let budget = |max_leaves| Budget {
+            resolution: vec![0.25],
+            depth: 30,
+            max_cells: 1000,
+            max_leaves,
+        };
+        let prior = [Interval::new(0.0, 1.0)];
+        let s = search(&prior, budget(100), &test, &eval, &|_| {}).unwrap();
+        assert!(s
+            .leaves
+            .iter()
+            .all(|l| l.value.is_some() && l.cause.is_none()));
+        assert!(s.refined >= 2, "{}", s.refined);
+        assert_eq!(s.hull(), vec![Interval::new(0.0, 1.0)]);
+        // Every point stays covered.
+        for k in 0..=100 {
+            let x = k as f64 / 100.0;
+            assert!(s.leaves.iter().any(|l| l.cell[0].contains(x)), "{x}");
+        }
+        let tight = search(&prior, budget(2), &test, &eval, &|_| {}).unwrap();
+        assert!(tight
+            .leaves
+            .iter()
+            .any(|l| l.value.is_none() && l.cause.as_deref() == Some("too wide")));
+        assert_eq!(tight.hull(), vec![Interval::new(0.0, 1.0)]);
     }
 
     #[test]

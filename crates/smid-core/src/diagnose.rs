@@ -318,6 +318,18 @@ fn try_model(
 ) -> (TrainVerdict, Option<Identification>) {
     let s = with_model(spec, model);
     match identify(&s, data.clone(), &[]) {
+        // Consistent, but cells left without a finite θ bound: no model to offer.
+        Ok(id) if !id.model.search.unbounded.is_empty() => (
+            TrainVerdict::Failed {
+                message: format!(
+                    "{} cell(s) left without a finite θ bound: first {} ({})",
+                    id.model.search.unbounded.len(),
+                    id.model.search.unbounded[0].cell,
+                    id.model.search.unbounded[0].detail
+                ),
+            },
+            None,
+        ),
         Ok(id) => {
             let fit = training_fit(&id.model).unwrap_or(f64::NEG_INFINITY);
             let bound = id.model.delta;
@@ -757,6 +769,8 @@ pub fn identify_consistent(spec: &Spec, data: &ExperimentData) -> Result<(Identi
         // Solver trouble at a trial bound counts as "not shown consistent": the bound found
         // is then only larger (this bound serves the before/after table, not a guarantee).
         match identify(&s, d2, &[]) {
+            // Cells left without a finite θ bound: no usable model at this bound either.
+            Ok(id) if !id.model.search.unbounded.is_empty() => Ok(None),
             Ok(id) => Ok(Some(id)),
             Err(SmidError::Inconsistent { .. })
             | Err(SmidError::Unbounded { .. })

@@ -377,6 +377,11 @@ pub struct CellSet {
 }
 
 impl CellSet {
+    /// Whether stage 3 bounded `θ` over this cell (not one left unbounded by the budget).
+    pub fn bounded(&self) -> bool {
+        self.theta.iter().all(|i| i.is_finite())
+    }
+
     /// A copy (the set is a trait object): a round trip through its serialised form.
     pub fn duplicate(&self) -> CellSet {
         serde_json::from_value(serde_json::to_value(self).expect("cell sets serialise"))
@@ -494,6 +499,59 @@ pub struct SearchSummary {
     pub evaluated: usize,
     pub discarded: usize,
     pub budget_stopped: bool,
+    /// Undecided cells halved further (stage 3 unbounded or a solver failure over them).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub refined: usize,
+    /// Cells still undecided when the refinement budget was spent: they are in `cells` with
+    /// `θ = (-∞, ∞)` (every θ bound is then infinite; the bisected parameters stay bounded).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub unbounded: Vec<UnboundedCell>,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
+}
+
+/// A cell of the bisected parameters left without a finite `θ` bound.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct UnboundedCell {
+    /// The cell, as `name ∈ [lo, hi]` per bisected parameter.
+    pub cell: String,
+    pub cause: UndecidedCause,
+    pub detail: String,
+}
+
+/// Why a cell stayed undecided.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Hash)]
+#[serde(rename_all = "snake_case")]
+pub enum UndecidedCause {
+    /// Stage 3 found no finite bound of `θ` over the cell.
+    Unbounded,
+    /// Every solver path failed on the cell's LPs.
+    Solver,
+}
+
+/// The prefix of an undecided cell's cause from a solver failure.
+pub const CAUSE_SOLVER: &str = "solver failure";
+/// The prefix of an undecided cell's cause from an unbounded stage 3.
+pub const CAUSE_UNBOUNDED: &str = "unbounded";
+
+impl UndecidedCause {
+    /// The cause named by a cell's detail (see [`CAUSE_SOLVER`]).
+    pub fn of(detail: &str) -> UndecidedCause {
+        if detail.starts_with(CAUSE_SOLVER) {
+            UndecidedCause::Solver
+        } else {
+            UndecidedCause::Unbounded
+        }
+    }
+
+    pub fn label(self) -> &'static str {
+        match self {
+            UndecidedCause::Unbounded => "stage 3 unbounded over a cell",
+            UndecidedCause::Solver => "LP solver failure on a cell",
+        }
+    }
 }
 
 impl ModelSet {

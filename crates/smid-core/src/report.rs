@@ -101,6 +101,24 @@ pub fn table(id: &Identification) -> String {
                 ""
             }
         );
+        if m.search.refined > 0 {
+            let _ = writeln!(
+                s,
+                "{} undecided cell(s) halved further (stage 3 unbounded or a solver failure over them)",
+                m.search.refined
+            );
+        }
+        if !m.search.unbounded.is_empty() {
+            let _ = writeln!(
+                s,
+                "{} cell(s) left without a finite θ bound when the refinement budget was spent \
+                 (raise method.cells.max_leaves): every θ bound is infinite; the bounds of the \
+                 bisected parameters hold. First: {} ({})",
+                m.search.unbounded.len(),
+                m.search.unbounded[0].cell,
+                m.search.unbounded[0].detail
+            );
+        }
     }
     if let Some(all) = id.all_contain_truth() {
         let _ = writeln!(

@@ -500,6 +500,12 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
             consistency.unchecked
         ));
     }
+    if !model.search.unbounded.is_empty() {
+        warnings.push(format!(
+            "{} cell(s) of the identified set have no finite θ bound (the refinement budget was spent): the simulated members come from the bounded cells only",
+            model.search.unbounded.len()
+        ));
+    }
     if model.search.budget_stopped {
         warnings.push(
             "the cell budget stopped the branch and bound: the bounds hold but are looser than the resolution asked for".into(),

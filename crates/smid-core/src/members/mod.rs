@@ -19,7 +19,8 @@ pub mod simulation;
 pub use simulation::simulation_member;
 
 /// The cells of a model set from the centre of the bisected parameters outwards: by the
-/// distance of each cell's centre to the centre of the hull (relative to the hull's widths).
+/// distance of each cell's centre to the centre of the hull (relative to the hull's widths),
+/// the cells with bounded `θ` first (a cell the budget left unbounded has no member to offer).
 pub fn cells_from_centre(set: &ModelSet) -> Vec<usize> {
     let hull = crate::cells::hull_of_boxes(set.cells.iter().map(|c| c.cell.as_slice()));
     let dist = |k: usize| -> f64 {
@@ -34,7 +35,11 @@ pub fn cells_from_centre(set: &ModelSet) -> Vec<usize> {
             .sum()
     };
     let mut order: Vec<usize> = (0..set.cells.len()).collect();
-    order.sort_by(|&a, &b| dist(a).total_cmp(&dist(b)));
+    order.sort_by(|&a, &b| {
+        (!set.cells[a].bounded())
+            .cmp(&!set.cells[b].bounded())
+            .then(dist(a).total_cmp(&dist(b)))
+    });
     order
 }
 

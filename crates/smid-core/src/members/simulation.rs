@@ -486,7 +486,7 @@ impl<'s> Search<'s> {
 /// the phase-1 measure at their centres (the nearest `opts.probe` to the central cell are
 /// probed) and the best `opts.cells` are searched.
 pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<SimulationMember>> {
-    if set.cells.is_empty() || !opts.search {
+    if !set.cells.iter().any(|c| c.bounded()) || !opts.search {
         return Ok(None);
     }
     let layout = set.layout()?;
@@ -517,7 +517,8 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
     // Cells from the centre outwards; the probed ones ranked by their phase-1 measure.
     let order = cells_from_centre(set);
     let mut spaces: Vec<(f64, CellSpace)> = Vec::new();
-    for &k in order.iter().take(opts.probe.max(1)) {
+    let bounded = order.iter().filter(|&&k| set.cells[k].bounded());
+    for &k in bounded.take(opts.probe.max(1)) {
         if let Some(sp) = search.space(k)? {
             let z0 = vec![0.0; sp.moved.len() + search.a_free().len()];
             let m = search.measure_at_a(&sp, &z0).0;

@@ -9,7 +9,9 @@ use crate::error::{Result, SmidError};
 use crate::experiment::{self};
 use crate::interval::Interval;
 use crate::inversion::InnerBound;
-use crate::model::{BoundSource, CellSet, Layout, ModelSet, SearchSummary, Training};
+use crate::model::{
+    BoundSource, CellSet, Layout, ModelSet, SearchSummary, Training, UnboundedCell, UndecidedCause,
+};
 use crate::noise;
 use crate::nonlinearity::{NonlinearitySet, Structure};
 use crate::spec::{AlphaSpec, ModelSpec, Spec};
@@ -208,28 +210,31 @@ pub fn identify_with(
         &eval,
         progress,
     )?;
-    let summary = SearchSummary {
+    let mut summary = SearchSummary {
         evaluated: search.evaluated,
         discarded: search.discarded,
         budget_stopped: search.budget_stopped,
+        refined: search.refined,
+        unbounded: Vec::new(),
     };
+    // A leaf left undecided when the refinement budget was spent keeps its stage-1 set (the
+    // bisected parameters stay bounded) with θ unbounded, and the summary says which and why.
     let mut kept = Vec::new();
     for leaf in search.leaves {
         match leaf.value {
             Some(c) => kept.push(c),
             None => {
-                return Err(SmidError::Unbounded {
-                    parameter: "θ".into(),
-                    message: format!(
-                    "over the cell {} of the bisected parameters stage 3 found no finite bound{}",
-                    fmt_cell(&layout, &leaf.cell),
-                    if summary.budget_stopped {
-                        " (the cell budget stopped the bisection: raise method.cells.max_cells)"
-                    } else {
-                        ""
-                    }
-                ),
-                })
+                let detail = leaf.cause.unwrap_or_default();
+                summary.unbounded.push(UnboundedCell {
+                    cell: fmt_cell(&layout, &leaf.cell),
+                    cause: UndecidedCause::of(&detail),
+                    detail,
+                });
+                kept.push(CellSet {
+                    nonlinearity: stage1(model, &layout, training.steady.as_ref(), &leaf.cell)?,
+                    theta: vec![Interval::entire(); layout.theta_names.len()],
+                    cell: leaf.cell,
+                });
             }
         }
     }
@@ -268,7 +273,12 @@ pub fn identify_with(
             .map(|t| c.cell.iter().zip(t).all(|(i, v)| i.contains(*v)))
             .unwrap_or(true)
     };
-    let representative = kept.iter().position(|c| holds_psi(c)).unwrap_or(0);
+    let representative = kept
+        .iter()
+        .position(|c| c.bounded() && holds_psi(c))
+        .or_else(|| kept.iter().position(|c| holds_psi(c)))
+        .or_else(|| kept.iter().position(|c| c.bounded()))
+        .unwrap_or(0);
     let truth_in_set = match (&gamma_truth, &psi_truth) {
         (Some(g), _) => Some(
             kept.iter()

@@ -333,8 +333,9 @@ pub fn relabel(e: SmidError, sig: &StageSignals) -> SmidError {
 }
 
 /// Stages 1-3 over one cell: `Infeasible` when a stage proves the cell inconsistent,
-/// `Undecided` when stage 3 leaves a parameter unbounded over a bisected cell. Without bisected
-/// parameters every error is returned as is (the paper's three stages).
+/// `Undecided` when stage 3 leaves a parameter unbounded over a bisected cell or its solvers
+/// fail there (the search then halves the cell further). Without bisected parameters every
+/// error is returned as is (the paper's three stages).
 pub fn evaluate_cell(
     model: &ModelSpec,
     layout: &Layout,
@@ -356,7 +357,9 @@ pub fn evaluate_cell(
     match outcome {
         Ok(c) => Ok(Verdict::Feasible(c)),
         Err(e @ SmidError::Inconsistent { .. }) if bisected => Ok(Verdict::Infeasible(e)),
-        Err(SmidError::Unbounded { .. }) if bisected => Ok(Verdict::Undecided),
+        Err(e @ (SmidError::Unbounded { .. } | SmidError::Solver(_))) if bisected => {
+            Ok(Verdict::Undecided(undecided_cause(&e)))
+        }
         Err(e) => Err(e),
     }
 }
@@ -388,7 +391,17 @@ pub fn test_cell(
         Ok(()) => Ok(Verdict::Feasible(())),
         Err(e @ SmidError::Inconsistent { .. }) => Ok(Verdict::Infeasible(e)),
         // Nothing proven: the cell is kept (a solver failure never discards one).
-        Err(SmidError::Unbounded { .. }) | Err(SmidError::Solver(_)) => Ok(Verdict::Undecided),
+        Err(e @ (SmidError::Unbounded { .. } | SmidError::Solver(_))) => {
+            Ok(Verdict::Undecided(undecided_cause(&e)))
+        }
         Err(e) => Err(e),
+    }
+}
+
+/// The cause of an undecided cell, as [`crate::model::SearchSummary`] counts it.
+fn undecided_cause(e: &SmidError) -> String {
+    match e {
+        SmidError::Solver(m) => format!("{}: {m}", crate::model::CAUSE_SOLVER),
+        other => format!("{}: {other}", crate::model::CAUSE_UNBOUNDED),
     }
 }
