@@ -17,6 +17,7 @@ pub mod data;
 pub mod diagnose;
 pub mod effect;
 pub mod error;
+pub mod exact;
 pub mod experiment;
 pub mod interval;
 pub mod inversion;

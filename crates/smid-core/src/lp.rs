@@ -25,16 +25,23 @@
 //! `|θ_j| <= THETA_MAX` fits" (a parameter beyond 1e9 is outside every model smid considers;
 //! a bound that reaches the box is reported unbounded, never as a number).
 //!
+//! An emptiness that the float combination cannot prove (a nearly empty polytope, its margin
+//! below the rounding of the sums over the artificial box) is proven in exact rational
+//! arithmetic ([`crate::exact`]): weights that solve the basis system exactly leave no
+//! residual, so the sign of their right-hand side is the proof.
+//!
 //! When the simplex cannot conclude (iteration cap, a singular basis, an emptiness it cannot
-//! prove) the polytope goes to the interior-point path (good_lp + clarabel) with the same pads,
-//! retried once with sturdier settings; a second failure is a [`SmidError::Solver`].
+//! prove) the polytope goes to the interior-point path (good_lp + clarabel), retried once with
+//! sturdier settings. Clarabel's answer is never read as a number: its multipliers `z` go
+//! through the same certificates (weak duality with the residual carried for a bound, a
+//! Farkas combination for emptiness), so its bounds are as guaranteed as the simplex's.
+//! Multipliers that certify nothing, or a second failure, are a [`SmidError::Solver`]; the
+//! branch and bound then halves the cell (a solver failure never discards one).
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
-use good_lp::{
-    solvers::clarabel::clarabel, Expression, ProblemVariables, ResolutionError, Solution,
-    SolverModel, Variable,
-};
+use good_lp::{solvers::clarabel::clarabel, Expression, ProblemVariables, SolverModel, Variable};
 use nalgebra::{DMatrix, DVector};
+use num_traits::Signed;
 
 /// Relative outward relaxation of each right-hand side.
 pub const ROW_PAD: f64 = 1e-9;
@@ -372,15 +379,23 @@ impl Polytope {
     /// θ in the artificial box satisfies the rows: its right-hand side, less the rounding of
     /// the sums and the residual over the box, is negative.
     fn farkas_proves(&self, basis: &[Row], v: &[f64], enter: Row) -> bool {
-        let n = self.n;
         let mut weights: Vec<(Row, f64)> = vec![(enter, 1.0)];
-        for (&b, &vi) in basis.iter().zip(v) {
-            let w = -vi;
-            match b {
-                Row::Eq(_) => weights.push((b, w)),
-                _ => weights.push((b, w.max(0.0))),
-            }
-        }
+        weights.extend(basis.iter().zip(v).map(|(&b, &vi)| (b, -vi)));
+        self.farkas_weights_prove(&weights) || self.farkas_proves_exactly(basis, enter)
+    }
+
+    /// Whether the combination of rows with `weights` (inequalities clamped at `>= 0`) proves
+    /// that no θ of the artificial box satisfies the rows: its right-hand side, less the
+    /// rounding of the sums and its residual over the box, is negative.
+    fn farkas_weights_prove(&self, weights: &[(Row, f64)]) -> bool {
+        let n = self.n;
+        let weights: Vec<(Row, f64)> = weights
+            .iter()
+            .map(|&(b, w)| match b {
+                Row::Eq(_) => (b, w),
+                _ => (b, w.max(0.0)),
+            })
+            .collect();
         let mut resid = vec![0.0; n];
         let mut mag = vec![0.0; n];
         let (mut rhs, mut rhs_mag) = (0.0, 0.0);
@@ -401,13 +416,126 @@ impl Polytope {
         rhs + gamma(k) * rhs_mag + slack < 0.0
     }
 
+    /// The same proof in exact rational arithmetic ([`crate::exact`]), for a nearly empty
+    /// polytope whose float combination is lost in its own rounding: the entering row with
+    /// weight 1 and the basis rows with weights that solve `G_Bᵀ v = g_enter` exactly.
+    fn farkas_proves_exactly(&self, basis: &[Row], enter: Row) -> bool {
+        self.farkas_exact(&[(enter, 1.0)], basis)
+    }
+
+    /// Whether rows `fixed` with their (float, taken as exact) weights, completed by `basis`
+    /// rows whose weights cancel their combination **exactly** (`G_Bᵀ w_B = -Σ w_i g_i` solved
+    /// in rationals), prove that no θ satisfies the rows: every inequality weight `>= 0` and
+    /// the combined right-hand side `< 0`, both exactly. The combination of the left-hand
+    /// sides is then exactly zero, so the rows imply `0 <= Σ w h < 0`.
+    fn farkas_exact(&self, fixed: &[(Row, f64)], basis: &[Row]) -> bool {
+        use crate::exact::{rational, solve_rational};
+        let n = self.n;
+        if basis.len() != n
+            || fixed
+                .iter()
+                .any(|&(r, w)| !matches!(r, Row::Eq(_)) && w < 0.0)
+        {
+            return false;
+        }
+        let mut rhs = vec![num_rational::BigRational::from_integer(0.into()); n];
+        let mut total = num_rational::BigRational::from_integer(0.into());
+        for &(r, w) in fixed {
+            if w == 0.0 {
+                continue;
+            }
+            let (g, h) = self.row(r);
+            let (Some(w), Some(h)) = (rational(w), rational(h)) else {
+                return false;
+            };
+            for k in 0..n {
+                if g[k] != 0.0 {
+                    rhs[k] -= &w * rational(g[k]).expect("finite row");
+                }
+            }
+            total += w * h;
+        }
+        let rows: Vec<(Vec<f64>, f64)> = basis.iter().map(|&b| self.row(b)).collect();
+        // Column i of the system is basis row i.
+        let a: Vec<Vec<f64>> = (0..n)
+            .map(|k| rows.iter().map(|(g, _)| g[k]).collect())
+            .collect();
+        let Some(wb) = solve_rational(&a, rhs) else {
+            return false;
+        };
+        for ((&b, wi), (_, hi)) in basis.iter().zip(wb).zip(&rows) {
+            if !matches!(b, Row::Eq(_)) && wi.is_negative() {
+                return false;
+            }
+            let Some(h) = rational(*hi) else {
+                return false;
+            };
+            total += wi * h;
+        }
+        total.is_negative()
+    }
+
+    /// Whether an interior-point Farkas vector proves the polytope empty: as it is (floats,
+    /// over the artificial box), or through the `n + 1` rows it weighs most, combined exactly
+    /// ([`Self::farkas_proves_exactly`] with each of them in turn as the entering row; an
+    /// emptiness in `R^n` always has a proof on at most `n + 1` rows).
+    fn farkas_multipliers_prove(&self, weights: &[(Row, f64)]) -> bool {
+        if self.farkas_weights_prove(weights) {
+            return true;
+        }
+        // The weights clamped as the certificate reads them; the `n` heaviest independent
+        // rows absorb the residual exactly.
+        let w: Vec<(Row, f64)> = weights
+            .iter()
+            .map(|&(r, w)| match r {
+                Row::Eq(_) => (r, w),
+                _ => (r, w.max(0.0)),
+            })
+            .collect();
+        let mut order: Vec<usize> = (0..w.len()).filter(|&i| w[i].1 != 0.0).collect();
+        order.sort_by(|&a, &b| w[b].1.abs().total_cmp(&w[a].1.abs()));
+        let mut basis: Vec<usize> = Vec::with_capacity(self.n);
+        let mut span: Vec<Vec<f64>> = Vec::new();
+        for &i in &order {
+            if basis.len() == self.n {
+                break;
+            }
+            // Gram-Schmidt: keep the row when it adds a direction.
+            let (mut g, _) = self.row(w[i].0);
+            let norm0 = g.iter().map(|v| v * v).sum::<f64>().sqrt();
+            for q in &span {
+                let d: f64 = g.iter().zip(q).map(|(a, b)| a * b).sum();
+                g.iter_mut().zip(q).for_each(|(a, b)| *a -= d * b);
+            }
+            let norm = g.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if norm > 1e-9 * norm0 {
+                g.iter_mut().for_each(|v| *v /= norm);
+                span.push(g);
+                basis.push(i);
+            }
+        }
+        let fixed: Vec<(Row, f64)> = (0..w.len())
+            .filter(|i| !basis.contains(i))
+            .map(|i| w[i])
+            .collect();
+        let basis_rows: Vec<Row> = basis.iter().map(|&i| w[i].0).collect();
+        self.farkas_exact(&fixed, &basis_rows)
+    }
+
     /// The certified lower bound of `min c·θ` from an optimal basis.
     fn certify(&self, basis: &[Row], u: &[f64], c: &[f64]) -> Certificate {
+        let weights: Vec<(Row, f64)> = basis.iter().copied().zip(u.iter().copied()).collect();
+        self.certify_weights(&weights, c)
+    }
+
+    /// The certified lower bound of `min c·θ` from multipliers on any rows (weak duality:
+    /// inequalities clamped at `>= 0`, box rows dropped; the residual is carried).
+    fn certify_weights(&self, weights: &[(Row, f64)], c: &[f64]) -> Certificate {
         let n = self.n;
         let mut resid: Vec<f64> = c.to_vec();
         let mut mag: Vec<f64> = c.iter().map(|v| v.abs()).collect();
         let (mut dual, mut dual_mag) = (0.0, 0.0);
-        for (&b, &ub) in basis.iter().zip(u) {
+        for &(b, ub) in weights {
             let (g, h) = self.row(b);
             let w = match b {
                 Row::Eq(_) => ub,
@@ -415,6 +543,9 @@ impl Polytope {
                 // Box rows carry no multiplier at an optimum that is not unbounded.
                 Row::Box(..) => 0.0,
             };
+            if w == 0.0 {
+                continue;
+            }
             for k in 0..n {
                 resid[k] += w * g[k];
                 mag[k] += (w * g[k]).abs();
@@ -422,7 +553,7 @@ impl Polytope {
             dual -= w * h;
             dual_mag += (w * h).abs();
         }
-        let k = basis.len() + 1;
+        let k = weights.len() + 1;
         Certificate {
             value: dual - gamma(k) * dual_mag,
             resid: (0..n).map(|j| resid[j].abs() + gamma(k) * mag[j]).collect(),
@@ -452,6 +583,13 @@ impl Polytope {
             let lo = pair.pop().expect("two sides");
             certs.push([lo, hi]);
         }
+        Ok(Self::bounds_from(&certs).map(LpOutcome::Bounds))
+    }
+
+    /// The guaranteed bounds that a lower and an upper certificate per coordinate give
+    /// together; `None` when their residuals are too large to bound the polytope.
+    fn bounds_from(certs: &[[Certificate; 2]]) -> Option<Vec<Interval>> {
+        let n = certs.len();
         // The box the certificates imply: |θ_k| <= V + ρ max_j |θ_j| for every point.
         let v = certs
             .iter()
@@ -462,11 +600,11 @@ impl Polytope {
             .flat_map(|p| p.iter().map(|c| c.resid.iter().sum::<f64>()))
             .fold(0.0f64, f64::max);
         if !(v.is_finite() && rho < 0.5) {
-            return Ok(None);
+            return None;
         }
         let big = v / (1.0 - rho) * (1.0 + 4.0 * f64::EPSILON);
         let mut out = Vec::with_capacity(n);
-        for [lo, hi] in &certs {
+        for [lo, hi] in certs {
             let dl = lo.resid.iter().sum::<f64>() * big;
             let dh = hi.resid.iter().sum::<f64>() * big;
             let l = lo.value - dl;
@@ -476,7 +614,7 @@ impl Polytope {
                 Interval::new(l.min(h) - round, h.max(l) + round).widen(RESULT_PAD, RESULT_PAD),
             );
         }
-        Ok(Some(LpOutcome::Bounds(out)))
+        Some(out)
     }
 
     /// The optimum of `min c·θ` read at the simplex's optimal vertex: accurate but **not** a
@@ -505,7 +643,7 @@ impl Polytope {
         match self.simplex(&vec![0.0; self.n]) {
             Simplex::Optimal { .. } | Simplex::Unbounded => Ok(true),
             Simplex::Infeasible => Ok(false),
-            Simplex::Unknown => Ok(self.clarabel(None)?.is_some()),
+            Simplex::Unknown => Ok(!matches!(self.clarabel(None)?, Ipm::Empty)),
         }
     }
 
@@ -518,53 +656,61 @@ impl Polytope {
     }
 
     /// Bounds by the interior-point path (good_lp + clarabel), for what the simplex cannot
-    /// conclude.
+    /// conclude. Clarabel's multipliers are certified as the simplex's are (weak duality with
+    /// the residual carried, [`Self::certify_weights`]), so its bounds are certificates too.
     pub fn clarabel_bounds(&self) -> Result<LpOutcome> {
-        let mut out = vec![Interval::entire(); self.n];
+        let mut certs: Vec<[Certificate; 2]> = Vec::with_capacity(self.n);
         for k in 0..self.n {
-            let (lo, s1) = match self.clarabel(Some((k, Sense::Min)))? {
-                Some(v) => v,
-                None => return Ok(LpOutcome::Infeasible),
-            };
-            let (hi, s2) = match self.clarabel(Some((k, Sense::Max)))? {
-                Some(v) => v,
-                None => return Ok(LpOutcome::Infeasible),
-            };
-            let pad = RESULT_PAD * if s1 || s2 { STURDY } else { 1.0 };
-            out[k] = Interval::new(lo.min(hi), hi.max(lo)).widen(pad, pad);
+            let mut pair = Vec::with_capacity(2);
+            for sense in [Sense::Min, Sense::Max] {
+                match self.clarabel(Some((k, sense)))? {
+                    Ipm::Bound(c) => pair.push(c),
+                    Ipm::Empty => return Ok(LpOutcome::Infeasible),
+                    Ipm::Feasible => unreachable!("an objective gives a bound"),
+                }
+            }
+            let hi = pair.pop().expect("two sides");
+            let lo = pair.pop().expect("two sides");
+            certs.push([lo, hi]);
         }
-        Ok(LpOutcome::Bounds(out))
+        Self::bounds_from(&certs)
+            .map(LpOutcome::Bounds)
+            .ok_or_else(|| {
+                SmidError::Solver(
+                    "the interior-point multipliers leave too large a residual to certify a bound"
+                        .into(),
+                )
+            })
     }
 
     /// Solve by clarabel; when it fails numerically, retry once with sturdier settings
-    /// (looser tolerances, more regularisation), relaxing rows and widening the optimum 100
-    /// times more. Returns the optimum and whether the retry was needed.
-    fn clarabel(&self, objective: Option<(usize, Sense)>) -> Result<Option<(f64, bool)>> {
+    /// (looser tolerances, more regularisation, rows relaxed 100 times more: the multipliers
+    /// are certified against the rows as they are, whatever problem produced them).
+    fn clarabel(&self, objective: Option<(usize, Sense)>) -> Result<Ipm> {
         match self.clarabel_once(objective, false) {
             Err(SmidError::Solver(first)) => match self.clarabel_once(objective, true) {
-                Ok(v) => Ok(v.map(|x| (x, true))),
                 Err(SmidError::Solver(second)) => Err(SmidError::Solver(format!(
                     "{first}; retried with sturdier settings: {second}"
                 ))),
-                Err(e) => Err(e),
+                other => other,
             },
-            other => other.map(|v| v.map(|x| (x, false))),
+            other => other,
         }
     }
 
-    fn clarabel_once(
-        &self,
-        objective: Option<(usize, Sense)>,
-        sturdy: bool,
-    ) -> Result<Option<f64>> {
+    fn clarabel_once(&self, objective: Option<(usize, Sense)>, sturdy: bool) -> Result<Ipm> {
+        use clarabel::solver::{IPSolver, SolverStatus as S};
         let scale = if sturdy { STURDY } else { 1.0 };
         let mut vars = ProblemVariables::new();
         let th: Vec<Variable> = (0..self.n).map(|_| vars.add(good_lp::variable())).collect();
-        let obj: Expression = match objective {
-            Some((k, Sense::Min)) => th[k].into(),
-            Some((k, Sense::Max)) => -Expression::from(th[k]),
-            None => Expression::from(0.0),
-        };
+        let mut c = vec![0.0; self.n];
+        if let Some((k, sense)) = objective {
+            c[k] = match sense {
+                Sense::Min => 1.0,
+                Sense::Max => -1.0,
+            };
+        }
+        let obj: Expression = c.iter().zip(&th).map(|(ck, v)| *ck * *v).sum();
         let lin = |coefs: &[f64]| -> Expression {
             coefs
                 .iter()
@@ -587,35 +733,65 @@ impl Polytope {
                 .static_regularization_constant(1e-7)
                 .equilibrate_max_iter(50);
         }
+        // Rows in order: the inequalities, then the equalities (clarabel's `z` follows them).
         for i in 0..self.rows() {
             problem = problem.with(lin(self.grow(i)).leq(self.hp(i, scale)));
         }
         for j in 0..self.f.len() {
             problem = problem.with(lin(self.erow(j)).eq(self.f[j]));
         }
-        match problem.solve() {
-            Ok(sol) => {
-                use clarabel::solver::SolverStatus as S;
-                match sol.inner().status {
-                    S::Solved | S::AlmostSolved => {}
-                    S::DualInfeasible | S::AlmostDualInfeasible => {
-                        return Err(unbounded(objective.map_or(0, |(k, _)| k)))
-                    }
-                    other => {
-                        return Err(SmidError::Solver(format!(
-                            "clarabel stopped with status {other:?}"
-                        )))
-                    }
+        let mut solver = problem
+            .try_into_solver()
+            .map_err(|e| SmidError::Solver(e.to_string()))?;
+        solver.solve();
+        let sol = &solver.solution;
+        let m = self.rows();
+        let weights = || -> Vec<(Row, f64)> {
+            (0..m)
+                .map(|i| (Row::Data(i), sol.z[i]))
+                .chain((0..self.f.len()).map(|j| (Row::Eq(j), sol.z[m + j])))
+                .collect()
+        };
+        if sol.z.len() != m + self.f.len() {
+            return Err(SmidError::Solver(format!(
+                "clarabel returned {} multipliers for {} rows",
+                sol.z.len(),
+                m + self.f.len()
+            )));
+        }
+        match sol.status {
+            S::Solved | S::AlmostSolved => Ok(match objective {
+                None => Ipm::Feasible,
+                Some(_) => Ipm::Bound(self.certify_weights(&weights(), &c)),
+            }),
+            S::PrimalInfeasible | S::AlmostPrimalInfeasible => {
+                if self.farkas_multipliers_prove(&weights()) {
+                    Ok(Ipm::Empty)
+                } else {
+                    Err(SmidError::Solver(format!(
+                        "clarabel stopped with status {:?} but its multipliers do not prove the polytope empty",
+                        sol.status
+                    )))
                 }
-                Ok(Some(match objective {
-                    Some((k, _)) => sol.value(th[k]),
-                    None => 0.0,
-                }))
             }
-            Err(ResolutionError::Infeasible) => Ok(None),
-            Err(e) => Err(SmidError::Solver(e.to_string())),
+            S::DualInfeasible | S::AlmostDualInfeasible => {
+                Err(unbounded(objective.map_or(0, |(k, _)| k)))
+            }
+            other => Err(SmidError::Solver(format!(
+                "clarabel stopped with status {other:?}"
+            ))),
         }
     }
+}
+
+/// What the interior-point path concluded.
+enum Ipm {
+    /// A certified side of the objective.
+    Bound(Certificate),
+    /// Solved without an objective (feasibility): nothing proven empty.
+    Feasible,
+    /// Emptiness proven by clarabel's Farkas multipliers.
+    Empty,
 }
 
 fn norm1(c: &[f64]) -> f64 {
@@ -633,6 +809,26 @@ fn unbounded(k: usize) -> SmidError {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// An interval emptier than the rounding of the float certificate (`1 <= x <= 1 - 1e-7`
+    /// after padding: the float combination's slack over the artificial box is about 1e-6):
+    /// only the exact combination proves it empty, and the simplex does so without the
+    /// interior-point path.
+    #[test]
+    fn a_nearly_empty_polytope_is_proven_empty_exactly() {
+        let mut p = Polytope::new(1);
+        p.push_le(&[1.0], 1.0, 0);
+        p.push_le(&[-1.0], -(1.0 + 1e-7), 1);
+        assert!(matches!(p.simplex(&[0.0]), Simplex::Infeasible));
+        assert!(matches!(p.simplex(&[1.0]), Simplex::Infeasible));
+        assert_eq!(p.bound().unwrap(), LpOutcome::Infeasible);
+        assert!(!p.feasible().unwrap());
+        // Just inside (a gap the padding closes): not empty, and bounded around 1.
+        let mut q = Polytope::new(1);
+        q.push_le(&[1.0], 1.0, 0);
+        q.push_le(&[-1.0], -(1.0 + 1e-10), 1);
+        assert!(q.feasible().unwrap());
+    }
 
     fn tri() -> Polytope {
         // 0 <= x, y <= 1, x + y <= 1.5, x - y = 0
@@ -715,6 +911,7 @@ mod tests {
             };
             for k in 0..n {
                 prop_assert!(s[k].contains(x0[k]), "{:?} misses {}", s[k], x0[k]);
+                prop_assert!(c[k].contains(x0[k]), "clarabel {:?} misses {}", c[k], x0[k]);
                 let tol = 1e-6 * (1.0 + c[k].lo.abs().max(c[k].hi.abs()));
                 prop_assert!((s[k].lo - c[k].lo).abs() < tol && (s[k].hi - c[k].hi).abs() < tol,
                     "θ{}: simplex {:?} clarabel {:?}", k, s[k], c[k]);
@@ -726,6 +923,9 @@ mod tests {
             prop_assert!(matches!(p.simplex(&vec![0.0; n]), Simplex::Infeasible));
             prop_assert!(!p.feasible().unwrap());
             prop_assert_eq!(p.bound().unwrap(), LpOutcome::Infeasible);
+            // Clarabel's emptiness is proven by its Farkas multipliers too.
+            prop_assert!(matches!(p.clarabel(None).unwrap(), Ipm::Empty));
+            prop_assert_eq!(p.clarabel_bounds().unwrap(), LpOutcome::Infeasible);
         }
     }
 }
