@@ -123,6 +123,7 @@ impl Trial {
                 output: Vec::new(),
                 effects: Vec::new(),
                 prior: Default::default(),
+                stable: false,
             },
             method: MethodSpec::default(),
         }
@@ -144,6 +145,8 @@ pub fn any_record(spec: &mut Spec, truth: &[(String, f64)], seed: u64) {
     spec.experiment.steady_state.skip = true;
     spec.experiment.dynamic.length = 400;
     spec.method.eiv = smid_core::spec::EivMethod::Classical;
+    // The random linear blocks are stable, and the spec says so (`model.stable`).
+    spec.model.stable = true;
     for (name, v) in truth {
         let w = v.abs().max(0.05) * rng.gen_range(0.2..1.0);
         let f: f64 = rng.gen_range(0.0..1.0);

@@ -186,6 +186,7 @@ impl PluginTrial {
                 output: Vec::new(),
                 effects: Vec::new(),
                 prior: Default::default(),
+                stable: false,
             },
             method: MethodSpec::default(),
         };

@@ -48,6 +48,9 @@ pub struct Layout {
     /// The chain's blocks besides the nonlinearity (`model.input`, then `model.output`), each
     /// with its slice of `ψ` (see [`crate::chain`]).
     pub blocks: Vec<BlockLayout>,
+    /// The prior box of `θ` every stage-3 method starts inside (`model.stable`: each `a_i`
+    /// within `±C(na, i)`); `None`: the whole space.
+    pub theta_prior: Option<Vec<Interval>>,
 }
 
 impl Layout {
@@ -244,6 +247,9 @@ impl ModelSpec {
             }
             fixed[i] = Some(*v);
         }
+        let theta_prior = self
+            .stable
+            .then(|| crate::stage3::stable_prior(orders.na, theta_names.len()));
         Ok(Layout {
             orders,
             theta_names,
@@ -253,6 +259,7 @@ impl ModelSpec {
             nonlinearity_cells,
             effect_cells,
             blocks,
+            theta_prior,
         })
     }
 

@@ -396,6 +396,12 @@ pub struct ModelSpec {
     /// Impose the unit steady-state gain of eq (8).
     #[serde(default = "d_true")]
     pub unit_gain: bool,
+    /// The linear block is declared **stable** (every root of `A(q)` inside the closed unit
+    /// disc): each `a_i` then lies within `±C(na, i)`, a box every stage-3 method starts from.
+    /// It cuts off the unstable explanations a poorly exciting record leaves open (an
+    /// otherwise unbounded `θ`). An assumption: the bounds are guaranteed for stable plants.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub stable: bool,
     /// Effects: further terms of the model (delay, actuator lag, sensor offset or drift,
     /// friction...), each a registered `type`; their values are identified, not given.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

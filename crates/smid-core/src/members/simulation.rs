@@ -257,7 +257,10 @@ impl<'s> Search<'s> {
     }
 
     /// The stage-3 problem of signals at a point of a cell.
-    fn problem<'p>(&self, sig: &'p crate::pipeline::StageSignals) -> crate::stage3::EivProblem<'p> {
+    fn problem<'p>(&self, sig: &'p crate::pipeline::StageSignals) -> crate::stage3::EivProblem<'p>
+    where
+        's: 'p,
+    {
         crate::pipeline::eiv_problem(&self.set.model, self.layout, &self.set.method, sig, None)
     }
 

@@ -263,7 +263,7 @@ pub fn stage2(
 /// The stage-3 problem of stage-2 signals, with an optional prior box on `θ`.
 pub fn eiv_problem<'a>(
     model: &ModelSpec,
-    layout: &Layout,
+    layout: &'a Layout,
     method: &MethodSpec,
     sig: &'a StageSignals,
     prior: Option<&'a [Interval]>,
@@ -276,7 +276,7 @@ pub fn eiv_problem<'a>(
         output: &sig.output,
         input: &sig.input,
         extra: &sig.extra,
-        prior,
+        prior: prior.or(layout.theta_prior.as_deref()),
         use_band_samples: method.use_band_samples(),
     }
 }

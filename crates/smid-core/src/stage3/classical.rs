@@ -423,6 +423,43 @@ mod tests {
         }
     }
 
+    /// Inner intervals so wide that unstable explanations fit: θ is unbounded, until the block
+    /// is declared stable; then every bound is finite, holds the truth, and each `a_i` lies in
+    /// `±C(na, i)`.
+    #[test]
+    fn a_declared_stable_block_bounds_what_wide_data_leave_open() {
+        let prior = crate::stage3::stable_prior(2, 5);
+        assert_eq!(prior[0], Interval::new(-2.0, 2.0));
+        assert_eq!(prior[1], Interval::new(-1.0, 1.0));
+        assert!(!prior[2].is_finite());
+        for seed in 0..4u64 {
+            let (m, out, input) = random_case(seed, 60);
+            let wide: Vec<InnerBound> = out
+                .iter()
+                .map(|b| InnerBound {
+                    interval: Interval::new(b.interval.lo - 3.0, b.interval.hi + 3.0),
+                    kind: b.kind,
+                })
+                .collect();
+            let open = problem(&wide, &input, false);
+            assert!(
+                matches!(solve(&open), Err(SmidError::Unbounded { .. })),
+                "seed {seed}: {:?}",
+                solve(&open)
+            );
+            let mut stable = problem(&wide, &input, false);
+            stable.prior = Some(&prior);
+            let r = solve(&stable).unwrap();
+            for (k, (b, t)) in r.bounds.iter().zip(truth(&m)).enumerate() {
+                assert!(
+                    b.is_finite() && b.contains(t),
+                    "seed {seed} θ{k}: {b:?} vs {t}"
+                );
+                assert!(prior[k].lo <= b.lo && b.hi <= prior[k].hi, "{b:?}");
+            }
+        }
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig { cases: 8, .. ProptestConfig::default() })]
         #[test]

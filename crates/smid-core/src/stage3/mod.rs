@@ -84,6 +84,19 @@ pub struct EivResult {
 }
 
 /// Parameter names in θ order: `a1..a_na, b0..b_nb`.
+/// The prior box of a **stable** linear block over `p` θ entries (`a1..a_na` first): a stable
+/// `A(q) = Π (1 - r_j q⁻¹)`, every `|r_j| <= 1`, has `|a_i| <= C(na, i)`; the other entries
+/// are free.
+pub fn stable_prior(na: usize, p: usize) -> Vec<Interval> {
+    let mut out = vec![Interval::entire(); p.max(na)];
+    let mut binom = 1.0f64;
+    for i in 1..=na {
+        binom = binom * (na + 1 - i) as f64 / i as f64;
+        out[i - 1] = Interval::new(-binom, binom);
+    }
+    out
+}
+
 pub fn theta_names(na: usize, nb: usize) -> Vec<String> {
     (1..=na)
         .map(|i| format!("a{i}"))
