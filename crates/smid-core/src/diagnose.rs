@@ -379,7 +379,9 @@ fn try_candidates(
     cands
         .par_iter_mut()
         .map(|(m, ev)| {
+            let start = std::time::Instant::now();
             let (t, id) = try_model(spec, m, training);
+            log::info!(target: "smid::diagnose", "{}: {:.2} s", ev.label, start.elapsed().as_secs_f64());
             ev.train = t;
             progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
             id.map(|id| id.model)
@@ -747,6 +749,13 @@ pub struct Column {
 /// failing and the first passing of doubled bounds (relative resolution 2 %, at most 40
 /// identifications).
 pub fn identify_consistent(spec: &Spec, data: &ExperimentData) -> Result<(Identification, bool)> {
+    let start = std::time::Instant::now();
+    let r = identify_consistent_at(spec, data);
+    log::info!(target: "smid::diagnose", "smallest consistent bound of {}: {:.2} s", label_of(&spec.model), start.elapsed().as_secs_f64());
+    r
+}
+
+fn identify_consistent_at(spec: &Spec, data: &ExperimentData) -> Result<(Identification, bool)> {
     match identify(spec, data.clone(), &[]) {
         Ok(id) => return Ok((id, false)),
         Err(SmidError::Inconsistent { .. }) => {}
@@ -756,7 +765,9 @@ pub fn identify_consistent(spec: &Spec, data: &ExperimentData) -> Result<(Identi
     let at = |d: f64| -> Result<Option<Identification>> {
         let mut v = serde_json::to_value(spec).expect("specs serialise");
         v["noise"] = serde_json::json!({ "delta": d, "simulate": spec.noise.simulated()? });
-        let s: Spec = serde_json::from_value(v).expect("a serialised spec deserialises");
+        let mut s: Spec = serde_json::from_value(v).expect("a serialised spec deserialises");
+        // Only the bound finally kept needs its simulation member (computed below).
+        s.method.member.search = false;
         let mut d2 = data.clone();
         for r in &mut d2.records {
             *r = r.with_bound(d);
@@ -812,6 +823,8 @@ pub fn identify_consistent(spec: &Spec, data: &ExperimentData) -> Result<(Identi
             None => lo = mid,
         }
     }
+    best.model.simulation_member =
+        crate::members::simulation_member(&best.model, &spec.method.member)?;
     Ok((best, true))
 }
 

@@ -529,9 +529,12 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
         }
     }
     spaces.sort_by(|a, b| a.0.total_cmp(&b.0));
+    log::debug!(target: "smid::members", "probed {} cell(s): {} evaluations", spaces.len(), search.evaluations.get());
     let mut best: Option<(f64, SimulationMember)> = None;
     for (_, sp) in spaces.iter().take(opts.cells.max(1)) {
-        if let Some((e2, m)) = search.search(sp, opts) {
+        let found = search.search(sp, opts);
+        log::debug!(target: "smid::members", "cell {}: {} after {} evaluations", sp.k, if found.is_some() { "certified member" } else { "nothing certified" }, search.evaluations.get());
+        if let Some((e2, m)) = found {
             if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
                 best = Some((e2, m));
             }
