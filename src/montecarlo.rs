@@ -332,7 +332,7 @@ impl Trial {
     }
 
     /// Run `spec` on this trial's plant.
-    fn run_spec(&self, spec: &Spec) -> Result<Identification> {
+    pub fn run_spec(&self, spec: &Spec) -> Result<Identification> {
         let mut plant = SimulatedPlant {
             linear: self.linear.clone(),
             nonlinearity: &self.backlash,
@@ -351,13 +351,19 @@ impl Trial {
     /// around the truth ([`any_record`]); stage 3 by `method` (default
     /// classical).
     pub fn run_any(&self, method: Option<smid_core::spec::EivMethod>) -> Result<Identification> {
-        use smid_core::nonlinearity::Nonlinearity;
-        let mut spec = self.spec();
-        any_record(&mut spec, &self.backlash.parameters(), self.seed);
+        let mut spec = self.any_spec();
         if let Some(m) = method {
             spec.method.eiv = m;
         }
         self.run_spec(&spec)
+    }
+
+    /// This trial's spec from one dynamic record ([`any_record`]).
+    pub fn any_spec(&self) -> Spec {
+        use smid_core::nonlinearity::Nonlinearity;
+        let mut spec = self.spec();
+        any_record(&mut spec, &self.backlash.parameters(), self.seed);
+        spec
     }
 }
 

@@ -227,6 +227,14 @@ class ModelSet:
         out["values"] = {n: float(v) for n, v in m["values"]}
         return out
 
+    @property
+    def unbounded_cells(self) -> List[Dict[str, Any]]:
+        """Cells of the bisected parameters left without a finite θ bound when the
+        branch and bound's refinement budget was spent (``cell``, ``cause``: ``unbounded`` or
+        ``solver``, ``detail``); when any, every θ bound is infinite and the bisected
+        parameters' bounds still hold. Empty for a fully bounded set."""
+        return [dict(c) for c in self.model.get("search", {}).get("unbounded", [])]
+
     def validate(self, records: RecordsLike, *, k: int = 5) -> "Validation":
         """See :func:`validate`."""
         return validate(self, records, k=k)

@@ -192,6 +192,7 @@ def test_the_simulation_member_is_certified_inside_the_bounds_and_used(tmp_path)
         r = smid.identify(spec)
         m = r.model.simulation_member
         assert m is not None, spec
+        assert r.model.unbounded_cells == [], spec
         assert m["consistency"] < 0
         b = r.bounds()
         inside = [n for n, v in m["values"].items() if n in b and b[n][0] <= v <= b[n][1]]

@@ -211,7 +211,8 @@ impl LpSolver {
                     Optimum::Unknown
                 }
             }
-            SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+            // Only a full infeasibility certificate discards; "almost" is no proof.
+            SolverStatus::PrimalInfeasible => {
                 self.infeasible = true;
                 Optimum::Infeasible
             }
