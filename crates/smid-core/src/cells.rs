@@ -28,8 +28,27 @@ pub enum Verdict<T> {
     /// The cell may hold consistent parameters; `T` holds guaranteed results over the cell.
     Feasible(T),
     /// The cell may hold consistent parameters but the results are not finite (stage 3 did
-    /// not bound a parameter, or a solver failed; the string says which): refined, else kept.
-    Undecided(String),
+    /// not bound a parameter, or a solver failed; the detail says where): refined, else kept.
+    Undecided(UndecidedCause, String),
+}
+
+/// Why a cell stayed undecided.
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize, PartialEq, Eq, Hash)]
+#[serde(rename_all = "snake_case")]
+pub enum UndecidedCause {
+    /// Stage 3 found no finite bound of `θ` over the cell.
+    Unbounded,
+    /// Every solver path failed on the cell's LPs.
+    Solver,
+}
+
+impl UndecidedCause {
+    pub fn label(self) -> &'static str {
+        match self {
+            UndecidedCause::Unbounded => "stage 3 unbounded over a cell",
+            UndecidedCause::Solver => "LP solver failure on a cell",
+        }
+    }
 }
 
 /// Largest accepted `method.cells.depth` (halvings per parameter; 2^-60 of a prior box is
@@ -58,8 +77,8 @@ pub struct Leaf<T> {
     pub cell: Vec<Interval>,
     /// The result over this cell (`None`: undecided).
     pub value: Option<T>,
-    /// Why the cell is undecided (`None` when it has a value).
-    pub cause: Option<String>,
+    /// Why the cell is undecided, and the detail (`None` when it has a value).
+    pub cause: Option<(UndecidedCause, String)>,
 }
 
 /// The outcome of the search.
@@ -257,7 +276,7 @@ pub fn search<T: Send + Sync>(
     while !round.is_empty() {
         let done: Vec<Result<Verdict<T>>> = round.par_iter().map(|(c, _)| finish(c)).collect();
         evaluated += round.len();
-        let mut undecided: Vec<(Vec<Interval>, Vec<u32>, String)> = Vec::new();
+        let mut undecided: Vec<(Vec<Interval>, Vec<u32>, (UndecidedCause, String))> = Vec::new();
         for ((cell, depth), v) in round.into_iter().zip(done) {
             match v? {
                 Verdict::Infeasible(e) => {
@@ -269,7 +288,7 @@ pub fn search<T: Send + Sync>(
                     value: Some(t),
                     cause: None,
                 }),
-                Verdict::Undecided(why) => undecided.push((cell, depth, why)),
+                Verdict::Undecided(cause, detail) => undecided.push((cell, depth, (cause, detail))),
             }
         }
         // Refine the undecided cells while the second budget lasts: both halves or none.
@@ -422,7 +441,7 @@ mod tests {
     fn undecided_cells_are_refined_within_the_budget() {
         let eval = |c: &[Interval]| -> Result<Verdict<f64>> {
             Ok(if c[0].contains(0.5) && c[0].hi - c[0].lo > 1.0 / 32.0 {
-                Verdict::Undecided("too wide".into())
+                Verdict::Undecided(UndecidedCause::Unbounded, "too wide".into())
             } else {
                 Verdict::Feasible(c[0].lo)
             })
@@ -448,10 +467,8 @@ mod tests {
             assert!(s.leaves.iter().any(|l| l.cell[0].contains(x)), "{x}");
         }
         let tight = search(&prior, budget(2), &test, &eval, &|_| {}).unwrap();
-        assert!(tight
-            .leaves
-            .iter()
-            .any(|l| l.value.is_none() && l.cause.as_deref() == Some("too wide")));
+        assert!(tight.leaves.iter().any(|l| l.value.is_none()
+            && l.cause == Some((UndecidedCause::Unbounded, "too wide".into()))));
         assert_eq!(tight.hull(), vec![Interval::new(0.0, 1.0)]);
     }
 

@@ -389,13 +389,7 @@ impl Polytope {
     /// rounding of the sums and its residual over the box, is negative.
     fn farkas_weights_prove(&self, weights: &[(Row, f64)]) -> bool {
         let n = self.n;
-        let weights: Vec<(Row, f64)> = weights
-            .iter()
-            .map(|&(b, w)| match b {
-                Row::Eq(_) => (b, w),
-                _ => (b, w.max(0.0)),
-            })
-            .collect();
+        let weights = clamped(weights);
         let mut resid = vec![0.0; n];
         let mut mag = vec![0.0; n];
         let (mut rhs, mut rhs_mag) = (0.0, 0.0);
@@ -485,13 +479,7 @@ impl Polytope {
         }
         // The weights clamped as the certificate reads them; the `n` heaviest independent
         // rows absorb the residual exactly.
-        let w: Vec<(Row, f64)> = weights
-            .iter()
-            .map(|&(r, w)| match r {
-                Row::Eq(_) => (r, w),
-                _ => (r, w.max(0.0)),
-            })
-            .collect();
+        let w = clamped(weights);
         let mut order: Vec<usize> = (0..w.len()).filter(|&i| w[i].1 != 0.0).collect();
         order.sort_by(|&a, &b| w[b].1.abs().total_cmp(&w[a].1.abs()));
         let mut basis: Vec<usize> = Vec::with_capacity(self.n);
@@ -792,6 +780,18 @@ enum Ipm {
     Feasible,
     /// Emptiness proven by clarabel's Farkas multipliers.
     Empty,
+}
+
+/// Multipliers as a certificate may use them: an inequality's (data or box row) clamped at
+/// `>= 0`, an equality's of either sign.
+fn clamped(weights: &[(Row, f64)]) -> Vec<(Row, f64)> {
+    weights
+        .iter()
+        .map(|&(r, w)| match r {
+            Row::Eq(_) => (r, w),
+            _ => (r, w.max(0.0)),
+        })
+        .collect()
 }
 
 fn norm1(c: &[f64]) -> f64 {

@@ -528,38 +528,7 @@ pub struct UnboundedCell {
     pub detail: String,
 }
 
-/// Why a cell stayed undecided.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Hash)]
-#[serde(rename_all = "snake_case")]
-pub enum UndecidedCause {
-    /// Stage 3 found no finite bound of `θ` over the cell.
-    Unbounded,
-    /// Every solver path failed on the cell's LPs.
-    Solver,
-}
-
-/// The prefix of an undecided cell's cause from a solver failure.
-pub const CAUSE_SOLVER: &str = "solver failure";
-/// The prefix of an undecided cell's cause from an unbounded stage 3.
-pub const CAUSE_UNBOUNDED: &str = "unbounded";
-
-impl UndecidedCause {
-    /// The cause named by a cell's detail (see [`CAUSE_SOLVER`]).
-    pub fn of(detail: &str) -> UndecidedCause {
-        if detail.starts_with(CAUSE_SOLVER) {
-            UndecidedCause::Solver
-        } else {
-            UndecidedCause::Unbounded
-        }
-    }
-
-    pub fn label(self) -> &'static str {
-        match self {
-            UndecidedCause::Unbounded => "stage 3 unbounded over a cell",
-            UndecidedCause::Solver => "LP solver failure on a cell",
-        }
-    }
-}
+pub use crate::cells::UndecidedCause;
 
 impl ModelSet {
     /// A copy (trait objects inside): a round trip through its serialised form.

@@ -224,10 +224,12 @@ pub fn identify_with(
         match leaf.value {
             Some(c) => kept.push(c),
             None => {
-                let detail = leaf.cause.unwrap_or_default();
+                let (cause, detail) = leaf
+                    .cause
+                    .unwrap_or((UndecidedCause::Unbounded, String::new()));
                 summary.unbounded.push(UnboundedCell {
                     cell: fmt_cell(&layout, &leaf.cell),
-                    cause: UndecidedCause::of(&detail),
+                    cause,
                     detail,
                 });
                 kept.push(CellSet {

@@ -358,7 +358,7 @@ pub fn evaluate_cell(
         Ok(c) => Ok(Verdict::Feasible(c)),
         Err(e @ SmidError::Inconsistent { .. }) if bisected => Ok(Verdict::Infeasible(e)),
         Err(e @ (SmidError::Unbounded { .. } | SmidError::Solver(_))) if bisected => {
-            Ok(Verdict::Undecided(undecided_cause(&e)))
+            Ok(undecided(&e))
         }
         Err(e) => Err(e),
     }
@@ -391,17 +391,16 @@ pub fn test_cell(
         Ok(()) => Ok(Verdict::Feasible(())),
         Err(e @ SmidError::Inconsistent { .. }) => Ok(Verdict::Infeasible(e)),
         // Nothing proven: the cell is kept (a solver failure never discards one).
-        Err(e @ (SmidError::Unbounded { .. } | SmidError::Solver(_))) => {
-            Ok(Verdict::Undecided(undecided_cause(&e)))
-        }
+        Err(e @ (SmidError::Unbounded { .. } | SmidError::Solver(_))) => Ok(undecided(&e)),
         Err(e) => Err(e),
     }
 }
 
-/// The cause of an undecided cell, as [`crate::model::SearchSummary`] counts it.
-fn undecided_cause(e: &SmidError) -> String {
+/// An undecided cell's verdict from the error that left it undecided.
+fn undecided<T>(e: &SmidError) -> Verdict<T> {
+    use crate::cells::UndecidedCause;
     match e {
-        SmidError::Solver(m) => format!("{}: {m}", crate::model::CAUSE_SOLVER),
-        other => format!("{}: {other}", crate::model::CAUSE_UNBOUNDED),
+        SmidError::Solver(m) => Verdict::Undecided(UndecidedCause::Solver, m.clone()),
+        other => Verdict::Undecided(UndecidedCause::Unbounded, other.to_string()),
     }
 }
