@@ -10,6 +10,7 @@
 //! system with output backlash" (`../shared/paper/output-backlash-paper.md`).
 #![forbid(unsafe_code)]
 
+pub mod band;
 pub mod baseline;
 pub mod cells;
 pub mod chain;

@@ -76,6 +76,17 @@ pub enum LpOutcome {
     Infeasible,
 }
 
+/// The range of a linear function over a polytope ([`Polytope::extent`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Extent {
+    /// Guaranteed `[min, max]`.
+    Range(Interval),
+    /// The polytope is empty (proven).
+    Empty,
+    /// The simplex could not conclude (the caller falls back to a coarser bound).
+    Unknown,
+}
+
 #[derive(Clone, Copy)]
 enum Sense {
     Min,
@@ -546,6 +557,41 @@ impl Polytope {
             value: dual - gamma(k) * dual_mag,
             resid: (0..n).map(|j| resid[j].abs() + gamma(k) * mag[j]).collect(),
         }
+    }
+
+    /// Guaranteed range of `c·θ` over the polytope, every point of which lies in the box
+    /// `within` (rows of the polytope, or implied by them): the simplex's certificates for
+    /// `min c·θ` and `min -c·θ` with their residuals carried over `within`, widened by
+    /// [`RESULT_PAD`]. The guaranteed one-step band of [`crate::band`] asks this once per
+    /// sample and side.
+    pub fn extent(&self, c: &[f64], within: &[Interval]) -> Extent {
+        assert_eq!(c.len(), self.n, "objective length");
+        let big: Vec<f64> = within.iter().map(|i| i.lo.abs().max(i.hi.abs())).collect();
+        if big.len() != self.n || big.iter().any(|v| !v.is_finite()) {
+            return Extent::Unknown;
+        }
+        let mut ends = [0.0f64; 2];
+        for (side, sign) in [1.0f64, -1.0].into_iter().enumerate() {
+            let cs: Vec<f64> = c.iter().map(|v| sign * v).collect();
+            match self.simplex(&cs) {
+                Simplex::Optimal { basis, u } => {
+                    let cert = self.certify(&basis, &u, &cs);
+                    let slack: f64 = cert.resid.iter().zip(&big).map(|(r, m)| r * m).sum();
+                    let v = cert.value - slack * (1.0 + gamma(self.n));
+                    if !v.is_finite() {
+                        return Extent::Unknown;
+                    }
+                    ends[side] = sign * v;
+                }
+                Simplex::Infeasible => return Extent::Empty,
+                Simplex::Unbounded | Simplex::Unknown => return Extent::Unknown,
+            }
+        }
+        let (lo, hi) = (ends[0], ends[1]);
+        let round = 4.0 * f64::EPSILON * lo.abs().max(hi.abs());
+        Extent::Range(
+            Interval::new(lo.min(hi) - round, hi.max(lo) + round).widen(RESULT_PAD, RESULT_PAD),
+        )
     }
 
     /// Bounds of every coordinate by the dual simplex: `None` when it cannot conclude.

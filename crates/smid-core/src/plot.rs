@@ -252,14 +252,18 @@ pub struct Line<'a> {
     pub color: (u8, u8, u8),
 }
 
-/// Measured output against model outputs over time, with an optional shaded envelope
-/// `(lower, upper)`: the validation and before/after plots.
-pub fn series_svg(
-    title: &str,
-    lines: &[Line],
-    envelope: Option<(&[f64], &[f64], &str)>,
-    path: &Path,
-) -> Result<()> {
+/// A shaded area between two series (an envelope, a band), drawn under the lines.
+pub struct Shade<'a> {
+    pub label: &'a str,
+    pub lower: &'a [f64],
+    pub upper: &'a [f64],
+    /// RGB colour (drawn translucent).
+    pub color: (u8, u8, u8),
+}
+
+/// Measured output against model outputs over time, with shaded areas (envelopes, bands;
+/// infinite ends are clipped to the plot): the validation and before/after plots.
+pub fn series_svg(title: &str, lines: &[Line], shades: &[Shade], path: &Path) -> Result<()> {
     ensure_font();
     let n = lines
         .iter()
@@ -312,23 +316,26 @@ pub fn series_svg(
         .y_label_formatter(&|v| format!("{v:.d$}"))
         .draw()
         .map_err(|e| plot_err(path, e))?;
-    if let Some((l, u, label)) = envelope {
-        let color = RGBColor(250, 200, 120).mix(0.6);
-        let poly: Vec<(f64, f64)> = l
+    for sh in shades {
+        let color = RGBColor(sh.color.0, sh.color.1, sh.color.2).mix(0.5);
+        let at = |v: f64| if v.is_nan() { y0 } else { clip(v) };
+        let poly: Vec<(f64, f64)> = sh
+            .lower
             .iter()
             .enumerate()
-            .map(|(t, v)| (t as f64, clip(*v)))
+            .map(|(t, v)| (t as f64, at(*v)))
             .chain(
-                u.iter()
+                sh.upper
+                    .iter()
                     .enumerate()
                     .rev()
-                    .map(|(t, v)| (t as f64, clip(*v))),
+                    .map(|(t, v)| (t as f64, if v.is_nan() { y1 } else { clip(*v) })),
             )
             .collect();
         chart
             .draw_series(std::iter::once(Polygon::new(poly, color.filled())))
             .map_err(|e| plot_err(path, e))?
-            .label(label)
+            .label(sh.label)
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 15, y + 5)], color.filled()));
     }
     for l in lines {

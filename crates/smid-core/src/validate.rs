@@ -42,6 +42,8 @@ pub struct Options {
     pub k: usize,
     /// Relative resolution of the smallest consistent bound.
     pub bound_resolution: f64,
+    /// Compute the guaranteed one-step band of the whole set ([`crate::band`]).
+    pub band: bool,
 }
 
 impl Default for Options {
@@ -49,6 +51,7 @@ impl Default for Options {
         Options {
             k: 5,
             bound_resolution: 0.02,
+            band: true,
         }
     }
 }
@@ -188,6 +191,25 @@ pub struct Series {
     pub one_step: Vec<f64>,
     pub k_step: Vec<f64>,
     pub baseline: Option<Vec<f64>>,
+    /// The guaranteed one-step band of the whole set (lower, upper), when computed.
+    pub band: Option<(Vec<f64>, Vec<f64>)>,
+}
+
+/// The guaranteed one-step band over the fresh records ([`crate::band`]), summarised.
+#[derive(Debug, Clone, Serialize)]
+pub struct BandSummary {
+    /// Cells of the set the band is the hull over.
+    pub cells: usize,
+    /// Samples (after the warm start) and those with a finite band.
+    pub samples: usize,
+    pub finite: usize,
+    /// Mean width of the finite band.
+    pub mean_width: f64,
+    /// Samples whose measurement lies outside the band widened by its noise bound: each one
+    /// contradicts the set (a proof, like FALSIFIED).
+    pub outside: usize,
+    /// The first of them, `(record, sample)`.
+    pub first_outside: Option<(usize, usize)>,
 }
 
 /// A whole validation.
@@ -218,6 +240,8 @@ pub struct Validation {
     pub baseline_orders: (usize, usize, usize),
     /// How the envelope was made.
     pub envelope: String,
+    /// The guaranteed one-step band ([`Options::band`]).
+    pub band: Option<BandSummary>,
     pub correlations: Correlations,
     pub warnings: Vec<String>,
     pub parameters: usize,
@@ -530,6 +554,11 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
             m.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y
         });
         let base = arx.as_ref().map(|a| a.simulate_from(&rec.u, &rec.y, w0));
+        let band = if opts.band {
+            Some(crate::band::one_step_band(model, rec)?)
+        } else {
+            None
+        };
         per_record.push((rec.name.clone(), Fit::of(&[(&rec.y[w0..], &free[w0..])])));
         let skip = (w0 + 1).min(n);
         residuals.extend(rec.y[skip..].iter().zip(&one[skip..]).map(|(a, b)| a - b));
@@ -542,8 +571,37 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
             one_step: one,
             k_step: kst,
             baseline: base,
+            band: band.map(|b| (b.lower, b.upper)),
         });
     }
+    let band = opts.band.then(|| {
+        let mut sum = BandSummary {
+            cells: model.cells.len(),
+            samples: 0,
+            finite: 0,
+            mean_width: 0.0,
+            outside: 0,
+            first_outside: None,
+        };
+        let mut width = 0.0;
+        for (r, (s, rec)) in series.iter().zip(&fresh).enumerate() {
+            let Some((lo, hi)) = &s.band else { continue };
+            let w0 = warm.min(s.y.len());
+            for t in w0..s.y.len() {
+                sum.samples += 1;
+                if lo[t].is_finite() && hi[t].is_finite() {
+                    sum.finite += 1;
+                    width += hi[t] - lo[t];
+                }
+                if s.y[t] + rec.dy[t] < lo[t] || s.y[t] - rec.dy[t] > hi[t] {
+                    sum.outside += 1;
+                    sum.first_outside.get_or_insert((r, t));
+                }
+            }
+        }
+        sum.mean_width = width / sum.finite.max(1) as f64;
+        sum
+    });
     let pairs = |f: &dyn Fn(&Series) -> &[f64]| -> Fit {
         let v: Vec<(&[f64], &[f64])> = series
             .iter()
@@ -588,6 +646,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
         baseline,
         baseline_orders: (o.na, o.nb, o.nk),
         envelope,
+        band,
         correlations: correlations(&residuals, &inputs),
         warnings,
         parameters: model.free_parameters().len(),

@@ -220,6 +220,13 @@ impl NonlinearitySet for BacklashSet {
         ]
     }
 
+    /// A play with positive slopes is order-preserving for every member (a larger input
+    /// sequence from the same state never gives a smaller output), and its inversion moves
+    /// up with the output: what the guaranteed one-step band ([`smid_core::band`]) bisects on.
+    fn monotone(&self) -> bool {
+        true
+    }
+
     fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
         check_outputs(y, dy)?;
         let mut out = Vec::with_capacity(y.len());
