@@ -302,7 +302,10 @@ pub fn format_validation(v: &Validation, records: &[Record]) -> String {
         let _ = writeln!(
             s,
             "{}",
-            fit_line(&format!("baseline ARX({na},{nb},{nk}) free run"), b)
+            fit_line(
+                &format!("baseline ARX({na},{nb},{nk})+constant free run"),
+                b
+            )
         );
     }
     if v.per_record.len() > 1 {
@@ -320,6 +323,26 @@ pub fn format_validation(v: &Validation, records: &[Record]) -> String {
         c.cross.len()
     );
     let _ = writeln!(s, "envelope: {}", v.envelope);
+    match &v.band {
+        Some(b) => {
+            let _ = writeln!(
+                s,
+                "guaranteed one-step band (every member of the set, from the past outputs; LP over the θ polytope of each of {} cell(s)): finite at {}/{} samples, mean width {:.4e}; measured outputs outside band ± Δη: {}{}",
+                b.cells,
+                b.finite,
+                b.samples,
+                b.mean_width,
+                b.outside,
+                match b.first_outside {
+                    Some((r, t)) => format!(" (first: record {r}, sample {t}: the set is contradicted there)"),
+                    None => String::new(),
+                }
+            );
+        }
+        None => {
+            let _ = writeln!(s, "guaranteed one-step band: not computed");
+        }
+    }
     if v.warnings.is_empty() {
         let _ = writeln!(s, "warnings: none");
     } else {
@@ -355,7 +378,11 @@ pub fn write_validation(v: &Validation, dir: &Path, prefix: &str) -> Result<Vec<
                 color: (0, 0, 0),
             },
             Line {
-                label: "model, free run (centre)",
+                label: if v.centre_free_run.is_some() {
+                    "model, free run (simulation member)"
+                } else {
+                    "model, free run (central member)"
+                },
                 values: &s.free_run,
                 color: (0, 0, 255),
             },
@@ -370,18 +397,47 @@ pub fn write_validation(v: &Validation, dir: &Path, prefix: &str) -> Result<Vec<
         plot::series_svg(
             &format!("{}: {}", v.model, s.name),
             &lines,
-            Some((
-                &s.envelope.0,
-                &s.envelope.1,
-                if v.envelope.starts_with("certified") {
-                    "envelope of certified members (inner approximation)"
+            &[plot::Shade {
+                label: if v.envelope.starts_with("certified") {
+                    "free runs of certified members (inner approximation of the set's range)"
                 } else {
-                    "envelope of axis members (indicative)"
+                    "free runs of axis members (indicative, not certified)"
                 },
-            )),
+                lower: &s.envelope.0,
+                upper: &s.envelope.1,
+                color: (250, 200, 120),
+            }],
             &path,
         )?;
         out.push(path);
+        // The one-step prediction against the guaranteed band of the whole set.
+        if let Some((lo, hi)) = &s.band {
+            let path = dir.join(format!("{prefix}one_step_{k}.svg"));
+            let lines = [
+                Line {
+                    label: "measured y",
+                    values: &s.y,
+                    color: (0, 0, 0),
+                },
+                Line {
+                    label: "one-step prediction of the member",
+                    values: &s.one_step,
+                    color: (0, 0, 255),
+                },
+            ];
+            plot::series_svg(
+                &format!("{}: {} (one step ahead)", v.model, s.name),
+                &lines,
+                &[plot::Shade {
+                    label: "guaranteed one-step band of the whole set (noise-free output)",
+                    lower: lo,
+                    upper: hi,
+                    color: (120, 170, 250),
+                }],
+                &path,
+            )?;
+            out.push(path);
+        }
     }
     let path = dir.join(format!("{prefix}residual_correlation.svg"));
     plot::correlation_svg(
@@ -607,7 +663,7 @@ pub fn write_diagnosis(
                 color: (0, 150, 0),
             });
         }
-        plot::series_svg(&format!("held-out: {}", b.name), &lines, None, &path)?;
+        plot::series_svg(&format!("held-out: {}", b.name), &lines, &[], &path)?;
         out.push(path);
     }
     if let Some(v) = &after.validation {

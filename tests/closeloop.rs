@@ -325,6 +325,33 @@ fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
             path.display(),
             v.free_run
         );
+        // The guaranteed one-step band holds the plant's noise-free output at every sample,
+        // and is finite at most of them (a band that is everywhere infinite guarantees nothing).
+        for (s, rec) in v.series.iter().zip(&fresh) {
+            let (lo, hi) = s.band.as_ref().expect("validate computes the band");
+            let w = rec
+                .w
+                .as_ref()
+                .expect("a simulated record carries its noise-free output");
+            let mut finite = 0;
+            for t in 0..w.len() {
+                assert!(
+                    lo[t] <= w[t] && w[t] <= hi[t],
+                    "{}: sample {t}: the true output {} is outside the band [{}, {}]",
+                    path.display(),
+                    w[t],
+                    lo[t],
+                    hi[t]
+                );
+                finite += usize::from(lo[t].is_finite() && hi[t].is_finite());
+            }
+            assert!(
+                2 * finite >= w.len(),
+                "{}: the band is finite at {finite}/{} samples",
+                path.display(),
+                w.len()
+            );
+        }
         n += 1;
     }
     assert!(n >= 7, "only {n} examples validated");

@@ -219,7 +219,10 @@ class ModelSet:
     def simulation_member(self) -> Optional[Dict[str, Any]]:
         """The member certified consistent whose free run fits the training records best:
         ``values`` (name -> value), ``training_fit`` and the centre's ``centre_training_fit``
-        (%), ``cell``, ``consistency``; ``None`` when none was certified (the centre stands in)."""
+        (%), ``cell``, ``consistency``, ``certified``. When no point was certified within the
+        search budget it is the best free run within the outer bounds with ``certified`` False
+        (a stand-in for simulation, not a member of the set); ``None`` when not searched (the
+        centre stands in)."""
         m = self.model.get("simulation_member")
         if m is None:
             return None
@@ -439,6 +442,11 @@ def _model_text(model: Union[ModelSet, Identification, Mapping[str, Any], str, "
     return ModelSet.load(model).to_json()
 
 
+def _ends(values: Sequence[Any], fill: float) -> "np.ndarray":
+    """A band end as floats, JSON's null (an infinite end) as ``fill``."""
+    return np.asarray([fill if v is None else float(v) for v in values], dtype=float)
+
+
 class Validation:
     """What ``smid validate`` reports on fresh records: the set-membership verdict, the
     smallest consistent noise bound (PASS when within the declared one), free-run / one-step /
@@ -458,9 +466,21 @@ class Validation:
                 "one_step": np.asarray(s["one_step"], dtype=float),
                 "k_step": np.asarray(s["k_step"], dtype=float),
                 "baseline": None if s["baseline"] is None else np.asarray(s["baseline"], dtype=float),
+                # The guaranteed one-step band of the whole set (infinite where nothing is
+                # guaranteed; JSON carries those ends as null).
+                "band_lower": None if s.get("band") is None else _ends(s["band"][0], -math.inf),
+                "band_upper": None if s.get("band") is None else _ends(s["band"][1], math.inf),
             }
             for s in raw["series"]
         ]
+
+    @property
+    def band(self) -> Optional[Dict[str, Any]]:
+        """The guaranteed one-step band's summary: cells, samples, finite samples, mean width,
+        measurements outside the band widened by the noise bound (each a contradiction of the
+        set) and the first of them. ``None`` when not computed."""
+        b = self.data.get("band")
+        return None if b is None else dict(b)
 
     @property
     def verdict(self) -> Verdict:
