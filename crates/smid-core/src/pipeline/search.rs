@@ -102,6 +102,90 @@ pub fn identify(
     identify_with(spec, data, truth, &|_| {})
 }
 
+/// Identification at an estimated noise bound (`noise.estimate`). The first try is at the
+/// margin times the smallest bound the cheap classical test finds consistent
+/// ([`estimate_bound`]). A tighter stage-3 method can prove the data inconsistent there: the
+/// bound is then doubled until the method finds them consistent, the bracket narrowed
+/// geometrically to 2 %, and the identification run at the margin times its upper end. When
+/// the method's start set
+/// is unbounded at that bound, the error says what bounds it (a stable block, a prior, or the
+/// classical method at its own smaller bound).
+fn identify_estimated(
+    spec: &Spec,
+    data: &ExperimentData,
+    truth: &[(String, f64)],
+    progress: &(dyn Fn(&cells::Progress) + Sync),
+) -> Result<Identification> {
+    let margin = spec.noise.estimate.unwrap_or(1.1).max(1.01);
+    // The bracket identifies without the member search; the member is searched once, for the
+    // bound kept.
+    let first = estimate_bound(spec, data)?;
+    let mut quiet = with_bound(spec, first);
+    quiet.method.member.search = false;
+    let at = |d: f64| {
+        identify_with(
+            &with_bound(&quiet, d),
+            data_with_bound(data, d),
+            truth,
+            progress,
+        )
+    };
+    let mut lo = first;
+    let mut hi = first;
+    let mut found = None;
+    for _ in 0..40 {
+        match at(hi) {
+            Err(SmidError::Inconsistent { .. }) => {
+                lo = hi;
+                hi *= 2.0;
+            }
+            r => {
+                found = Some(r);
+                break;
+            }
+        }
+    }
+    let Some(mut best) = found else {
+        return Err(SmidError::Inconsistent {
+            stage: crate::error::Stage::Linear,
+            sample: 0,
+            detail: format!(
+                "the stage-3 method `{}` finds the training data inconsistent up to a noise bound of {hi:.3e}",
+                spec.method.eiv.name()
+            ),
+        });
+    };
+    if hi > first {
+        // Narrow [lo, hi] (inconsistent at lo, an answer at hi) to 2 %, then identify at the
+        // margin above its upper end: the margin times the smallest bound the method accepts
+        // (to 2 %), as `noise.estimate` promises.
+        while hi / lo > 1.02 {
+            let mid = (lo * hi).sqrt();
+            match at(mid) {
+                Err(SmidError::Inconsistent { .. }) => lo = mid,
+                _ => hi = mid,
+            }
+        }
+        hi *= margin;
+        best = at(hi);
+    }
+    if let Ok(id) = best.as_mut() {
+        id.model.method.member = spec.method.member;
+        id.model.simulation_member =
+            crate::members::simulation_member(&id.model, &spec.method.member)?;
+    }
+    best.map_err(|e| match e {
+        SmidError::Unbounded { parameter, message } if !spec.model.stable => SmidError::Unbounded {
+            parameter,
+            message: format!(
+                "{message}. At the estimated noise bound {hi:.4e} (the smallest the method `{}` finds consistent, within the margin {margin}) its start set is unbounded: declare `model.stable: true` if the linear block is stable (each a_i is then bounded by the binomial C(na, i)), give `model.prior` bounds for the a_i, or choose `method.eiv: classical`",
+                spec.method.eiv.name()
+            ),
+        },
+        e => e,
+    })
+}
+
 /// [`identify`] with a progress callback for the branch and bound over the bisected
 /// parameters.
 pub fn identify_with(
@@ -113,25 +197,7 @@ pub fn identify_with(
     if spec.noise.estimated() && spec.noise.delta.is_none() {
         // Measured data without a known sensor bound: estimate it, then identify with it
         // (growing it by the margin while the stage-3 method still finds the data inconsistent).
-        let margin = spec.noise.estimate.unwrap_or(1.1);
-        let mut d = estimate_bound(spec, &data)?;
-        for _ in 0..10 {
-            match identify_with(
-                &with_bound(spec, d),
-                data_with_bound(&data, d),
-                truth,
-                progress,
-            ) {
-                Err(SmidError::Inconsistent { .. }) => d *= margin,
-                r => return r,
-            }
-        }
-        return identify_with(
-            &with_bound(spec, d),
-            data_with_bound(&data, d),
-            truth,
-            progress,
-        );
+        return identify_estimated(spec, &data, truth, progress);
     }
     let delta = spec.noise.delta()?;
     let layout = spec.model.layout()?;
