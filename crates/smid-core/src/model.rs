@@ -498,6 +498,15 @@ pub struct SimulationMember {
     /// approximation of the set's output range.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub envelope: Vec<Vec<(String, f64)>>,
+    /// Whether the exact LP at fixed `θ` proved it consistent. `false`: no point of the set was
+    /// certified within the budget, and this is the best free run over the outer bounds, a
+    /// stand-in for simulation (reported as not certified, never as a member of the set).
+    #[serde(default = "certified_default")]
+    pub certified: bool,
+}
+
+fn certified_default() -> bool {
+    true
 }
 
 /// What the branch and bound did.
@@ -542,7 +551,7 @@ impl ModelSet {
     /// A certified member lies in the feasible set, so inside every guaranteed bound: anything
     /// listed here is a bug.
     pub fn member_outside_bounds(&self) -> Vec<String> {
-        let Some(m) = &self.simulation_member else {
+        let Some(m) = self.simulation_member.as_ref().filter(|m| m.certified) else {
             return Vec::new();
         };
         std::iter::once(&m.values)

@@ -57,10 +57,17 @@ pub fn table(id: &Identification) -> String {
         );
     }
     match member {
-        Some(m) => {
+        Some(m) if m.certified => {
             let _ = writeln!(
                 s,
                 "member: the simulation member (certified consistent, cell {}): training free-run fit {:.2} % (the centre: {:.2} %)",
+                m.cell, m.training_fit, m.centre_training_fit
+            );
+        }
+        Some(m) => {
+            let _ = writeln!(
+                s,
+                "member: no point certified consistent within the search budget (the exact LP at fixed θ found none); the best training free run within the outer bounds of cell {} stands in, NOT certified: training free-run fit {:.2} % (the centre: {:.2} %)",
                 m.cell, m.training_fit, m.centre_training_fit
             );
         }

@@ -247,10 +247,12 @@ pub fn representative(set: &ModelSet) -> Result<ModelPoint> {
 
 /// Which member [`representative`] gives, in words.
 pub fn representative_label(set: &ModelSet) -> &'static str {
-    if set.simulation_member.is_some() {
-        "the simulation member (certified consistent, best training free run)"
-    } else {
-        "the central member (no certified member found)"
+    match &set.simulation_member {
+        Some(m) if m.certified => {
+            "the simulation member (certified consistent, best training free run)"
+        }
+        Some(_) => "the best training free run within the outer bounds (NOT certified: no point of the set was proven consistent within the search budget)",
+        None => "the central member (no certified member found)",
     }
 }
 

@@ -399,6 +399,79 @@ impl<'s> Search<'s> {
                     centre_training_fit: f64::NAN,
                     evaluations: 0,
                     envelope: Vec::new(),
+                    certified: true,
+                },
+            )
+        })
+    }
+
+    /// When no point is certified: the best free run over the cell's **outer** bounds (the
+    /// cell's point moved inside the cell, every free `θ_i` inside the cell's `θ` interval),
+    /// from the centre, by the same Nelder-Mead. Not certified, and marked so: a stand-in for
+    /// free runs that simulates at least as well as the centre, never a claim that the set
+    /// holds it.
+    fn best_uncertified(
+        &self,
+        sp: &CellSpace,
+        opts: &Options,
+        centre: &[(String, f64)],
+    ) -> Option<(f64, SimulationMember)> {
+        let split = sp.moved.len();
+        let gain = self.gain_slot();
+        // From the central member's θ, clamped into this cell's bounds.
+        let (_, from_centre) = split_values(self, sp, centre);
+        let mut theta0: Vec<f64> = from_centre
+            .iter()
+            .zip(&sp.cell.theta)
+            .map(|(v, b)| {
+                if v.is_finite() {
+                    v.clamp(b.lo, b.hi)
+                } else {
+                    b.center()
+                }
+            })
+            .collect();
+        self.fix_gain(&mut theta0);
+        let t_free: Vec<usize> = (0..self.layout.p())
+            .filter(|&i| self.layout.fixed[i].is_none() && Some(i) != gain)
+            .collect();
+        let t_scale: Vec<f64> = t_free.iter().map(|&i| sp.theta_scale(i, &theta0)).collect();
+        let point_of = |z: &[f64]| -> Option<(Vec<f64>, Vec<f64>)> {
+            if z[..split].iter().any(|v| v.abs() > 1.0) {
+                return None;
+            }
+            let g = sp.at(&sp.base, &z[..split]);
+            let mut th = theta0.clone();
+            for ((&i, s), zi) in t_free.iter().zip(&t_scale).zip(&z[split..]) {
+                th[i] = theta0[i] + s * zi;
+            }
+            self.fix_gain(&mut th);
+            th.iter()
+                .zip(&sp.cell.theta)
+                .all(|(v, b)| b.contains(*v))
+                .then_some((g, th))
+        };
+        let cost = |z: &[f64]| -> f64 {
+            match point_of(z) {
+                Some((g, th)) => self.sse(&self.values_of(sp, &g, &th)),
+                None => f64::INFINITY,
+            }
+        };
+        let z0 = vec![0.0; split + t_free.len()];
+        let (z, e2) = nelder_mead(&cost, &z0, 0.05, opts.iterations, f64::NEG_INFINITY)?;
+        let (g, th) = point_of(&z)?;
+        e2.is_finite().then(|| {
+            (
+                e2,
+                SimulationMember {
+                    values: self.values_of(sp, &g, &th),
+                    cell: sp.k,
+                    consistency: self.certify(sp, &g, &th),
+                    training_fit: self.fit(e2),
+                    centre_training_fit: f64::NAN,
+                    evaluations: 0,
+                    envelope: Vec::new(),
+                    certified: false,
                 },
             )
         })
@@ -487,8 +560,9 @@ impl<'s> Search<'s> {
     }
 }
 
-/// The simulation member of `set` (see the module doc); `None` when no certified point was
-/// found in the cells tried (the centre then stands in, uncertified). The cells are ranked by
+/// The simulation member of `set` (see the module doc). When no certified point is found in
+/// the cells tried, the best free run over the outer bounds of the best-probed cell, marked
+/// `certified: false`; `None` only when even that fails (the centre then stands in). The cells are ranked by
 /// the phase-1 measure at their centres (the nearest `opts.probe` to the central cell are
 /// probed) and the best `opts.cells` are searched.
 pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<SimulationMember>> {
@@ -543,7 +617,16 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
             }
         }
     }
-    if let Some((_, m)) = best.as_mut().filter(|_| opts.spread) {
+    if best.is_none() {
+        // Nothing certified: the best free run over the outer bounds of the most promising
+        // cell stands in (marked not certified), so a candidate whose centre diverges is
+        // judged by a point that simulates, not by its centre.
+        if let Some((_, sp)) = spaces.first() {
+            best = search.best_uncertified(sp, opts, &centre_values);
+            log::debug!(target: "smid::members", "cell {}: best uncertified point after {} evaluations", sp.k, search.evaluations.get());
+        }
+    }
+    if let Some((_, m)) = best.as_mut().filter(|(_, m)| opts.spread && m.certified) {
         let sp = spaces
             .iter()
             .find(|(_, sp)| sp.k == m.cell)
