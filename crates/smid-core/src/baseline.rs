@@ -1,5 +1,5 @@
-//! The plain baseline every model is compared with: a least-squares ARX
-//! `y_t + a_1 y_{t-1} + ... + a_na y_{t-na} = b_0 u_{t-nk} + ... + b_nb u_{t-nk-nb} + e_t`
+//! The plain baseline every model is compared with: a least-squares ARX plus a constant
+//! `y_t + a_1 y_{t-1} + ... + a_na y_{t-na} = b_0 u_{t-nk} + ... + b_nb u_{t-nk-nb} + c + e_t`
 //! of the model's orders (eq 1 with the measured output in place of the inner signal), fitted
 //! on the training records (equations stacked across records, none spanning two) and simulated
 //! free-run from rest. No bound, no nonlinearity, no effect: the figure a model must beat.
@@ -12,12 +12,14 @@ use crate::model::Record;
 pub struct Arx {
     pub linear: LinearModel,
     pub nk: usize,
+    /// The constant `c` (an offset of the operating point).
+    pub constant: f64,
 }
 
 impl Arx {
     /// Least squares on the training records (SVD of the scaled normal equations).
     pub fn fit(records: &[Record], na: usize, nb: usize, nk: usize) -> Result<Arx> {
-        let p = na + nb + 1;
+        let p = na + nb + 2;
         let start = na.max(nb + nk);
         let mut rows: Vec<(Vec<f64>, f64)> = Vec::new();
         for r in records {
@@ -29,6 +31,7 @@ impl Arx {
                 for j in 0..=nb {
                     phi.push(r.u[t - nk - j]);
                 }
+                phi.push(1.0);
                 rows.push((phi, r.y[t]));
             }
         }
@@ -42,18 +45,16 @@ impl Arx {
         Ok(Arx {
             linear: LinearModel {
                 a: theta[..na].to_vec(),
-                b: theta[na..].to_vec(),
+                b: theta[na..p - 1].to_vec(),
             },
             nk,
+            constant: theta[p - 1],
         })
     }
 
-    /// Free-run simulation from rest.
+    /// Free-run simulation from rest (the constant acts from the first sample).
     pub fn simulate(&self, u: &[f64]) -> Vec<f64> {
-        let v: Vec<f64> = (0..u.len())
-            .map(|t| if t >= self.nk { u[t - self.nk] } else { 0.0 })
-            .collect();
-        self.linear.simulate(&v)
+        self.simulate_from(u, &[], 0)
     }
 
     /// Free-run simulation whose first `warm` outputs are the measured `y` (the initial
@@ -66,7 +67,7 @@ impl Arx {
                 out.push(y[t]);
                 continue;
             }
-            let mut x = 0.0;
+            let mut x = self.constant;
             for (j, b) in self.linear.b.iter().enumerate() {
                 if t >= self.nk + j {
                     x += b * u[t - self.nk - j];
@@ -140,6 +141,16 @@ mod tests {
         // From a measured initial condition: the same trajectory (the data start at rest).
         let yw = arx.simulate_from(&u, &y, 4);
         assert!(yw.iter().zip(&ys).all(|(a, b)| (a - b).abs() < 1e-6));
+        assert!(arx.constant.abs() < 1e-9);
+        // A constant (an operating-point offset) is part of the baseline.
+        let with_c = Arx {
+            linear: m.clone(),
+            nk: 0,
+            constant: 0.7,
+        };
+        let yc = with_c.simulate(&u);
+        let fit = Arx::fit(&[Record::measured("c", u.clone(), yc, 0.1, 1.0)], 2, 2, 0).unwrap();
+        assert!((fit.constant - 0.7).abs() < 1e-8, "{}", fit.constant);
         let short = Record::measured("s", vec![1.0; 3], vec![1.0; 3], 0.1, 1.0);
         assert!(Arx::fit(&[short], 2, 2, 0).is_err());
     }
