@@ -451,8 +451,21 @@ impl<'s> Search<'s> {
                 .all(|(v, b)| b.contains(*v))
                 .then_some((g, th))
         };
+        // A declared stable block keeps its stand-in stable (a pole outside the unit circle
+        // fits the training records and drifts on fresh ones).
+        let na = self.layout.orders.na;
+        let unstable = |th: &[f64]| {
+            self.set.model.stable
+                && crate::linear::LinearModel {
+                    a: th[..na].to_vec(),
+                    b: vec![1.0],
+                }
+                .spectral_radius()
+                    > 1.0
+        };
         let cost = |z: &[f64]| -> f64 {
             match point_of(z) {
+                Some((_, th)) if unstable(&th) => f64::INFINITY,
                 Some((g, th)) => self.sse(&self.values_of(sp, &g, &th)),
                 None => f64::INFINITY,
             }
