@@ -47,6 +47,12 @@ use serde::Serialize;
 /// bundled block; a longer memory only widens the band).
 pub const WINDOW: usize = 16;
 
+/// Sets with more cells than this take the prediction's range over each cell's `θ` box by
+/// interval arithmetic instead of the LPs (two LPs per sample and cell cost minutes over
+/// hundreds of cells; the box is an outer bound of the polytope, so the band stays guaranteed,
+/// only wider).
+pub const LP_CELLS: usize = 16;
+
 /// The guaranteed one-step band of one record: per sample, the interval of the noise-free
 /// output (infinite where nothing is guaranteed: the first samples, before the equation
 /// has its past).
@@ -58,6 +64,9 @@ pub struct Band {
     /// their `θ` polytope (they hold no member and add nothing).
     pub cells: usize,
     pub empty_cells: usize,
+    /// Whether the prediction's range came from the LPs over each cell's polytope (else from
+    /// its `θ` box, see [`LP_CELLS`]).
+    pub lp: bool,
 }
 
 impl Band {
@@ -93,9 +102,10 @@ pub fn one_step_band(set: &ModelSet, rec: &Record) -> Result<Band> {
     rec.validate()?;
     let layout = set.layout()?;
     let n = rec.y.len();
+    let lp = set.cells.len() <= LP_CELLS;
     let per_cell: Vec<Option<Vec<Interval>>> = (0..set.cells.len())
         .into_par_iter()
-        .map(|k| cell_band(set, layout, k, rec))
+        .map(|k| cell_band(set, layout, k, rec, lp))
         .collect::<Result<_>>()?;
     let mut lower = vec![f64::INFINITY; n];
     let mut upper = vec![f64::NEG_INFINITY; n];
@@ -121,6 +131,7 @@ pub fn one_step_band(set: &ModelSet, rec: &Record) -> Result<Band> {
         upper,
         cells: per_cell.len(),
         empty_cells: empty,
+        lp,
     })
 }
 
@@ -130,6 +141,7 @@ fn cell_band(
     layout: &Layout,
     k: usize,
     rec: &Record,
+    lp: bool,
 ) -> Result<Option<Vec<Interval>>> {
     let n = rec.y.len();
     let c = &set.cells[k];
@@ -137,21 +149,25 @@ fn cell_band(
         return Ok(Some(vec![Interval::entire(); n]));
     }
     let o = layout.orders;
-    // 1. The θ polytope from the training equations of this cell.
-    let train = match stage2(
-        &set.model,
-        layout,
-        c.nonlinearity.as_ref(),
-        &c.cell,
-        &set.training.records,
-    ) {
-        Ok(s) => s,
-        Err(SmidError::Inconsistent { .. }) => return Ok(None),
-        Err(e) => return Err(e),
+    // 1. The θ polytope from the training equations of this cell (with the LPs).
+    let poly = if lp {
+        let train = match stage2(
+            &set.model,
+            layout,
+            c.nonlinearity.as_ref(),
+            &c.cell,
+            &set.training.records,
+        ) {
+            Ok(s) => s,
+            Err(SmidError::Inconsistent { .. }) => return Ok(None),
+            Err(e) => return Err(e),
+        };
+        let mut prob = eiv_problem(&set.model, layout, &set.method, &train, Some(&c.theta));
+        prob.use_band_samples = true;
+        Some(theta_polytope(&prob, &c.theta))
+    } else {
+        None
     };
-    let mut prob = eiv_problem(&set.model, layout, &set.method, &train, Some(&c.theta));
-    prob.use_band_samples = true;
-    let poly = theta_polytope(&prob, &c.theta);
     let mag: Vec<f64> = c.theta.iter().map(|i| i.lo.abs().max(i.hi.abs())).collect();
 
     // 2. The record through the chain over the cell, causally.
@@ -210,7 +226,8 @@ fn cell_band(
 
     // 3. Per sample: the linear block's prediction, then the output side.
     let start = o.na.max(o.nb + o.nk);
-    let p = prob.p();
+    let p = layout.p();
+    let n_ab = o.na + o.nb + 1;
     let mut out = vec![Interval::entire(); n];
     for t in start..n {
         let w = &windows[t];
@@ -236,15 +253,15 @@ fn cell_band(
             take(o.na + j, 1.0, vin(t, j), &mut g);
         }
         for (x, col) in cols.iter().enumerate() {
-            take(prob.n_ab() + x, 1.0, col.values[t], &mut g);
+            take(n_ab + x, 1.0, col.values[t], &mut g);
         }
         if !ok {
             continue;
         }
-        let lin = match poly.extent(&g, &c.theta) {
-            Extent::Range(r) => r,
-            Extent::Empty => return Ok(None),
-            Extent::Unknown => box_range(&g, &c.theta),
+        let lin = match poly.as_ref().map(|poly| poly.extent(&g, &c.theta)) {
+            Some(Extent::Range(r)) => r,
+            Some(Extent::Empty) => return Ok(None),
+            Some(Extent::Unknown) | None => box_range(&g, &c.theta),
         };
         let e = e * (1.0 + 1e-12);
         let xhat = Interval::new(lin.lo - e, lin.hi + e).outward();

@@ -200,6 +200,9 @@ pub struct Series {
 pub struct BandSummary {
     /// Cells of the set the band is the hull over.
     pub cells: usize,
+    /// The prediction's range by LPs over each cell's `θ` polytope (else over its `θ` box:
+    /// more than [`crate::band::LP_CELLS`] cells).
+    pub lp: bool,
     /// Samples (after the warm start) and those with a finite band.
     pub samples: usize,
     pub finite: usize,
@@ -577,6 +580,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     let band = opts.band.then(|| {
         let mut sum = BandSummary {
             cells: model.cells.len(),
+            lp: model.cells.len() <= crate::band::LP_CELLS,
             samples: 0,
             finite: 0,
             mean_width: 0.0,
