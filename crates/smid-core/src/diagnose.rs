@@ -869,8 +869,10 @@ pub fn assess(
                 }
             }
         };
+        // The before/after table compares fits and verdicts; the band is `validate`'s.
         let opts = validate::Options {
             k,
+            band: false,
             ..Default::default()
         };
         let v = validate::validate(&m, holdout, &opts)?;
