@@ -106,7 +106,7 @@ pub fn identify(
 /// margin times the smallest bound the cheap classical test finds consistent
 /// ([`estimate_bound`]). A tighter stage-3 method can prove the data inconsistent there: the
 /// bound is then doubled until the method finds them consistent, the bracket narrowed
-/// geometrically to 2 %, and the identification run at the margin times its upper end. When
+/// geometrically to 5 %, and the identification run at the margin times its upper end. When
 /// the method's start set
 /// is unbounded at that bound, the error says what bounds it (a stable block, a prior, or the
 /// classical method at its own smaller bound).
@@ -123,12 +123,18 @@ fn identify_estimated(
     let mut quiet = with_bound(spec, first);
     quiet.method.member.search = false;
     let at = |d: f64| {
-        identify_with(
+        let t0 = std::time::Instant::now();
+        let r = identify_with(
             &with_bound(&quiet, d),
             data_with_bound(data, d),
             truth,
             progress,
-        )
+        );
+        log::info!(target: "smid::estimate", "noise bound {d:.4e}: {} ({:.2} s)", match &r {
+            Ok(_) => "an answer".to_string(),
+            Err(e) => e.to_string().chars().take(60).collect(),
+        }, t0.elapsed().as_secs_f64());
+        r
     };
     let mut lo = first;
     let mut hi = first;
@@ -156,10 +162,10 @@ fn identify_estimated(
         });
     };
     if hi > first {
-        // Narrow [lo, hi] (inconsistent at lo, an answer at hi) to 2 %, then identify at the
+        // Narrow [lo, hi] (inconsistent at lo, an answer at hi) to 5 %, then identify at the
         // margin above its upper end: the margin times the smallest bound the method accepts
-        // (to 2 %), as `noise.estimate` promises.
-        while hi / lo > 1.02 {
+        // (to 5 %), as `noise.estimate` promises.
+        while hi / lo > 1.05 {
             let mid = (lo * hi).sqrt();
             match at(mid) {
                 Err(SmidError::Inconsistent { .. }) => lo = mid,
