@@ -205,16 +205,25 @@ impl PluginTrial {
         if let Some(m) = method {
             spec.method.eiv = m;
         }
-        let mut plant = SimulatedPlant {
-            linear,
-            nonlinearity: nl.as_ref(),
-            structure,
-            input: &[],
-            output: &[],
-            effects: &[],
-            dt: 1.0,
-        };
-        pipeline::run_with_plant(&spec, &mut plant)
+        pipeline::run_with_plant(&spec, &mut simulator(linear, nl.as_ref(), structure))
+    }
+}
+
+/// The built-in simulator of a trial's plant: the linear block and the nonlinearity in
+/// `structure`, no other block or effect, unit sample time.
+pub fn simulator(
+    linear: LinearModel,
+    nonlinearity: &dyn Nonlinearity,
+    structure: Structure,
+) -> SimulatedPlant<'_> {
+    SimulatedPlant {
+        linear,
+        nonlinearity,
+        structure,
+        input: &[],
+        output: &[],
+        effects: &[],
+        dt: 1.0,
     }
 }
 

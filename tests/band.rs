@@ -6,14 +6,14 @@
 //! noise-free output at every sample and be finite at a good share of them.
 use rand::{Rng, SeedableRng};
 use smid::montecarlo::{any_record, Trial};
-use smid::plugin_check::{PluginTrial, PLUGINS};
+use smid::plugin_check::{simulator, PluginTrial, PLUGINS};
 use smid_core::band::one_step_band;
 use smid_core::linear::LinearModel;
 use smid_core::model::Record;
 use smid_core::noise;
 use smid_core::nonlinearity::{Nonlinearity, Structure};
 use smid_core::pipeline;
-use smid_core::plant::{Plant, SimulatedPlant};
+use smid_core::plant::Plant;
 use smid_core::signals;
 
 #[test]
@@ -31,15 +31,7 @@ fn the_guaranteed_band_holds_the_true_output_on_random_plants_of_every_plugin() 
                 spec.method.cells.max_cells = 150;
                 spec.method.member.search = false;
             }
-            let mut plant = SimulatedPlant {
-                linear,
-                nonlinearity: nl.as_ref(),
-                structure,
-                input: &[],
-                output: &[],
-                effects: &[],
-                dt: 1.0,
-            };
+            let mut plant = simulator(linear, nl.as_ref(), structure);
             let id = pipeline::run_with_plant(&spec, &mut plant)
                 .unwrap_or_else(|e| panic!("{plugin} seed {seed}: {e}"));
             let delta = id.model.delta;
