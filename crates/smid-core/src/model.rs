@@ -485,10 +485,15 @@ pub struct SimulationMember {
     pub values: Vec<(String, f64)>,
     /// The surviving cell it lies in.
     pub cell: usize,
-    /// The consistency measure at it (negative: strictly inside the scaled error boxes).
+    /// The consistency measure at it (negative: strictly inside the scaled error boxes; an
+    /// infinite one, stored as null, when stage 2 fails at it).
+    #[serde(deserialize_with = "crate::model::hi_inf")]
     pub consistency: f64,
-    /// Free-run fit % on the training records (warm start as `validate`'s), and the centre's.
+    /// Free-run fit % on the training records (warm start as `validate`'s), and the centre's
+    /// (minus infinity, stored as null, for a free run that diverges).
+    #[serde(deserialize_with = "crate::model::lo_inf")]
     pub training_fit: f64,
+    #[serde(deserialize_with = "crate::model::lo_inf")]
     pub centre_training_fit: f64,
     /// Cost evaluations spent by the search.
     pub evaluations: usize,
@@ -591,5 +596,33 @@ impl ModelSet {
             .iter()
             .filter(|p| p.upper > p.lower)
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A stand-in member whose measure is infinite and whose centre diverges (JSON nulls)
+    /// survives the round trip of `result.json` and of `ModelSet::duplicate`.
+    #[test]
+    fn a_member_with_non_finite_figures_round_trips() {
+        let m = SimulationMember {
+            values: vec![("a1".into(), -0.5)],
+            cell: 0,
+            consistency: f64::INFINITY,
+            training_fit: 42.0,
+            centre_training_fit: f64::NEG_INFINITY,
+            evaluations: 3,
+            envelope: Vec::new(),
+            certified: false,
+        };
+        let v = serde_json::to_value(&m).unwrap();
+        assert!(v["consistency"].is_null() && v["centre_training_fit"].is_null());
+        let back: SimulationMember = serde_json::from_value(v).unwrap();
+        assert_eq!(back.consistency, f64::INFINITY);
+        assert_eq!(back.centre_training_fit, f64::NEG_INFINITY);
+        assert_eq!(back.training_fit, 42.0);
+        assert!(!back.certified);
     }
 }
