@@ -70,23 +70,14 @@ pub struct Band {
 }
 
 impl Band {
-    /// Samples with a finite band.
-    pub fn finite(&self) -> usize {
+    /// Samples from `from` on with a finite band, and the sum of their widths.
+    pub fn finite(&self, from: usize) -> (usize, f64) {
         self.lower
             .iter()
             .zip(&self.upper)
+            .skip(from)
             .filter(|(l, u)| l.is_finite() && u.is_finite())
-            .count()
-    }
-    /// Mean width over the samples with a finite band (NaN when none).
-    pub fn mean_width(&self) -> f64 {
-        let (s, n) = self
-            .lower
-            .iter()
-            .zip(&self.upper)
-            .filter(|(l, u)| l.is_finite() && u.is_finite())
-            .fold((0.0, 0usize), |(s, n), (l, u)| (s + (u - l), n + 1));
-        s / n as f64
+            .fold((0, 0.0), |(n, s), (l, u)| (n + 1, s + (u - l)))
     }
     /// Samples from `from` on where `y` lies outside the band widened by `dy` (the measured
     /// output against its noise bound): each one is a contradiction of the model set.
@@ -335,7 +326,7 @@ fn box_range(g: &[f64], theta: &[Interval]) -> Interval {
 /// Where a candidate output `z` at the window's last sample leaves the inner signal, against
 /// the predicted interval.
 #[derive(Clone, Copy, PartialEq)]
-enum Fit {
+enum Candidate {
     /// The inversion puts the inner value below the prediction: `z` too low.
     Low,
     /// Above it: `z` too high.
@@ -357,22 +348,22 @@ fn output_band(blocks: &[&dyn NonlinearitySet], y: &[f64], dy: &[f64], xhat: Int
     let mut ys = y.to_vec();
     let mut ds = dy.to_vec();
     ds[last] = 0.0;
-    let mut fit = |z: f64| -> Fit {
+    let mut fit = |z: f64| -> Candidate {
         ys[last] = z;
         match chain::backward(blocks, &ys, &ds) {
             Ok(v) => {
                 let j = v[last].interval;
                 if j.lo.is_nan() || j.hi.is_nan() || j.lo > j.hi {
-                    Fit::Unknown
+                    Candidate::Unknown
                 } else if j.hi < xhat.lo {
-                    Fit::Low
+                    Candidate::Low
                 } else if j.lo > xhat.hi {
-                    Fit::High
+                    Candidate::High
                 } else {
-                    Fit::In
+                    Candidate::In
                 }
             }
-            Err(_) => Fit::Unknown,
+            Err(_) => Candidate::Unknown,
         }
     };
     let z0 = y[last];
@@ -385,12 +376,12 @@ fn output_band(blocks: &[&dyn NonlinearitySet], y: &[f64], dy: &[f64], xhat: Int
     let mut found = None;
     for _ in 0..300 {
         match fit(z) {
-            Fit::In => {
+            Candidate::In => {
                 found = Some(z);
                 break;
             }
-            Fit::Unknown => return Interval::entire(),
-            Fit::Low => {
+            Candidate::Unknown => return Interval::entire(),
+            Candidate::Low => {
                 low = Some(z);
                 z = match high {
                     Some(h) => 0.5 * (z + h),
@@ -400,7 +391,7 @@ fn output_band(blocks: &[&dyn NonlinearitySet], y: &[f64], dy: &[f64], xhat: Int
                     }
                 };
             }
-            Fit::High => {
+            Candidate::High => {
                 high = Some(z);
                 z = match low {
                     Some(l) => 0.5 * (l + z),
@@ -429,9 +420,9 @@ fn output_band(blocks: &[&dyn NonlinearitySet], y: &[f64], dy: &[f64], xhat: Int
     // then bisect; the end kept is the impossible candidate (outward).
     let mut end = |dir: f64, known: Option<f64>| -> f64 {
         let (bad, wrong) = if dir < 0.0 {
-            (Fit::Low, Fit::High)
+            (Candidate::Low, Candidate::High)
         } else {
-            (Fit::High, Fit::Low)
+            (Candidate::High, Candidate::Low)
         };
         let mut inside = f;
         let mut outside = known;

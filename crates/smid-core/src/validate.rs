@@ -546,6 +546,8 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     // The first `warm` samples give the initial condition (measured), as MATLAB's `compare`
     // estimates one; the figures are over the rest.
     let warm = o.na + o.nb + o.nk;
+    // The band's summary over the records, and the sum of its finite widths.
+    let mut band_sum: Option<(BandSummary, f64)> = None;
     for rec in &fresh {
         let n = rec.y.len();
         let w0 = warm.min(n);
@@ -562,6 +564,29 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
         } else {
             None
         };
+        if let Some(b) = &band {
+            let (sum, width) = band_sum.get_or_insert_with(|| {
+                let sum = BandSummary {
+                    cells: b.cells,
+                    lp: b.lp,
+                    samples: 0,
+                    finite: 0,
+                    mean_width: 0.0,
+                    outside: 0,
+                    first_outside: None,
+                };
+                (sum, 0.0)
+            });
+            let (finite, w) = b.finite(w0);
+            let outside = b.outside(&rec.y, &rec.dy, w0);
+            sum.samples += n - w0;
+            sum.finite += finite;
+            *width += w;
+            sum.outside += outside.len();
+            if sum.first_outside.is_none() {
+                sum.first_outside = outside.first().map(|&t| (series.len(), t));
+            }
+        }
         per_record.push((rec.name.clone(), Fit::of(&[(&rec.y[w0..], &free[w0..])])));
         let skip = (w0 + 1).min(n);
         residuals.extend(rec.y[skip..].iter().zip(&one[skip..]).map(|(a, b)| a - b));
@@ -577,32 +602,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
             band: band.map(|b| (b.lower, b.upper)),
         });
     }
-    let band = opts.band.then(|| {
-        let mut sum = BandSummary {
-            cells: model.cells.len(),
-            lp: model.cells.len() <= crate::band::LP_CELLS,
-            samples: 0,
-            finite: 0,
-            mean_width: 0.0,
-            outside: 0,
-            first_outside: None,
-        };
-        let mut width = 0.0;
-        for (r, (s, rec)) in series.iter().zip(&fresh).enumerate() {
-            let Some((lo, hi)) = &s.band else { continue };
-            let w0 = warm.min(s.y.len());
-            for t in w0..s.y.len() {
-                sum.samples += 1;
-                if lo[t].is_finite() && hi[t].is_finite() {
-                    sum.finite += 1;
-                    width += hi[t] - lo[t];
-                }
-                if s.y[t] + rec.dy[t] < lo[t] || s.y[t] - rec.dy[t] > hi[t] {
-                    sum.outside += 1;
-                    sum.first_outside.get_or_insert((r, t));
-                }
-            }
-        }
+    let band = band_sum.map(|(mut sum, width)| {
         sum.mean_width = width / sum.finite.max(1) as f64;
         sum
     });
