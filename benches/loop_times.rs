@@ -7,8 +7,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use smid::closeloop;
 use smid::core::diagnose::{self, Options};
-use smid::montecarlo::Trial;
-use smid::plugin_check::{PluginTrial, PLUGINS};
+use smid::plugin_check::plugins;
 use std::path::Path;
 
 fn bench(c: &mut Criterion) {
@@ -29,18 +28,10 @@ fn bench(c: &mut Criterion) {
 
     let mut group = c.benchmark_group("any-record trial (seed 1)");
     group.sample_size(10);
-    for plugin in PLUGINS {
+    for plugin in plugins() {
+        let plugin = plugin.as_str();
         group.bench_function(plugin, |b| {
-            b.iter(|| {
-                if plugin == "output_backlash" {
-                    Trial::random(1).run_any(None).expect("the trial runs")
-                } else {
-                    PluginTrial::random(plugin, 1)
-                        .expect("a registered plugin")
-                        .run(None, true)
-                        .expect("the trial runs")
-                }
-            })
+            b.iter(|| smid::plugin_check::trial(plugin, 1, None, true).expect("the trial runs"))
         });
     }
     group.finish();

@@ -33,13 +33,11 @@ use smid_core::pipeline::{self, Identification};
 use smid_core::spec::Spec;
 use std::path::Path;
 
-/// Make every bundled plugin crate part of the final binary, so their `type` tags are
-/// registered with typetag. A program that uses only `smid_core` links no plugin and sees
-/// "unknown variant ... there are no variants"; go through this facade (or call this) instead.
-pub fn link_plugins() {
-    use smid_core::nonlinearity::NonlinearityModel;
-    // A vtable of each plugin's model makes the linker keep that crate's code.
-    let models: [Box<dyn NonlinearityModel>; 7] = [
+/// The bundled plugin crates, one line each (adding a plugin crate to smid is its crate plus
+/// one line here): a vtable of each plugin's model makes the linker keep that crate's code,
+/// and with it its registrations (`register_model!`, `register_nonlinearity!`, typetag).
+fn bundled_models() -> Vec<Box<dyn smid_core::nonlinearity::NonlinearityModel>> {
+    vec![
         Box::new(smid_output_backlash::OutputBacklashModel::default()),
         Box::new(smid_input_backlash::InputBacklashModel::default()),
         Box::new(smid_dead_zone::DeadZoneModel::default()),
@@ -47,10 +45,25 @@ pub fn link_plugins() {
         Box::new(smid_example_gain::GainModel::default()),
         Box::new(smid_linear::LinearModel::default()),
         Box::new(smid_filters::LagModel::default()),
-    ];
-    std::hint::black_box(models);
+    ]
+}
+
+/// Make every bundled plugin crate part of the final binary, so their `type` tags are
+/// registered with typetag. A program that uses only `smid_core` links no plugin and sees
+/// "unknown variant ... there are no variants"; go through this facade (or call this) instead.
+pub fn link_plugins() {
+    std::hint::black_box(bundled_models());
     let effects: fn() = smid_effects::link;
     std::hint::black_box(effects);
+}
+
+/// The `type` tags of the bundled plugin crates (what [`link_plugins`] links), for the test
+/// that each one registered itself.
+pub fn bundled_plugins() -> Vec<String> {
+    bundled_models()
+        .iter()
+        .map(|m| smid_core::nonlinearity::tag_of_model(m.as_ref()))
+        .collect()
 }
 
 /// Parse a spec file with every bundled plugin registered.

@@ -75,8 +75,8 @@ enum Command {
         trials: usize,
         #[arg(long, default_value_t = 1)]
         first_seed: u64,
-        /// Nonlinearity plugin to check: output_backlash, input_backlash, dead_zone_input,
-        /// dead_zone_output or saturation.
+        /// Check case: a registered plugin that offers a random trial, with `_input` /
+        /// `_output` where it is checked on both sides (`smid check --list` names them).
         #[arg(long, default_value = "output_backlash")]
         plugin: String,
         /// Stage-3 method (classical, shared, sdp, exact-grid; default: the spec default).
@@ -97,6 +97,9 @@ enum Command {
         /// Also write the summary (counts, missed seeds, errors) as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// List the check cases (derived from the plugin registry) and exit.
+        #[arg(long)]
+        list: bool,
     },
     /// Containment check of block chains generated from the registry (`smid::chain_check`):
     /// random linear blocks with a random model nonlinearity, input-side block and block after
@@ -341,7 +344,14 @@ fn real_main() -> Result<()> {
             jobs,
             shard,
             ref json,
+            list,
         } => {
+            if list {
+                for name in smid::plugin_check::plugins() {
+                    println!("{name}");
+                }
+                return Ok(());
+            }
             let method = method.as_deref().map(parse_method).transpose()?;
             let opts = smid::sweep::CheckOptions {
                 plugin: plugin.clone(),

@@ -41,29 +41,10 @@ pub fn random_linear(rng: &mut impl Rng) -> LinearModel {
     }
 }
 
-/// A random physical backlash: one gear ratio `m` in [0.1, 2] with a slight asymmetry
-/// (|m_l/m_r - 1| <= 5%), plays `c` in [0.01, 0.3].
-pub fn random_backlash(rng: &mut impl Rng) -> Backlash {
-    let m: f64 = rng.gen_range(0.1..2.0);
-    Backlash {
-        m_l: m * rng.gen_range(0.975..1.025),
-        c_l: rng.gen_range(0.01..0.3),
-        m_r: m * rng.gen_range(0.975..1.025),
-        c_r: rng.gen_range(0.01..0.3),
-    }
-}
-
 /// PRBS amplitude that makes the inner signal cross the dead band often: a designer scales the
 /// excitation to the play, or most outputs stay constant and the inner signal is not invertible.
 pub fn prbs_amplitude(b: &Backlash) -> f64 {
     1.0 + 4.0 * (b.c_l + b.c_r)
-}
-
-/// Whether eq (2) describes a backlash for inner signals up to `x_max` in magnitude: the dead
-/// band `[w/m_l - c_l, w/m_r + c_r]` must be non-empty for every output reached.
-pub fn backlash_is_physical(b: &Backlash, x_max: f64) -> bool {
-    let w_max = b.m_l.max(b.m_r) * (x_max + b.c_l.max(b.c_r));
-    w_max * (1.0 / b.m_l - 1.0 / b.m_r).abs() < b.c_l + b.c_r
 }
 
 impl Trial {
@@ -74,14 +55,14 @@ impl Trial {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         loop {
             let linear = random_linear(&mut rng);
-            let backlash = random_backlash(&mut rng);
+            let backlash = Backlash::random(&mut rng);
             let l1: f64 = linear
                 .simulate(&[1.0; 400])
                 .windows(2)
                 .map(|w| (w[1] - w[0]).abs())
                 .sum::<f64>()
                 + 1.0;
-            if backlash_is_physical(&backlash, 3.0f64.max(l1 * prbs_amplitude(&backlash))) {
+            if backlash.is_physical(3.0f64.max(l1 * prbs_amplitude(&backlash))) {
                 return Trial {
                     linear,
                     backlash,
@@ -365,16 +346,4 @@ impl Trial {
         any_record(&mut spec, &self.backlash.parameters(), self.seed);
         spec
     }
-}
-
-/// Like [`run`], with stage 3 by `method`, on `jobs` threads.
-pub fn run_method(
-    seeds: &[u64],
-    method: smid_core::spec::EivMethod,
-    jobs: usize,
-    tick: impl Fn() + Sync,
-) -> Summary {
-    run_seeds(seeds, jobs, tick, |seed| {
-        Trial::random(seed).run_method(method)
-    })
 }

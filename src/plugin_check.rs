@@ -4,16 +4,16 @@
 //! its bound; the whole three-stage pipeline runs and every bound (stage-1 set, inner-signal
 //! samples, parameter intervals) must contain the truth. Each trial runs the Appendix filter
 //! search, `M = 20` steady-state amplitudes and a PRBS of `N = 100` samples (the paper's `N`),
-//! with orders `na = nb = 2` and `b0 = 0` fixed. `output_backlash` is the original check
-//! of [`crate::montecarlo`]; the others are defined here.
+//! with orders `na = nb = 2` and `b0 = 0` fixed. The cases are derived from the plugin registry
+//! ([`smid_core::registry::check_cases`]): each plugin draws its own true block
+//! ([`NonlinearityModel::check_draw`]), this module the linear block, the noise and the
+//! experiment. `output_backlash` runs the paper's original trial of [`crate::montecarlo`].
 //!
 //! `--any-record` checks the general method of [`smid_core::cells`] instead: no steady-state
 //! experiment, a PRBS of `N = 400` samples, and every nonlinearity parameter bisected over a
 //! random prior box that contains the truth ([`montecarlo::any_record`]); stage 3 classical unless
 //! `--method` says otherwise (the branch and bound calls it per cell).
-use crate::montecarlo::{
-    self, any_record, backlash_is_physical, random_backlash, random_linear, Summary,
-};
+use crate::montecarlo::{self, any_record, random_linear, Summary};
 use rand::{Rng, SeedableRng};
 use smid_core::linear::LinearModel;
 use smid_core::noise::NoiseSpec;
@@ -21,24 +21,23 @@ use smid_core::nonlinearity::{Nonlinearity, NonlinearityModel, Structure};
 use smid_core::pipeline::{self, Identification};
 use smid_core::plant::SimulatedPlant;
 use smid_core::spec::{EivMethod, ExperimentSpec, MethodSpec, ModelSpec, PlantSpec, Spec};
-use smid_core::{Result, SmidError};
-use smid_dead_zone::{DeadZone, DeadZoneModel};
-use smid_input_backlash::{InputBacklash, InputBacklashModel};
-use smid_saturation::{Saturation, SaturationModel};
+use smid_core::{registry, Result, SmidError};
 
-/// The plugins `smid check --plugin` knows, with the structure each is checked in.
-pub const PLUGINS: [&str; 5] = [
-    "output_backlash",
-    "input_backlash",
-    "dead_zone_input",
-    "dead_zone_output",
-    "saturation",
-];
+/// The check cases `smid check --plugin` knows, derived from the registry
+/// ([`registry::check_cases`]): every linked plugin that offers a random trial, in each
+/// structure it offers one in.
+pub fn plugins() -> Vec<String> {
+    crate::link_plugins();
+    registry::check_cases()
+        .into_iter()
+        .map(|c| c.name)
+        .collect()
+}
 
 /// One random problem for a plugin.
 #[derive(Debug)]
 pub struct PluginTrial {
-    pub plugin: &'static str,
+    pub plugin: String,
     pub structure: Structure,
     pub linear: LinearModel,
     pub nonlinearity: Box<dyn Nonlinearity>,
@@ -50,104 +49,31 @@ pub struct PluginTrial {
     pub amplitude: f64,
 }
 
-fn plugin_name(name: &str) -> Result<&'static str> {
-    PLUGINS.iter().copied().find(|p| *p == name).ok_or_else(|| {
-        SmidError::invalid(
-            "--plugin",
-            format!(
-                "unknown plugin `{name}`; expected one of: {}",
-                PLUGINS.join(", ")
-            ),
-        )
-    })
-}
-
 impl PluginTrial {
-    /// Draw a trial of `plugin` from a seed.
+    /// Draw a trial of the check case `plugin` from a seed: the linear block and the encoder
+    /// bits here, the true block by the plugin's own [`NonlinearityModel::check_draw`].
     pub fn random(plugin: &str, seed: u64) -> Result<PluginTrial> {
-        let plugin = plugin_name(plugin)?;
+        crate::link_plugins();
+        let case = registry::check_case(plugin)?;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let linear = random_linear(&mut rng);
         let bits = rng.gen_range(8..=16);
-        let (structure, nonlinearity, model, steady, amplitude): (
-            Structure,
-            Box<dyn Nonlinearity>,
-            Box<dyn NonlinearityModel>,
-            (f64, f64),
-            f64,
-        ) = match plugin {
-            "input_backlash" => {
-                // A physical backlash over the inputs it sees (|u| <= 3).
-                let b = loop {
-                    let b = random_backlash(&mut rng);
-                    if backlash_is_physical(&b, 3.0) {
-                        break b;
-                    }
-                };
-                (
-                    Structure::Hammerstein,
-                    Box::new(InputBacklash {
-                        m_l: b.m_l,
-                        c_l: b.c_l,
-                        m_r: b.m_r,
-                        c_r: b.c_r,
-                    }),
-                    Box::new(InputBacklashModel {
-                        at_rest: rng.gen_bool(0.5),
-                    }),
-                    (0.6, 3.0),
-                    1.0,
-                )
-            }
-            "dead_zone_input" | "dead_zone_output" => {
-                let dz = DeadZone {
-                    m_l: rng.gen_range(0.2..2.0),
-                    c_l: rng.gen_range(0.0..0.5),
-                    m_r: rng.gen_range(0.2..2.0),
-                    c_r: rng.gen_range(0.0..0.5),
-                };
-                let s = if plugin == "dead_zone_input" {
-                    Structure::Hammerstein
-                } else {
-                    Structure::Wiener
-                };
-                // Small amplitudes land in the zone: their half-planes are exercised too.
-                (s, Box::new(dz), Box::new(DeadZoneModel {}), (0.1, 3.0), 2.0)
-            }
-            "saturation" => {
-                let m_l: f64 = rng.gen_range(0.2..2.0);
-                let m_r: f64 = rng.gen_range(0.2..2.0);
-                let sat = Saturation {
-                    m_l,
-                    s_l: m_l * rng.gen_range(1.0..2.5),
-                    m_r,
-                    s_r: m_r * rng.gen_range(1.0..2.5),
-                };
-                (
-                    Structure::Wiener,
-                    Box::new(sat),
-                    Box::new(SaturationModel {}),
-                    (0.1, 4.0),
-                    0.5,
-                )
-            }
-            _ => {
-                return Err(SmidError::invalid(
-                    "--plugin",
-                    "output_backlash is checked by the original Monte Carlo trial",
-                ))
-            }
-        };
+        let draw = case.draw(&mut rng).ok_or_else(|| {
+            SmidError::invalid(
+                "--plugin",
+                format!("`{}` offered no random trial for seed {seed}", case.name),
+            )
+        })?;
         Ok(PluginTrial {
-            plugin,
-            structure,
+            plugin: case.name,
+            structure: case.structure,
             linear,
-            nonlinearity,
-            model,
+            nonlinearity: draw.nonlinearity,
+            model: draw.model,
             bits,
             seed,
-            steady,
-            amplitude,
+            steady: draw.steady,
+            amplitude: draw.amplitude,
         })
     }
 
@@ -227,6 +153,24 @@ pub fn simulator(
     }
 }
 
+/// One trial of the check case `plugin` from `seed`: the founding `output_backlash` runs the
+/// paper's own Monte Carlo trial ([`montecarlo::Trial`]), every other case its plugin's draw
+/// ([`PluginTrial`]). Stage 3 by `method` (`None`: the spec default, classical with `any`).
+pub fn trial(
+    plugin: &str,
+    seed: u64,
+    method: Option<EivMethod>,
+    any: bool,
+) -> Result<Identification> {
+    match (plugin, any) {
+        ("output_backlash", true) => montecarlo::Trial::random(seed).run_any(method),
+        ("output_backlash", false) => {
+            montecarlo::Trial::random(seed).run_method(method.unwrap_or_default())
+        }
+        _ => PluginTrial::random(plugin, seed)?.run(method, any),
+    }
+}
+
 /// Run the trials of `plugin` with `seeds` ([`montecarlo::shard_seeds`]), calling `tick` after each.
 /// Stage 3 by `method` (`None`: the spec default, classical with `any`), on `jobs` threads;
 /// with `any`, identification from one dynamic record ([`any_record`]).
@@ -238,26 +182,10 @@ pub fn run(
     jobs: usize,
     tick: impl Fn() + Sync,
 ) -> Result<Summary> {
-    let plugin = plugin_name(plugin)?;
-    if any {
-        return Ok(montecarlo::run_seeds(seeds, jobs, tick, |seed| {
-            if plugin == "output_backlash" {
-                montecarlo::Trial::random(seed).run_any(method)
-            } else {
-                PluginTrial::random(plugin, seed)?.run(method, true)
-            }
-        }));
-    }
-    if plugin == "output_backlash" {
-        return Ok(montecarlo::run_method(
-            seeds,
-            method.unwrap_or_default(),
-            jobs,
-            tick,
-        ));
-    }
+    crate::link_plugins();
+    let plugin = registry::check_case(plugin)?.name;
     Ok(montecarlo::run_seeds(seeds, jobs, tick, |seed| {
-        PluginTrial::random(plugin, seed)?.run(method, false)
+        trial(&plugin, seed, method, any)
     }))
 }
 

@@ -12,7 +12,7 @@ use smid_core::{Result, SmidError};
 /// What one containment check runs (the whole run's seeds, and which shard of them).
 #[derive(Debug, Clone)]
 pub struct CheckOptions {
-    /// A plugin name of [`crate::plugin_check::PLUGINS`].
+    /// A check case of [`crate::plugin_check::plugins`].
     pub plugin: String,
     /// Stage-3 method (`None`: the spec default; classical with `any_record`).
     pub method: Option<EivMethod>,

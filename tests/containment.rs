@@ -5,7 +5,7 @@
 //! check `smid check --trials 1000` runs the end-to-end property on 1000 trials.
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
-use smid::montecarlo::{random_backlash, random_linear, Trial};
+use smid::montecarlo::{random_linear, Trial};
 use smid_core::interval::Interval;
 use smid_core::inversion::{InnerBound, InnerKind};
 use smid_core::nonlinearity::{Nonlinearity, NonlinearitySet, SteadyPoint, SteadyStateData};
@@ -14,6 +14,7 @@ use smid_core::spec::EivMethod;
 use smid_core::stage3::{self, EivProblem};
 use smid_core::SmidError;
 use smid_output_backlash::branch_polygons;
+use smid_output_backlash::Backlash;
 
 fn cases(default: u32) -> ProptestConfig {
     ProptestConfig::with_cases(
@@ -57,7 +58,7 @@ proptest! {
     #[test]
     fn stage1_polygons_contain_the_truth(seed in any::<u64>(), bits in 6u32..18) {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let b = random_backlash(&mut rng);
+        let b = Backlash::random(&mut rng);
         let delta = smid_core::noise::encoder_delta(bits);
         match branch_polygons(&steady(&b, delta, &mut rng)) {
             Ok(set) => {

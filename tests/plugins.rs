@@ -70,11 +70,7 @@ fn check_any(plugin: &str, seed: u64) -> std::result::Result<(), TestCaseError> 
 }
 
 fn check_from(plugin: &str, seed: u64, any: bool) -> std::result::Result<(), TestCaseError> {
-    let outcome = match (plugin, any) {
-        ("output_backlash", true) => smid::montecarlo::Trial::random(seed).run_any(None),
-        ("output_backlash", false) => smid::montecarlo::Trial::random(seed).run(),
-        _ => PluginTrial::random(plugin, seed).unwrap().run(None, any),
-    };
+    let outcome = smid::plugin_check::trial(plugin, seed, None, any);
     match outcome {
         Ok(id) => {
             prop_assert_eq!(
@@ -96,24 +92,21 @@ fn check_from(plugin: &str, seed: u64, any: bool) -> std::result::Result<(), Tes
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(cases()))]
+    /// Every check case the registry derives (each linked plugin with a random trial, in each
+    /// structure it offers one in), from its designed experiment.
     #[test]
-    fn input_backlash_contains_truth(seed in 1u64..1_000_000) { check("input_backlash", seed)?; }
+    fn every_check_case_contains_truth(seed in 1u64..1_000_000) {
+        for case in smid::plugin_check::plugins() {
+            check(&case, seed)?;
+        }
+    }
+    /// The same cases from one dynamic record.
     #[test]
-    fn dead_zone_input_contains_truth(seed in 1u64..1_000_000) { check("dead_zone_input", seed)?; }
-    #[test]
-    fn dead_zone_output_contains_truth(seed in 1u64..1_000_000) { check("dead_zone_output", seed)?; }
-    #[test]
-    fn saturation_contains_truth(seed in 1u64..1_000_000) { check("saturation", seed)?; }
-    #[test]
-    fn output_backlash_from_any_record_contains_truth(seed in 1u64..1_000_000) { check_any("output_backlash", seed)?; }
-    #[test]
-    fn input_backlash_from_any_record_contains_truth(seed in 1u64..1_000_000) { check_any("input_backlash", seed)?; }
-    #[test]
-    fn dead_zone_input_from_any_record_contains_truth(seed in 1u64..1_000_000) { check_any("dead_zone_input", seed)?; }
-    #[test]
-    fn dead_zone_output_from_any_record_contains_truth(seed in 1u64..1_000_000) { check_any("dead_zone_output", seed)?; }
-    #[test]
-    fn saturation_from_any_record_contains_truth(seed in 1u64..1_000_000) { check_any("saturation", seed)?; }
+    fn every_check_case_from_any_record_contains_truth(seed in 1u64..1_000_000) {
+        for case in smid::plugin_check::plugins() {
+            check_any(&case, seed)?;
+        }
+    }
 }
 
 fn example_text(name: &str) -> String {

@@ -181,9 +181,11 @@ fn cell_band(
         .map(|b| b.interval)
         .collect();
     let vin = |t: usize, j: usize| -> Interval {
-        (t >= j + o.nk)
-            .then(|| v[t - j - o.nk])
-            .unwrap_or_else(Interval::entire)
+        if t >= j + o.nk {
+            v[t - j - o.nk]
+        } else {
+            Interval::entire()
+        }
     };
     // The inner signal before each `t` from the window of outputs ending at `t - 1`.
     let windows: Vec<Vec<InnerBound>> = (0..n)

@@ -45,6 +45,9 @@ pub use error::{Result, SmidError, Stage};
 // Re-exported for the plugin registration macros (`register_nonlinearity!`, `register_model!`).
 #[doc(hidden)]
 pub use inventory;
+/// Re-exported so a plugin draws its check trials ([`nonlinearity::NonlinearityModel::check_draw`])
+/// with the same `rand` as the core.
+pub use rand;
 #[doc(hidden)]
 pub use schemars;
 
@@ -56,9 +59,10 @@ pub mod prelude {
         check_outputs, invert_branch, propagate_static, InnerBound, InnerKind,
     };
     pub use crate::nonlinearity::{
-        two_branch_polygons, two_branch_regions, two_branches_contain, Nonlinearity,
+        two_branch_polygons, two_branch_regions, two_branches_contain, CheckDraw, Nonlinearity,
         NonlinearityModel, NonlinearitySet, ParameterBound, Region, SteadyPoint, SteadyStateData,
         Structure,
     };
     pub use crate::polygon::{Polygon, Strip};
+    pub use rand::{Rng, RngCore};
 }

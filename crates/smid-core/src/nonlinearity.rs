@@ -9,6 +9,7 @@ use crate::error::{Result, SmidError};
 use crate::interval::Interval;
 use crate::inversion::{InnerBound, InnerKind};
 use crate::polygon::Polygon;
+use rand::RngCore;
 use serde::{Deserialize, Serialize};
 use std::fmt::Debug;
 
@@ -281,6 +282,28 @@ pub trait NonlinearityModel: Debug + Send + Sync {
             what: "a parameter box without steady-state data (implement NonlinearityModel::set_from_box)".into(),
         })
     }
+    /// The plugin's random containment trial in `structure` (`smid check --plugin`, the band
+    /// tests, the benches): a true block drawn from `rng` over the range the plugin is meant
+    /// for, the model to identify it with, and the experiment's amplitudes. The check draws the
+    /// linear block and the noise itself, runs the whole pipeline and requires every bound to
+    /// hold the truth. `None` (default): the plugin is not checked in `structure`. Each
+    /// structure that answers `Some` is one check case ([`crate::registry::check_cases`]).
+    fn check_draw(&self, _structure: Structure, _rng: &mut dyn RngCore) -> Option<CheckDraw> {
+        None
+    }
+}
+
+/// One random true block of a plugin for a containment trial ([`NonlinearityModel::check_draw`]).
+#[derive(Debug)]
+pub struct CheckDraw {
+    /// The true block the plant simulates.
+    pub nonlinearity: Box<dyn Nonlinearity>,
+    /// The model that identifies it (the plugin's options, drawn too where they matter).
+    pub model: Box<dyn NonlinearityModel>,
+    /// Steady-state amplitudes `[min, max]` of the designed experiment.
+    pub steady: (f64, f64),
+    /// Amplitude of the dynamic record (PRBS).
+    pub amplitude: f64,
 }
 
 /// The uncertain nonlinearity left after stage 1: parameter bounds, and the inner-signal bounds

@@ -2,10 +2,12 @@
 //! JSON Schema of its parameters and an example value. From these the core builds the JSON
 //! Schema of the spec (a `oneOf` over the registered `type`s, see [`spec_schema`]), lists the
 //! valid `type` names in error messages ([`nonlinearity_types`], [`model_types`]) and lets a test
-//! round-trip every registered `type` through YAML. Registration is link-time (`inventory`), so
+//! round-trip every registered `type` through YAML. The containment check's cases
+//! ([`check_cases`]) derive from it too: each plugin in each structure it offers a random trial
+//! in. Registration is link-time (`inventory`), so
 //! the core names no plugin: a plugin crate calls [`register_nonlinearity!`] and
 //! [`register_model!`] and is linked into the binary.
-use crate::nonlinearity::{Nonlinearity, NonlinearityModel};
+use crate::nonlinearity::{CheckDraw, Nonlinearity, NonlinearityModel, Structure};
 use schemars::{JsonSchema, Schema, SchemaGenerator};
 use serde_json::{json, Map, Value};
 use std::borrow::Cow;
@@ -85,6 +87,77 @@ pub fn parameter_names(tag: &str) -> Vec<String> {
                 .collect()
         })
         .unwrap_or_default()
+}
+
+/// One containment check case: a registered model plugin in one structure where it offers a
+/// random trial ([`NonlinearityModel::check_draw`]).
+#[derive(Debug, Clone)]
+pub struct CheckCase {
+    /// The case's name on the command line (`smid check --plugin NAME`): the plugin's tag
+    /// where it is checked in one structure, `TAG_input` / `TAG_output` where in both.
+    pub name: String,
+    /// The plugin's `type` tag.
+    pub tag: &'static str,
+    /// Where the block sits.
+    pub structure: Structure,
+}
+
+impl CheckCase {
+    /// A random trial of this case from `rng` (the plugin's own draw).
+    pub fn draw(&self, rng: &mut dyn rand::RngCore) -> Option<CheckDraw> {
+        let m = models().into_iter().find(|m| m.tag == self.tag)?;
+        (m.example)().check_draw(self.structure, rng)
+    }
+}
+
+/// Every check case, derived from the registry: each registered model plugin in each structure
+/// it supports and offers a trial in (probed with a fixed draw), sorted by name. A plugin joins
+/// `smid check --plugin`, the band tests and the benches by implementing `check_draw`.
+pub fn check_cases() -> Vec<CheckCase> {
+    use rand::SeedableRng;
+    let mut cases = Vec::new();
+    for m in models() {
+        let ex = (m.example)();
+        let sides: Vec<Structure> = [Structure::Hammerstein, Structure::Wiener]
+            .into_iter()
+            .filter(|&s| {
+                let mut probe = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+                ex.supports(s) && ex.check_draw(s, &mut probe).is_some()
+            })
+            .collect();
+        for &s in &sides {
+            let name = match (sides.len(), s) {
+                (1, _) => m.tag.to_string(),
+                (_, Structure::Hammerstein) => format!("{}_input", m.tag),
+                (_, Structure::Wiener) => format!("{}_output", m.tag),
+            };
+            cases.push(CheckCase {
+                name,
+                tag: m.tag,
+                structure: s,
+            });
+        }
+    }
+    cases.sort_by(|a, b| a.name.cmp(&b.name));
+    cases
+}
+
+/// The check case called `name`: an error listing every valid name otherwise.
+pub fn check_case(name: &str) -> crate::Result<CheckCase> {
+    let cases = check_cases();
+    let names: Vec<String> = cases.iter().map(|c| c.name.clone()).collect();
+    cases
+        .into_iter()
+        .find(|c| c.name == name.trim())
+        .ok_or_else(|| {
+            crate::SmidError::invalid(
+                "--plugin",
+                format!(
+                    "unknown check case `{name}`; expected one of: {} (every registered plugin that offers a random trial, `NonlinearityModel::check_draw`)",
+                    names.join(", ")
+                ),
+            )
+        })
 }
 
 /// Register a simulation nonlinearity: `register_nonlinearity!("tag", Type, example_expr)`.

@@ -203,6 +203,22 @@ impl NonlinearityModel for DeadZoneModel {
         let (left, right) = two_branch_polygons(cell)?;
         Ok(Box::new(DeadZoneSet { left, right }))
     }
+    /// On either side: slopes in `[0.2, 2)`, break points in `[0, 0.5)`; small steady-state
+    /// amplitudes (from 0.1) land in the zone, so its half-planes are exercised too.
+    fn check_draw(&self, _s: Structure, rng: &mut dyn RngCore) -> Option<CheckDraw> {
+        let dz = DeadZone {
+            m_l: rng.gen_range(0.2..2.0),
+            c_l: rng.gen_range(0.0..0.5),
+            m_r: rng.gen_range(0.2..2.0),
+            c_r: rng.gen_range(0.0..0.5),
+        };
+        Some(CheckDraw {
+            nonlinearity: Box::new(dz),
+            model: Box::new(DeadZoneModel {}),
+            steady: (0.1, 3.0),
+            amplitude: 2.0,
+        })
+    }
 }
 
 smid_core::register_nonlinearity!(

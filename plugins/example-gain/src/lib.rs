@@ -10,6 +10,8 @@
 //!   intersection of these intervals (the one-dimensional analogue of constraints (16)-(17));
 //! * stage 2 ([`GainSet`]): inversion `x = w/k` over `k` in its interval and `w = y ± Δη`
 //!   (monotone in both, so the ends suffice, as in Prop 4), or propagation `v = k u`;
+//! * its random containment trial ([`GainModel`]'s `check_draw`), which makes it a case of
+//!   `smid check --plugin` and of the band tests with no edit elsewhere;
 //! * registration of its `type` for the spec's JSON Schema ([`smid_core::register_nonlinearity!`]).
 #![forbid(unsafe_code)]
 
@@ -98,6 +100,18 @@ impl NonlinearityModel for GainModel {
             )),
         }
     }
+    /// The containment check (`smid check --plugin example_gain_input` / `_output`): a gain in
+    /// `[0.5, 2)` on either side, steady-state amplitudes 0.2 to 3, a unit PRBS.
+    fn check_draw(&self, _s: Structure, rng: &mut dyn RngCore) -> Option<CheckDraw> {
+        Some(CheckDraw {
+            nonlinearity: Box::new(Gain {
+                k: rng.gen_range(0.5..2.0),
+            }),
+            model: Box::new(GainModel {}),
+            steady: (0.2, 3.0),
+            amplitude: 1.0,
+        })
+    }
 }
 
 #[typetag::serde(name = "example_gain")]
@@ -150,3 +164,75 @@ impl NonlinearitySet for GainSet {
 
 smid_core::register_nonlinearity!("example_gain", Gain, Gain { k: 2.0 });
 smid_core::register_model!("example_gain", GainModel, GainModel {});
+
+/// Step 7 of CONTRIBUTING, for the worked example: the truth lies in the stage-1 set and in
+/// every inner-signal bound, for random gains, amplitudes and noise inside its bound.
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn cases() -> u32 {
+        std::env::var("PROPTEST_CASES")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(16)
+    }
+
+    /// Steady-state points `ȳ = k ū + η`, `|η| <= d`, at `±` each amplitude.
+    fn steady(k: f64, amps: &[f64], d: f64, noise: &[f64]) -> SteadyStateData {
+        let points = amps
+            .iter()
+            .flat_map(|&a| [a, -a])
+            .enumerate()
+            .map(|(i, u)| SteadyPoint {
+                u,
+                y: k * u + d * noise[i % noise.len()],
+                dy: d,
+                alpha: 0.0,
+                rising: u > 0.0,
+                index: i,
+                time: None,
+                step: None,
+                du: 0.0,
+            })
+            .collect();
+        SteadyStateData { points }
+    }
+
+    #[test]
+    fn a_sample_no_gain_fits_is_named() {
+        // Two samples 1 apart in gain with a bound of 0.01: no k > 0 fits both.
+        let mut data = steady(1.0, &[1.0], 0.01, &[0.0]);
+        data.points[1].y = -2.0;
+        match (GainModel {}).bound_steady_state(&data) {
+            Err(SmidError::Inconsistent { sample, .. }) => assert_eq!(sample, 1),
+            other => panic!("expected an inconsistency at sample 1, got {other:?}"),
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(cases()))]
+        #[test]
+        fn the_truth_is_in_the_set_and_in_every_inner_bound(
+            k in 0.2f64..5.0,
+            amps in proptest::collection::vec(0.1f64..3.0, 1..8),
+            d in 1e-4f64..0.1,
+            noise in proptest::collection::vec(-1.0f64..=1.0, 1..16),
+            x in proptest::collection::vec(-3.0f64..3.0, 1..40),
+        ) {
+            let set = GainModel {}.bound_steady_state(&steady(k, &amps, d, &noise)).unwrap();
+            let interval = set.parameters()[0].interval;
+            prop_assert!(interval.contains(k), "k = {k} outside {interval:?}");
+            let truth = Gain { k };
+            let w = truth.simulate(&x);
+            let y: Vec<f64> = w.iter().enumerate().map(|(i, w)| w + d * noise[i % noise.len()]).collect();
+            for (t, b) in set.invert(&y, &vec![d; y.len()]).unwrap().iter().enumerate() {
+                prop_assert!(b.interval.contains(x[t]), "x[{t}] = {} outside {:?}", x[t], b.interval);
+            }
+            for (t, b) in set.propagate(&x).unwrap().iter().enumerate() {
+                prop_assert!(b.interval.contains(w[t]), "v[{t}] = {} outside {:?}", w[t], b.interval);
+            }
+        }
+    }
+}

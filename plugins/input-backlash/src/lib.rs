@@ -126,6 +126,27 @@ impl NonlinearityModel for InputBacklashModel {
             at_rest: self.at_rest,
         }))
     }
+    /// Before the linear block: a random physical backlash over the inputs it sees (`|u| <= 3`),
+    /// started at rest or not at random, steady-state amplitudes 0.6 to 3, a unit PRBS.
+    fn check_draw(&self, s: Structure, rng: &mut dyn RngCore) -> Option<CheckDraw> {
+        if s != Structure::Hammerstein {
+            return None;
+        }
+        let b = Backlash::random_physical(rng, 3.0)?;
+        Some(CheckDraw {
+            nonlinearity: Box::new(InputBacklash {
+                m_l: b.m_l,
+                c_l: b.c_l,
+                m_r: b.m_r,
+                c_r: b.c_r,
+            }),
+            model: Box::new(InputBacklashModel {
+                at_rest: rng.gen_bool(0.5),
+            }),
+            steady: (0.6, 3.0),
+            amplitude: 1.0,
+        })
+    }
 }
 
 smid_core::register_nonlinearity!(

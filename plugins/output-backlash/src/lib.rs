@@ -41,6 +41,33 @@ impl Backlash {
             w_prev
         }
     }
+
+    /// A random backlash of the containment checks: a common slope in `[0.1, 2)`, each branch
+    /// within ±2.5 % of it, half-plays in `[0.01, 0.3)` (the ranges of Section 6 widened).
+    pub fn random(rng: &mut dyn RngCore) -> Backlash {
+        let m: f64 = rng.gen_range(0.1..2.0);
+        Backlash {
+            m_l: m * rng.gen_range(0.975..1.025),
+            c_l: rng.gen_range(0.01..0.3),
+            m_r: m * rng.gen_range(0.975..1.025),
+            c_r: rng.gen_range(0.01..0.3),
+        }
+    }
+
+    /// Whether eq (2) describes a backlash for inner signals up to `x_max` in magnitude: the
+    /// dead band `[w/m_l - c_l, w/m_r + c_r]` must be non-empty for every output reached.
+    pub fn is_physical(&self, x_max: f64) -> bool {
+        let w_max = self.m_l.max(self.m_r) * (x_max + self.c_l.max(self.c_r));
+        w_max * (1.0 / self.m_l - 1.0 / self.m_r).abs() < self.c_l + self.c_r
+    }
+
+    /// A random backlash physical over inner signals up to `x_max` (redrawn until it is; `None`
+    /// after 1000 draws).
+    pub fn random_physical(rng: &mut dyn RngCore, x_max: f64) -> Option<Backlash> {
+        (0..1000)
+            .map(|_| Backlash::random(rng))
+            .find(|b| b.is_physical(x_max))
+    }
 }
 
 #[typetag::serde(name = "output_backlash")]
@@ -180,6 +207,21 @@ impl NonlinearityModel for OutputBacklashModel {
         let c = Interval::new(0.0, 0.25 * (seen.1 - seen.0).max(0.0));
         let one = Interval::new(1.0, 1.0);
         Some(vec![one, c, one, c])
+    }
+    /// After the linear block: a random physical backlash over `|x| <= 3`, steady-state
+    /// amplitudes 0.6 to 3, a PRBS that crosses the dead band often (`1 + 4 (c_l + c_r)`).
+    /// (`smid check --plugin output_backlash` runs the paper's own Monte Carlo instead.)
+    fn check_draw(&self, s: Structure, rng: &mut dyn RngCore) -> Option<CheckDraw> {
+        if s != Structure::Wiener {
+            return None;
+        }
+        let b = Backlash::random_physical(rng, 3.0)?;
+        Some(CheckDraw {
+            nonlinearity: Box::new(b),
+            model: Box::new(OutputBacklashModel {}),
+            steady: (0.6, 3.0),
+            amplitude: 1.0 + 4.0 * (b.c_l + b.c_r),
+        })
     }
 }
 

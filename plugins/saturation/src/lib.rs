@@ -285,6 +285,27 @@ impl NonlinearityModel for SaturationModel {
             right: st(cell[2], cell[3]),
         }))
     }
+    /// After the linear block: slopes in `[0.2, 2)`, each limit 1 to 2.5 times its slope, so
+    /// steady-state amplitudes 0.1 to 4 reach both the linear part and the limits.
+    fn check_draw(&self, s: Structure, rng: &mut dyn RngCore) -> Option<CheckDraw> {
+        if s != Structure::Wiener {
+            return None;
+        }
+        let m_l: f64 = rng.gen_range(0.2..2.0);
+        let m_r: f64 = rng.gen_range(0.2..2.0);
+        let sat = Saturation {
+            m_l,
+            s_l: m_l * rng.gen_range(1.0..2.5),
+            m_r,
+            s_r: m_r * rng.gen_range(1.0..2.5),
+        };
+        Some(CheckDraw {
+            nonlinearity: Box::new(sat),
+            model: Box::new(SaturationModel {}),
+            steady: (0.1, 4.0),
+            amplitude: 0.5,
+        })
+    }
 }
 
 smid_core::register_nonlinearity!(
