@@ -32,7 +32,10 @@ fn bench(c: &mut Criterion) {
             .map(|&v| Interval::new(v, v))
             .collect();
         let fixed = spec.fixed_theta().expect("fixed entries");
-        for m in EivMethod::ALL.into_iter().filter(|m| m.available()) {
+        for m in EivMethod::registered()
+            .into_iter()
+            .filter(|m| m.available())
+        {
             if n >= 100_000 && m != EivMethod::Classical && !large {
                 continue;
             }

@@ -141,7 +141,7 @@ fn main() {
     let methods: Vec<String> = opt("--methods")
         .map(|s| s.split(',').map(str::to_string).collect())
         .unwrap_or_else(|| {
-            EivMethod::ALL
+            EivMethod::registered()
                 .into_iter()
                 .filter(|m| m.available())
                 .map(|m| m.name().to_string())

@@ -72,6 +72,25 @@ pub fn load_spec(path: &Path) -> Result<Spec> {
     Spec::from_file(path)
 }
 
+/// A spec file with its experiments run on its built-in simulator (`plant.simulator`), as
+/// `smid run` acquires them: the training data a diagnosis or a test starts from.
+pub fn load_simulated(path: &Path) -> Result<(Spec, pipeline::ExperimentData)> {
+    let spec = load_spec(path)?;
+    let data = {
+        let mut plant = pipeline::builtin_plant(&spec).ok_or_else(|| {
+            SmidError::invalid(
+                "plant",
+                format!(
+                    "{}: expected a built-in simulator (`plant.simulator`)",
+                    path.display()
+                ),
+            )
+        })?;
+        pipeline::simulate_experiments(&spec, &mut plant)?
+    };
+    Ok((spec, data))
+}
+
 /// Load a spec file, acquire its data (simulator, CSV or FMU) and identify. A relative FMU path
 /// resolves against the spec file's directory.
 pub fn run_spec_file(path: &Path) -> Result<Identification> {

@@ -61,9 +61,9 @@ enum Command {
         /// runs with `--json`; join the shards with `reproduce-merge`.
         #[arg(long, value_parser = parse_shard, requires = "json", conflicts_with = "methods")]
         shard: Option<(usize, usize)>,
-        /// Also compare stage-3 methods on the same data (comma-separated: classical, shared,
-        /// sdp, exact-grid): a radius table per method and n_bit, with the ratio to the exact set.
-        #[arg(long, value_delimiter = ',')]
+        /// Also compare stage-3 methods on the same data (comma-separated registered names):
+        /// a radius table per method and n_bit, with the ratio to the exact set.
+        #[arg(long, value_delimiter = ',', help = methods_help("Also compare stage-3 methods on the same data, comma-separated; a radius table per method and n_bit, with the ratio to the exact set"))]
         methods: Vec<String>,
     },
     /// Print the JSON Schema of the spec (every registered plugin and effect `type`); the
@@ -79,8 +79,8 @@ enum Command {
         /// `_output` where it is checked on both sides (`smid check --list` names them).
         #[arg(long, default_value = "output_backlash")]
         plugin: String,
-        /// Stage-3 method (classical, shared, sdp, exact-grid; default: the spec default).
-        #[arg(long)]
+        /// Stage-3 method (default: the spec default).
+        #[arg(long, help = methods_help("Stage-3 method (default: the spec default)"))]
         method: Option<String>,
         /// Identification from any record: no steady-state experiment, a PRBS of 400 samples,
         /// the nonlinearity bisected over a random prior box around the truth (stage 3
@@ -270,6 +270,11 @@ fn parse_shard(s: &str) -> Result<(usize, usize), String> {
 fn jobs_or_cores(jobs: Option<usize>) -> usize {
     jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
         .max(1)
+}
+
+/// A `--method` help line naming the registered stage-3 methods.
+fn methods_help(what: &str) -> String {
+    format!("{what}: {}", smid::core::stage3::names().join(", "))
 }
 
 fn parse_method(m: &str) -> Result<smid::core::spec::EivMethod> {

@@ -8,10 +8,7 @@ use std::path::Path;
 
 fn paper_lag() -> (smid_core::spec::Spec, pipeline::ExperimentData) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/paper-lag.yaml");
-    let spec = smid::load_spec(&path).unwrap();
-    let mut plant = pipeline::builtin_plant(&spec).unwrap();
-    let data = pipeline::simulate_experiments(&spec, &mut plant).unwrap();
-    (spec, data)
+    smid::load_simulated(&path).unwrap()
 }
 
 #[test]

@@ -37,7 +37,9 @@ from ._api import (
     Verdict,
     diagnose,
     identify,
+    check_cases,
     identify_arrays,
+    methods,
     schema,
     simulate,
     simulate_plant,
@@ -49,6 +51,6 @@ __all__ = [
     "CheckResult", "DataError", "Diagnosis", "Identification", "InconsistentError", "InnerBounds",
     "InvalidError", "ModelSet", "Parameter", "PlantRecord", "PlantError", "Simulation", "SmidError", "SolverError",
     "SpecError", "UnboundedError", "UnsupportedError", "Validation", "Verdict", "__version__",
-    "check", "check_merge", "check_shard", "diagnose", "identify", "identify_arrays",
+    "check", "check_cases", "check_merge", "check_shard", "diagnose", "identify", "identify_arrays", "methods",
     "reproduce_merge", "reproduce_shard", "schema", "simulate", "simulate_plant", "validate",
 ]

@@ -627,3 +627,14 @@ def simulate_plant(spec: SpecLike, *, seed: Optional[int] = None, length: Option
 def schema() -> Dict[str, Any]:
     """The JSON Schema of specs (every registered plugin and effect)."""
     return json.loads(_native.schema())
+
+
+def methods(available_only: bool = True) -> List[str]:
+    """The registered stage-3 methods (``method=``), in documentation order; by default only
+    those this build runs (``sdp`` needs the cargo feature ``sdp``)."""
+    return [name for name, ok in _native.methods() if ok or not available_only]
+
+
+def check_cases() -> List[str]:
+    """The containment check's cases (``check(plugin=...)``), derived from the plugin registry."""
+    return list(_native.check_cases())

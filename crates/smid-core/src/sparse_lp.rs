@@ -153,29 +153,9 @@ impl SparseLp {
 
     /// Set up the solver (one symbolic factorisation for all objectives).
     pub fn solver(&self) -> Result<LpSolver> {
-        let m = self.le.len() + self.eq.len();
-        let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); self.n];
-        let mut b = Vec::with_capacity(m);
-        for (r, (g, h)) in self.le.iter().enumerate() {
-            for &(c, v) in g {
-                cols[c].push((r, v));
-            }
-            b.push(h + ROW_PAD * (1.0 + h.abs()));
-        }
-        for (r, (e, f)) in self.eq.iter().enumerate() {
-            for &(c, v) in e {
-                cols[c].push((self.le.len() + r, v));
-            }
-            b.push(*f);
-        }
-        let a = csc(m, &cols, &b, "linear program")?;
-        let mut cones = Vec::new();
-        if !self.le.is_empty() {
-            cones.push(SupportedConeT::NonnegativeConeT(self.le.len()));
-        }
-        if !self.eq.is_empty() {
-            cones.push(SupportedConeT::ZeroConeT(self.eq.len()));
-        }
+        let rows = padded_rows(self.n, &self.le, &self.eq);
+        let a = csc(rows.b.len(), &rows.cols, &rows.b, "linear program")?;
+        let (b, cones) = (rows.b, rows.cones);
         let solver = conic_solver(&a, &b, &cones, Some(1e-10))?;
         Ok(LpSolver {
             n: self.n,
@@ -183,6 +163,50 @@ impl SparseLp {
             infeasible: false,
         })
     }
+}
+
+/// The linear rows of a conic program in clarabel's column form: the `g·z <= h` rows first,
+/// each right-hand side relaxed outward by [`ROW_PAD`] `· (1 + |h|)` (invariant 1: the solved
+/// feasible set contains the exact one), then the `e·z = f` rows as given, with their cones.
+/// The one copy of the padding and assembly: the LP path here and the moment relaxation
+/// (`stage3/sdp.rs`, which appends its PSD blocks) both build from it.
+pub(crate) struct PaddedRows {
+    /// Per column, `(row, value)` entries.
+    pub cols: Vec<Vec<(usize, f64)>>,
+    /// Right-hand sides, padded for the inequality rows.
+    pub b: Vec<f64>,
+    /// The nonnegative cone of the inequality rows, then the zero cone of the equalities.
+    pub cones: Vec<SupportedConeT<f64>>,
+}
+
+/// See [`PaddedRows`]: `n` columns, `le` inequality and `eq` equality rows.
+pub(crate) fn padded_rows(
+    n: usize,
+    le: &[(Vec<(usize, f64)>, f64)],
+    eq: &[(Vec<(usize, f64)>, f64)],
+) -> PaddedRows {
+    let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
+    let mut b = Vec::with_capacity(le.len() + eq.len());
+    for (r, (g, h)) in le.iter().enumerate() {
+        for &(c, v) in g {
+            cols[c].push((r, v));
+        }
+        b.push(h + ROW_PAD * (1.0 + h.abs()));
+    }
+    for (r, (e, f)) in eq.iter().enumerate() {
+        for &(c, v) in e {
+            cols[c].push((le.len() + r, v));
+        }
+        b.push(*f);
+    }
+    let mut cones = Vec::new();
+    if !le.is_empty() {
+        cones.push(SupportedConeT::NonnegativeConeT(le.len()));
+    }
+    if !eq.is_empty() {
+        cones.push(SupportedConeT::ZeroConeT(eq.len()));
+    }
+    PaddedRows { cols, b, cones }
 }
 
 /// A set-up LP, optimised along many objectives.

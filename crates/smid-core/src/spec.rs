@@ -440,6 +440,10 @@ pub struct MethodSpec {
     pub alpha: AlphaSpec,
     #[serde(default)]
     pub eiv: EivMethod,
+    /// Options of the chosen stage-3 method (its own names, e.g. `max_rounds` for `shared`;
+    /// unknown ones are an error naming them). Empty: the method's defaults.
+    #[serde(default, skip_serializing_if = "serde_json::Map::is_empty")]
+    pub options: serde_json::Map<String, serde_json::Value>,
     /// Also use equations whose inner samples are only known to lie in the dead band
     /// (default: yes for every method but `classical`, which keeps the paper's choice).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -631,6 +635,8 @@ impl Spec {
 
     /// Checks beyond the types; errors name the field.
     pub fn validate(&self) -> Result<()> {
+        // The stage-3 method's own check of its options (`method.options`).
+        crate::stage3::configured(&self.method)?;
         let p = &self.plant;
         let kinds = [p.simulator.is_some(), p.data.is_some(), p.fmu.is_some()]
             .iter()

@@ -398,6 +398,21 @@ fn schema() -> String {
     smid::core::registry::spec_schema()
 }
 
+/// The registered stage-3 methods (`method=` / `method.eiv`), in documentation order, with
+/// whether this build runs each.
+#[pyfunction]
+fn methods() -> Vec<(String, bool)> {
+    smid::core::stage3::all()
+        .map(|(m, imp)| (m.name().to_string(), imp.available()))
+        .collect()
+}
+
+/// The containment check's cases (`check(plugin=...)`), derived from the plugin registry.
+#[pyfunction]
+fn check_cases() -> Vec<String> {
+    smid::plugin_check::plugins()
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     smid::link_plugins();
@@ -422,6 +437,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(reproduce_shard, m)?)?;
     m.add_function(wrap_pyfunction!(reproduce_merge, m)?)?;
     m.add_function(wrap_pyfunction!(schema, m)?)?;
+    m.add_function(wrap_pyfunction!(methods, m)?)?;
+    m.add_function(wrap_pyfunction!(check_cases, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -291,10 +291,11 @@ pub fn stage3(
     prior: Option<&[Interval]>,
 ) -> Result<EivResult> {
     let problem = eiv_problem(model, layout, method, sig, prior);
-    match crate::stage3::solve(method.eiv, &problem) {
+    let chosen = crate::stage3::configured(method)?;
+    match chosen.solve(&problem) {
         // Solver trouble: another method's outer bound is as guaranteed.
         Err(SmidError::Solver(first)) => {
-            let other = crate::stage3::method(method.eiv).fallback();
+            let other = chosen.fallback();
             crate::stage3::solve(other, &problem).map_err(|e| match e {
                 SmidError::Solver(second) => SmidError::Solver(format!(
                     "{first}; with the {} method too: {second}",

@@ -23,13 +23,21 @@ use crate::interval::Interval;
 use crate::lp::{LpOutcome, Polytope};
 use rayon::prelude::*;
 
+/// The method's name (`method.eiv: classical`).
+pub const NAME: &str = "classical";
+
 /// The classical orthant-wise LP outer set (`method.eiv: classical`).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Classical;
 
+crate::register_stage3!(0, Classical);
+
 impl Stage3Method for Classical {
     fn name(&self) -> &'static str {
-        "classical"
+        NAME
+    }
+    fn description(&self) -> &'static str {
+        "Orthant-wise LP outer set of Section 5 (Cerone 1993): each equation's error bounded on its own."
     }
     /// Starts from the problem alone (`start` is not read).
     fn solve_from(&self, prob: &EivProblem, _start: EivResult) -> Result<EivResult> {

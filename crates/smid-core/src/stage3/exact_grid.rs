@@ -23,8 +23,12 @@ use crate::interval::Interval;
 use crate::sparse_lp::{merge, Optimum, SparseLp};
 use std::collections::BinaryHeap;
 
-/// Options of the exact-grid reference.
-#[derive(Debug, Clone, Copy)]
+/// The method's name (`method.eiv: exact-grid`).
+pub const NAME: &str = "exact-grid";
+
+/// Options of the exact-grid reference (`method.options` in a spec).
+#[derive(Debug, Clone, Copy, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ExactOptions {
     /// The grid has `2^depth` cells per free `a`.
     pub depth: u32,
@@ -56,9 +60,27 @@ pub struct ExactGrid {
     pub opts: ExactOptions,
 }
 
+crate::register_stage3!(
+    30,
+    ExactGrid {
+        opts: ExactOptions::DEFAULT
+    }
+);
+
 impl Stage3Method for ExactGrid {
     fn name(&self) -> &'static str {
-        "exact-grid"
+        NAME
+    }
+    fn description(&self) -> &'static str {
+        "Exact set measured on a grid of the a-plane (na <= 2, Wiener): outer hull of feasible cells reported, inner hull of consistent points measured. Options: depth, line_steps, anchor_evals."
+    }
+    fn with_options(
+        &self,
+        options: &serde_json::Map<String, serde_json::Value>,
+    ) -> Result<Option<Box<dyn Stage3Method>>> {
+        super::with_parsed_options(NAME, options, |opts: ExactOptions| {
+            Box::new(ExactGrid { opts })
+        })
     }
     fn start(&self) -> Option<EivMethod> {
         Some(EivMethod::Shared)

@@ -9,9 +9,11 @@
 //! with every method's start.
 //!
 //! This module holds the problem and result types ([`EivProblem`], [`EivResult`]), the method
-//! trait ([`Stage3Method`]), the method names ([`EivMethod`], used by specs) and the registry
-//! ([`method`], [`by_name`], [`all`], [`solve`]). Each method lives in its own file and imports
-//! only this module and the shared pieces (`relax`):
+//! trait ([`Stage3Method`]), the method names ([`EivMethod`], used by specs) and the open,
+//! link-time registry ([`register_stage3!`](crate::register_stage3), [`method`], [`by_name`],
+//! [`all`], [`names`], [`configured`] for a spec's `method.options`, [`solve`]). Each method
+//! lives in its own file, names and registers itself there, and imports only this module and
+//! the shared pieces (`relax`):
 //!
 //! | method | file | starts from |
 //! |---|---|---|
@@ -249,70 +251,102 @@ impl EivProblem<'_> {
     }
 }
 
-/// Stage-3 method.
-#[derive(
-    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema, Default,
-)]
-#[serde(rename_all = "snake_case")]
-pub enum EivMethod {
-    /// Orthant-wise LP outer set of Section 5 (Cerone 1993): each equation's error bounded on
-    /// its own.
-    Classical,
-    /// Shared-error relaxation: the inner-signal errors are variables shared by consecutive
-    /// equations, products relaxed by McCormick envelopes, box shrunk until the radii settle
-    /// ([`crate::stage3::shared`]). Never wider than `classical`; close to the exact set.
-    #[default]
-    Shared,
-    /// Moment (SDP) relaxation on each equation's clique of consecutive samples, bounds by weak
-    /// duality ([`crate::stage3::sdp`]); needs the cargo feature `sdp`. Never wider than `shared`.
-    Sdp,
-    /// Exact set measured on a grid of the a-plane (na <= 2, Wiener): outer hull of feasible
-    /// cells reported, inner hull of consistent points measured ([`crate::stage3::exact_grid`]).
-    #[serde(rename = "exact-grid", alias = "exact_grid")]
-    ExactGrid,
-}
+/// A stage-3 method by its registered name (`method.eiv` in a spec, `--method` on the command
+/// line, `method` in `result.json`): one of the methods in the registry ([`all`]). The name is
+/// the method's own [`Stage3Method::name`]; a value is made only from a registered name
+/// ([`EivMethod::parse`], deserialisation) or one of the built-in constants below.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct EivMethod(&'static str);
 
+#[allow(non_upper_case_globals)]
 impl EivMethod {
-    /// Every method, in documentation order.
-    pub const ALL: [EivMethod; 4] = [
-        EivMethod::Classical,
-        EivMethod::Shared,
-        EivMethod::Sdp,
-        EivMethod::ExactGrid,
-    ];
+    /// [`classical`]: the orthant-wise LP outer set of Section 5.
+    pub const Classical: EivMethod = EivMethod(classical::NAME);
+    /// [`shared`]: the shared-error relaxation (the default).
+    pub const Shared: EivMethod = EivMethod(shared::NAME);
+    /// [`sdp`]: the moment relaxation (cargo feature `sdp`).
+    pub const Sdp: EivMethod = EivMethod(sdp::NAME);
+    /// [`exact_grid`]: the exact-set reference on a grid.
+    pub const ExactGrid: EivMethod = EivMethod(exact_grid::NAME);
 
     /// Whether this build can run the method (`sdp` needs the cargo feature `sdp`).
     pub fn available(self) -> bool {
         method(self).available()
     }
 
-    /// The name used in specs and on the command line.
+    /// The name used in specs and on the command line (the method's own name).
     pub fn name(self) -> &'static str {
-        match self {
-            EivMethod::Classical => "classical",
-            EivMethod::Shared => "shared",
-            EivMethod::Sdp => "sdp",
-            EivMethod::ExactGrid => "exact-grid",
-        }
+        self.0
     }
-    /// Parse a name as used in specs (`classical`, `shared`, `sdp`, `exact-grid`).
+
+    /// Every registered method, in documentation order (see [`all`]).
+    pub fn registered() -> Vec<EivMethod> {
+        all().map(|(m, _)| m).collect()
+    }
+
+    /// The registered method called `s` (`_` accepted for `-`).
     pub fn from_name(s: &str) -> Option<Self> {
-        Self::ALL
-            .into_iter()
+        all()
+            .map(|(m, _)| m)
             .find(|m| m.name() == s || m.name().replace('-', "_") == s)
     }
+
     /// Parse a name given by a user (surrounding blanks ignored): an error naming the valid
-    /// ones (the CLI's `--method` and the Python package's `method=` both use it).
+    /// ones (specs, the CLI's `--method` and the Python package's `method=` all use it).
     pub fn parse(s: &str) -> Result<Self> {
         Self::from_name(s.trim()).ok_or_else(|| {
             SmidError::invalid(
                 "method",
                 format!(
                     "unknown stage-3 method `{s}`; expected one of: {}",
-                    Self::ALL.map(|m| m.name()).join(", ")
+                    names().join(", ")
                 ),
             )
         })
+    }
+}
+
+impl Default for EivMethod {
+    /// `shared`.
+    fn default() -> Self {
+        EivMethod::Shared
+    }
+}
+
+impl std::fmt::Display for EivMethod {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.0)
+    }
+}
+
+impl Serialize for EivMethod {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.0)
+    }
+}
+
+impl<'de> Deserialize<'de> for EivMethod {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        EivMethod::parse(&s).map_err(|e| match e {
+            SmidError::Invalid { message, .. } => serde::de::Error::custom(message),
+            e => serde::de::Error::custom(e),
+        })
+    }
+}
+
+impl schemars::JsonSchema for EivMethod {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "EivMethod".into()
+    }
+    /// One `const` per registered method, described by the method itself.
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        let one_of: Vec<serde_json::Value> = all()
+            .map(|(m, imp)| {
+                serde_json::json!({ "description": imp.description(), "type": "string", "const": m.name() })
+            })
+            .collect();
+        schemars::json_schema!({ "description": "Stage-3 method: one of the registered methods.", "oneOf": one_of })
     }
 }
 
@@ -359,9 +393,32 @@ pub trait Stage3Method: Send + Sync {
     /// than it). Required.
     fn solve_from(&self, prob: &EivProblem, start: EivResult) -> Result<EivResult>;
 
-    /// The name used in messages (the built-in methods use their spec names).
+    /// The method's name in specs, on the command line and in messages: its one name. A
+    /// registered method must give its own (the default, the type's path, is for unregistered
+    /// helpers such as doc examples).
     fn name(&self) -> &'static str {
         std::any::type_name::<Self>()
+    }
+
+    /// One line for the spec's JSON Schema and `--help`. Default: empty.
+    fn description(&self) -> &'static str {
+        ""
+    }
+
+    /// This method with the options of a spec's `method.options` (see [`parse_options`]).
+    /// `Ok(None)`: the registered instance as it is. Default: no options; any given is an
+    /// error naming the method.
+    fn with_options(
+        &self,
+        options: &serde_json::Map<String, serde_json::Value>,
+    ) -> Result<Option<Box<dyn Stage3Method>>> {
+        match options.keys().next() {
+            None => Ok(None),
+            Some(k) => Err(SmidError::invalid(
+                format!("method.options.{k}"),
+                format!("the stage-3 method `{}` takes no options", self.name()),
+            )),
+        }
     }
 
     /// Whether this build can run the method (e.g. a cargo feature it needs is on).
@@ -410,36 +467,115 @@ pub fn prior_start(prob: &EivProblem) -> Result<EivResult> {
     })
 }
 
-static CLASSICAL: classical::Classical = classical::Classical;
-static SHARED: shared::Shared = shared::Shared {
-    opts: shared::SharedOptions::DEFAULT,
-};
-static SDP: sdp::Sdp = sdp::Sdp {
-    opts: sdp::SdpOptions::DEFAULT,
-};
-static EXACT_GRID: exact_grid::ExactGrid = exact_grid::ExactGrid {
-    opts: exact_grid::ExactOptions::DEFAULT,
-};
+/// A registered stage-3 method ([`register_stage3!`](crate::register_stage3)): the method
+/// (with its default options) and its place in documentation order.
+pub struct MethodEntry {
+    /// Documentation order (the built-in methods: 0, 10, 20, 30).
+    pub order: u32,
+    /// The method with its default options; its [`Stage3Method::name`] is its name everywhere.
+    pub method: &'static dyn Stage3Method,
+}
+
+inventory::collect!(MethodEntry);
+
+/// Register a stage-3 method: `register_stage3!(order, VALUE)` with `VALUE` a constant
+/// expression of a type implementing [`Stage3Method`] (its default options). The method file
+/// calls it once; the spec, the schema, the CLI and the Python package then offer the method.
+#[macro_export]
+macro_rules! register_stage3 {
+    ($order:expr, $method:expr) => {
+        $crate::inventory::submit! {
+            $crate::stage3::MethodEntry { order: $order, method: &$method }
+        }
+    };
+}
 
 /// The registered implementation of `m` (default options).
 pub fn method(m: EivMethod) -> &'static dyn Stage3Method {
-    match m {
-        EivMethod::Classical => &CLASSICAL,
-        EivMethod::Shared => &SHARED,
-        EivMethod::Sdp => &SDP,
-        EivMethod::ExactGrid => &EXACT_GRID,
-    }
+    entries()
+        .into_iter()
+        .find(|e| e.method.name() == m.name())
+        .map(|e| e.method)
+        .expect("an EivMethod is made only from a registered name")
 }
 
-/// The method of a spec name (`classical`, `shared`, `sdp`, `exact-grid`; `_` for `-` too).
+fn entries() -> Vec<&'static MethodEntry> {
+    let mut v: Vec<_> = inventory::iter::<MethodEntry>.into_iter().collect();
+    v.sort_by_key(|e| (e.order, e.method.name()));
+    v
+}
+
+/// The method of a spec name (`_` for `-` too).
 pub fn by_name(name: &str) -> Option<&'static dyn Stage3Method> {
     EivMethod::from_name(name).map(method)
 }
 
-/// Every method with its implementation, in documentation order (including those this build
-/// cannot run: see [`Stage3Method::available`]).
+/// Every registered method with its implementation, in documentation order (including those
+/// this build cannot run: see [`Stage3Method::available`]).
 pub fn all() -> impl Iterator<Item = (EivMethod, &'static dyn Stage3Method)> {
-    EivMethod::ALL.into_iter().map(|m| (m, method(m)))
+    entries()
+        .into_iter()
+        .map(|e| (EivMethod(e.method.name()), e.method))
+}
+
+/// The names of every registered method, in documentation order (the CLI's and the Python
+/// package's lists).
+pub fn names() -> Vec<&'static str> {
+    all().map(|(m, _)| m.name()).collect()
+}
+
+/// The method of `spec` with its options (`method.options`, checked by the method: an unknown
+/// or mistyped option is an error naming it); the registered default when none are given.
+pub fn configured(spec: &crate::spec::MethodSpec) -> Result<ConfiguredMethod> {
+    let imp = method(spec.eiv);
+    match imp.with_options(&spec.options)? {
+        Some(b) => Ok(ConfiguredMethod::Owned(b)),
+        None => Ok(ConfiguredMethod::Registered(imp)),
+    }
+}
+
+/// A method as the pipeline runs it: the registered one or one built with spec options.
+pub enum ConfiguredMethod {
+    Registered(&'static dyn Stage3Method),
+    Owned(Box<dyn Stage3Method>),
+}
+
+impl std::ops::Deref for ConfiguredMethod {
+    type Target = dyn Stage3Method;
+    fn deref(&self) -> &Self::Target {
+        match self {
+            ConfiguredMethod::Registered(m) => *m,
+            ConfiguredMethod::Owned(b) => b.as_ref(),
+        }
+    }
+}
+
+/// [`Stage3Method::with_options`] for a method whose options are the fields of `T`: `None`
+/// when none are given, else the method `build` makes from the parsed options
+/// ([`parse_options`]).
+pub fn with_parsed_options<T: serde::de::DeserializeOwned>(
+    name: &str,
+    options: &serde_json::Map<String, serde_json::Value>,
+    build: impl FnOnce(T) -> Box<dyn Stage3Method>,
+) -> Result<Option<Box<dyn Stage3Method>>> {
+    if options.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(build(parse_options(name, options)?)))
+}
+
+/// Options of a method from `method.options`: the fields of `T` (unknown ones refused), the
+/// rest at `T`'s defaults. For [`Stage3Method::with_options`] implementations.
+pub fn parse_options<T: serde::de::DeserializeOwned>(
+    name: &str,
+    options: &serde_json::Map<String, serde_json::Value>,
+) -> Result<T> {
+    serde_json::from_value(serde_json::Value::Object(options.clone())).map_err(|e| {
+        SmidError::invalid(
+            "method.options",
+            format!("options of the stage-3 method `{name}`: {e}"),
+        )
+    })
 }
 
 /// A cheap necessary test of consistency: whether the classical outer set is non-empty
@@ -478,7 +614,7 @@ mod tests {
 
     #[test]
     fn method_names_parse_and_unknown_ones_list_the_valid_names() {
-        for m in EivMethod::ALL {
+        for m in EivMethod::registered() {
             assert_eq!(EivMethod::parse(&format!(" {} ", m.name())).unwrap(), m);
         }
         assert_eq!(
@@ -487,7 +623,7 @@ mod tests {
         );
         let e = EivMethod::parse("clasical").unwrap_err().to_string();
         assert!(e.contains("clasical"), "{e}");
-        for m in EivMethod::ALL {
+        for m in EivMethod::registered() {
             assert!(e.contains(m.name()), "{e}");
         }
     }
@@ -684,6 +820,16 @@ mod tests {
 
     #[test]
     fn the_registry_knows_every_method_by_its_spec_name() {
+        let mut seen = names();
+        seen.sort_unstable();
+        let n = seen.len();
+        seen.dedup();
+        assert_eq!(
+            seen.len(),
+            n,
+            "two registered methods share a name: {:?}",
+            names()
+        );
         for (m, imp) in all() {
             assert_eq!(imp.name(), m.name());
             assert_eq!(by_name(m.name()).map(|i| i.name()), Some(m.name()));

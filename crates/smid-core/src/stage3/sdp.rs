@@ -26,8 +26,12 @@
 use super::{EivMethod, EivProblem, EivResult, Stage3Method};
 use crate::error::{Result, SmidError};
 
-/// Options of the moment relaxation.
-#[derive(Debug, Clone, Copy)]
+/// The method's name (`method.eiv: sdp`).
+pub const NAME: &str = "sdp";
+
+/// Options of the moment relaxation (`method.options` in a spec).
+#[derive(Debug, Clone, Copy, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct SdpOptions {
     /// Maximum number of SDP rounds (each bounds every free parameter, then the boxes shrink).
     pub max_rounds: usize,
@@ -58,9 +62,25 @@ pub struct Sdp {
     pub opts: SdpOptions,
 }
 
+crate::register_stage3!(
+    20,
+    Sdp {
+        opts: SdpOptions::DEFAULT
+    }
+);
+
 impl Stage3Method for Sdp {
     fn name(&self) -> &'static str {
-        "sdp"
+        NAME
+    }
+    fn description(&self) -> &'static str {
+        "Moment (SDP) relaxation on each equation's clique of consecutive samples, bounds by weak duality; needs the cargo feature `sdp`. Never wider than `shared`. Options: max_rounds, min_improvement."
+    }
+    fn with_options(
+        &self,
+        options: &serde_json::Map<String, serde_json::Value>,
+    ) -> Result<Option<Box<dyn Stage3Method>>> {
+        super::with_parsed_options(NAME, options, |opts: SdpOptions| Box::new(Sdp { opts }))
     }
     fn available(&self) -> bool {
         AVAILABLE
@@ -115,8 +135,8 @@ mod imp {
     use super::*;
     use crate::error::Stage;
     use crate::interval::Interval;
-    use crate::lp::{RESULT_PAD, ROW_PAD};
-    use crate::sparse_lp::{conic_solver, csc, merge};
+    use crate::lp::RESULT_PAD;
+    use crate::sparse_lp::{conic_solver, csc, merge, padded_rows, PaddedRows};
     use crate::stage3::relax::{tighten, SharedModel};
     use clarabel::solver::{DefaultSolver, IPSolver, SupportedConeT};
     use std::collections::HashMap;
@@ -285,27 +305,12 @@ mod imp {
         pub(super) fn solver(self) -> Result<SdpSolver> {
             let m_le = self.le.len();
             let m_eq = self.eq.len();
-            let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); self.n];
-            let mut b = Vec::new();
-            for (r, (g, h)) in self.le.iter().enumerate() {
-                for &(c, v) in g {
-                    cols[c].push((r, v));
-                }
-                b.push(h + ROW_PAD * (1.0 + h.abs()));
-            }
-            for (r, (e, f)) in self.eq.iter().enumerate() {
-                for &(c, v) in e {
-                    cols[c].push((m_le + r, v));
-                }
-                b.push(*f);
-            }
-            let mut cones = Vec::new();
-            if m_le > 0 {
-                cones.push(SupportedConeT::NonnegativeConeT(m_le));
-            }
-            if m_eq > 0 {
-                cones.push(SupportedConeT::ZeroConeT(m_eq));
-            }
+            // The one padded assembly of the linear rows (`sparse_lp::padded_rows`).
+            let PaddedRows {
+                mut cols,
+                mut b,
+                mut cones,
+            } = padded_rows(self.n, &self.le, &self.eq);
             let mut blocks = Vec::new();
             for m in &self.psd {
                 let dim = m.len();

@@ -21,8 +21,12 @@ use super::{EivMethod, EivProblem, EivResult, Stage3Method};
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
 
-/// Options of the shared-error relaxation.
-#[derive(Debug, Clone, Copy)]
+/// The method's name (`method.eiv: shared`).
+pub const NAME: &str = "shared";
+
+/// Options of the shared-error relaxation (`method.options` in a spec).
+#[derive(Debug, Clone, Copy, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct SharedOptions {
     /// Maximum number of LP rounds.
     pub max_rounds: usize,
@@ -56,9 +60,27 @@ pub struct Shared {
     pub opts: SharedOptions,
 }
 
+crate::register_stage3!(
+    10,
+    Shared {
+        opts: SharedOptions::DEFAULT
+    }
+);
+
 impl Stage3Method for Shared {
     fn name(&self) -> &'static str {
-        "shared"
+        NAME
+    }
+    fn description(&self) -> &'static str {
+        "Shared-error relaxation: the inner-signal errors are variables shared by consecutive equations, products relaxed by McCormick envelopes, box shrunk until the radii settle. Never wider than `classical`; close to the exact set. Options: max_rounds, min_improvement, working_set_from."
+    }
+    fn with_options(
+        &self,
+        options: &serde_json::Map<String, serde_json::Value>,
+    ) -> Result<Option<Box<dyn Stage3Method>>> {
+        super::with_parsed_options(NAME, options, |opts: SharedOptions| {
+            Box::new(Shared { opts })
+        })
     }
     fn start(&self) -> Option<EivMethod> {
         Some(EivMethod::Classical)
