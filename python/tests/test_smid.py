@@ -241,6 +241,18 @@ def test_check_shards_merge_into_the_one_machine_table():
         sweeps.check_shard("output_backlash", 6, shard=(4, 3))
 
 
+def test_method_and_check_case_lists_are_the_registry_the_cli_uses(tmp_path):
+    # The CLI's `check --list` and `--method` help come from the same registries.
+    assert smid.check_cases() == run_cli("check", "--list", cwd=tmp_path).split()
+    help_text = run_cli("check", "--help", cwd=tmp_path)
+    for name in smid.methods(available_only=False):
+        assert name in help_text, name
+    assert "shared" in smid.methods() and "classical" in smid.methods()
+    # A spec's method options reach the method; a misspelled one names itself.
+    with pytest.raises(smid.SmidError, match="max_round"):
+        smid.identify(PAPER.read_text().replace("  eiv: classical\n", "  eiv: shared\n  options: { max_round: 1 }\n"), base=PAPER.parent)
+
+
 def test_check_equals_the_cli(tmp_path):
     out = run_cli("check", "--trials", "4", "--method", "classical", "--jobs", "1", "--json", tmp_path / "c.json", cwd=tmp_path)
     py = sweeps.check("output_backlash", 4, method="classical", jobs=1)
