@@ -636,7 +636,7 @@ impl Spec {
     /// Checks beyond the types; errors name the field.
     pub fn validate(&self) -> Result<()> {
         // The stage-3 method's own check of its options (`method.options`).
-        crate::stage3::configured(&self.method)?;
+        crate::stage3::configured(self.method.eiv, &self.method.options)?;
         let p = &self.plant;
         let kinds = [p.simulator.is_some(), p.data.is_some(), p.fmu.is_some()]
             .iter()

@@ -291,7 +291,7 @@ pub fn stage3(
     prior: Option<&[Interval]>,
 ) -> Result<EivResult> {
     let problem = eiv_problem(model, layout, method, sig, prior);
-    let chosen = crate::stage3::configured(method)?;
+    let chosen = crate::stage3::configured(method.eiv, &method.options)?;
     match chosen.solve(&problem) {
         // Solver trouble: another method's outer bound is as guaranteed.
         Err(SmidError::Solver(first)) => {

@@ -524,11 +524,14 @@ pub fn names() -> Vec<&'static str> {
     all().map(|(m, _)| m.name()).collect()
 }
 
-/// The method of `spec` with its options (`method.options`, checked by the method: an unknown
+/// The method `m` with a spec's options (`method.options`, checked by the method: an unknown
 /// or mistyped option is an error naming it); the registered default when none are given.
-pub fn configured(spec: &crate::spec::MethodSpec) -> Result<ConfiguredMethod> {
-    let imp = method(spec.eiv);
-    match imp.with_options(&spec.options)? {
+pub fn configured(
+    m: EivMethod,
+    options: &serde_json::Map<String, serde_json::Value>,
+) -> Result<ConfiguredMethod> {
+    let imp = method(m);
+    match imp.with_options(options)? {
         Some(b) => Ok(ConfiguredMethod::Owned(b)),
         None => Ok(ConfiguredMethod::Registered(imp)),
     }
