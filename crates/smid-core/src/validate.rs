@@ -198,8 +198,10 @@ pub struct Series {
 /// The guaranteed one-step band over the fresh records ([`crate::band`]), summarised.
 #[derive(Debug, Clone, Serialize)]
 pub struct BandSummary {
-    /// Cells of the set the band is the hull over.
+    /// Cells of the set the band is the hull over, and how many of them the training
+    /// equations prove empty (their `θ` polytope holds no point: no member there).
     pub cells: usize,
+    pub empty_cells: usize,
     /// The prediction's range by LPs over each cell's `θ` polytope (else over its `θ` box:
     /// more than [`crate::band::LP_CELLS`] cells).
     pub lp: bool,
@@ -568,6 +570,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
             let (sum, width) = band_sum.get_or_insert_with(|| {
                 let sum = BandSummary {
                     cells: b.cells,
+                    empty_cells: b.empty_cells,
                     lp: b.lp,
                     samples: 0,
                     finite: 0,
