@@ -278,3 +278,40 @@ fn cli_run_writes_results_and_rerun_on_its_data_gives_the_same_bounds() {
         );
     }
 }
+
+/// `noise.estimate` on data no bound falsifies (here a noise-free record of a linear plant,
+/// which a linear model fits at any bound): the estimate is refused as "the data do not bound
+/// the noise", naming what to give instead, never reported as a vanishing bound.
+#[test]
+fn an_estimate_no_bound_falsifies_is_refused_not_reported_as_zero() {
+    let dir = std::env::temp_dir().join(format!("smid-noise-free-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // y_t = 0.6 y_{t-1} - 0.25 y_{t-2} + 0.4 u_{t-1} + 0.25 u_{t-2}, a multilevel input.
+    let u: Vec<f64> = (0..200)
+        .map(|t| [1.0, -0.5, 0.3, -1.0, 0.7][(t / 7) % 5])
+        .collect();
+    let mut y = vec![0.0; u.len()];
+    for t in 2..u.len() {
+        y[t] = 0.6 * y[t - 1] - 0.25 * y[t - 2] + 0.4 * u[t - 1] + 0.25 * u[t - 2];
+    }
+    let mut csv = String::from("u,y\n");
+    for (a, b) in u.iter().zip(&y) {
+        csv.push_str(&format!("{a},{b}\n"));
+    }
+    std::fs::write(dir.join("rec.csv"), csv).unwrap();
+    let text = "name: noise-free\n\
+plant:\n  data:\n    dynamic: { file: rec.csv, u: u, y: y }\n\
+noise: { estimate: 1.1 }\n\
+model:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 2\n  nb: 2\n  fixed: { b0: 0.0 }\n  unit_gain: false\n  stable: true\n";
+    let spec = parse(text).unwrap();
+    let run = smid::run_spec(&spec, &dir, &|_| {});
+    let _ = std::fs::remove_dir_all(&dir);
+    match run {
+        Err(SmidError::Unbounded { parameter, message }) => {
+            assert!(parameter.contains("noise bound"), "{parameter}");
+            assert!(message.contains("noise.delta"), "{message}");
+        }
+        Ok(id) => panic!("a noise bound was estimated: {:e}", id.model.delta),
+        Err(e) => panic!("expected the estimate refused as unbounded, got: {e}"),
+    }
+}

@@ -50,11 +50,18 @@ pub fn consistent_at(spec: &Spec, data: &ExperimentData, d: f64) -> Result<bool>
     }
 }
 
+/// The smallest bound [`estimate_bound`] tries, as a fraction of the largest output (about 30
+/// bits): data still "consistent" there were never falsified, and the estimate is refused
+/// rather than reported as a bound of 1e-20.
+pub const NO_BOUND_BELOW: f64 = 1e-9;
+
 /// The estimated noise bound of `noise.estimate`: the margin times the smallest bound for
 /// which the training data are consistent with the model (doubling from a thousandth of the
 /// largest output, then bisection to 2 %; at most 60 tests). That smallest bound is a lower
 /// bound of the exact one (the test is an outer relaxation), so the identification at the
 /// estimate may still find the data inconsistent: the estimate then grows by the margin again.
+/// When no bound down to [`NO_BOUND_BELOW`] of the largest output is proven inconsistent, the
+/// answer is `Unbounded` (the data do not bound the noise here), never a vanishing bound.
 pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<f64> {
     let margin = spec.noise.estimate.unwrap_or(1.1);
     let scale = data_scale(data).y_max;
@@ -74,6 +81,15 @@ pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<f64> {
         hi *= 2.0;
     }
     while hi - lo > 0.02 * hi && n < 60 {
+        if lo == 0.0 && hi < NO_BOUND_BELOW * scale {
+            // Never falsified, down to noise no sensor has: the test decides nothing here.
+            return Err(SmidError::Unbounded {
+                parameter: "the noise bound (noise.estimate)".into(),
+                message: format!(
+                    "no bound down to {hi:.3e} ({NO_BOUND_BELOW:e} of the largest output) was proven inconsistent with the model: the consistency test decides nothing here (a bisected prior too wide for the cell budget, or noise-free data); give `noise.delta`, narrower `model.prior` boxes or a larger `method.cells.max_cells`"
+                ),
+            });
+        }
         let mid = 0.5 * (lo + hi);
         if consistent_at(spec, data, mid)? {
             hi = mid;
