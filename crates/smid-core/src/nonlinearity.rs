@@ -106,6 +106,23 @@ fn is_zero(v: &f64) -> bool {
 }
 
 impl SteadyPoint {
+    /// Sample `index` of a designed experiment: steady input `u` (exact), output `y` with noise
+    /// bound `dy`, reached by a rising step when `u > 0`; no overshoot allowance, no time, no
+    /// recorded step height. The fields are public: change the ones a case needs.
+    pub fn new(index: usize, u: f64, y: f64, dy: f64) -> SteadyPoint {
+        SteadyPoint {
+            u,
+            y,
+            dy,
+            alpha: 0.0,
+            rising: u > 0.0,
+            index,
+            time: None,
+            step: None,
+            du: 0.0,
+        }
+    }
+
     /// The step height that led to this sample (`2|ū|` when not recorded).
     pub fn step_height(&self) -> f64 {
         self.step.unwrap_or(2.0 * self.u.abs())

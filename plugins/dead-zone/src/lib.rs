@@ -332,17 +332,7 @@ mod tests {
         for &a in amps {
             for u in [a, -a] {
                 let i = points.len();
-                points.push(SteadyPoint {
-                    u,
-                    y: dz.map(u) + d * noise(i),
-                    dy: d,
-                    alpha: 0.0,
-                    rising: u > 0.0,
-                    index: i,
-                    time: None,
-                    step: None,
-                    du: 0.0,
-                });
+                points.push(SteadyPoint::new(i, u, dz.map(u) + d * noise(i), d));
             }
         }
         SteadyStateData { points }

@@ -185,17 +185,7 @@ mod tests {
             .iter()
             .flat_map(|&a| [a, -a])
             .enumerate()
-            .map(|(i, u)| SteadyPoint {
-                u,
-                y: k * u + d * noise[i % noise.len()],
-                dy: d,
-                alpha: 0.0,
-                rising: u > 0.0,
-                index: i,
-                time: None,
-                step: None,
-                du: 0.0,
-            })
+            .map(|(i, u)| SteadyPoint::new(i, u, k * u + d * noise[i % noise.len()], d))
             .collect();
         SteadyStateData { points }
     }

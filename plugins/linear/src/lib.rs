@@ -128,17 +128,7 @@ mod tests {
 
     #[test]
     fn steady_state_points_off_the_identity_falsify_it() {
-        let p = |u: f64, y: f64, index| SteadyPoint {
-            u,
-            y,
-            dy: 0.01,
-            alpha: 0.0,
-            rising: u > 0.0,
-            index,
-            time: None,
-            step: None,
-            du: 0.0,
-        };
+        let p = |u: f64, y: f64, index| SteadyPoint::new(index, u, y, 0.01);
         let ok = SteadyStateData {
             points: vec![p(1.0, 1.005, 0), p(-1.0, -0.995, 1)],
         };

@@ -417,17 +417,7 @@ mod tests {
         for &a in amps {
             for u in [a, -a] {
                 let i = points.len();
-                points.push(SteadyPoint {
-                    u,
-                    y: sat.map(u) + d * noise(i),
-                    dy: d,
-                    alpha: 0.0,
-                    rising: u > 0.0,
-                    index: i,
-                    time: None,
-                    step: None,
-                    du: 0.0,
-                });
+                points.push(SteadyPoint::new(i, u, sat.map(u) + d * noise(i), d));
             }
         }
         SteadyStateData { points }
