@@ -493,16 +493,21 @@ macro_rules! register_stage3 {
 /// The registered implementation of `m` (default options).
 pub fn method(m: EivMethod) -> &'static dyn Stage3Method {
     entries()
-        .into_iter()
+        .iter()
         .find(|e| e.method.name() == m.name())
         .map(|e| e.method)
         .expect("an EivMethod is made only from a registered name")
 }
 
-fn entries() -> Vec<&'static MethodEntry> {
-    let mut v: Vec<_> = inventory::iter::<MethodEntry>.into_iter().collect();
-    v.sort_by_key(|e| (e.order, e.method.name()));
-    v
+/// The registered methods in documentation order, collected once (the pipeline looks a
+/// method up per cell).
+fn entries() -> &'static [&'static MethodEntry] {
+    static ENTRIES: std::sync::OnceLock<Vec<&'static MethodEntry>> = std::sync::OnceLock::new();
+    ENTRIES.get_or_init(|| {
+        let mut v: Vec<_> = inventory::iter::<MethodEntry>.into_iter().collect();
+        v.sort_by_key(|e| (e.order, e.method.name()));
+        v
+    })
 }
 
 /// The method of a spec name (`_` for `-` too).
@@ -514,7 +519,7 @@ pub fn by_name(name: &str) -> Option<&'static dyn Stage3Method> {
 /// this build cannot run: see [`Stage3Method::available`]).
 pub fn all() -> impl Iterator<Item = (EivMethod, &'static dyn Stage3Method)> {
     entries()
-        .into_iter()
+        .iter()
         .map(|e| (EivMethod(e.method.name()), e.method))
 }
 
