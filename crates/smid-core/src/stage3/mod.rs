@@ -531,6 +531,8 @@ pub fn names() -> Vec<&'static str> {
 
 /// The method `m` with a spec's options (`method.options`, checked by the method: an unknown
 /// or mistyped option is an error naming it); the registered default when none are given.
+/// The options are the chosen method's only: the method it starts from
+/// ([`Stage3Method::start`]) and its fallback run with their defaults.
 pub fn configured(
     m: EivMethod,
     options: &serde_json::Map<String, serde_json::Value>,
