@@ -162,11 +162,11 @@ pub struct Summary {
 pub fn cause_of(message: &str) -> &'static str {
     if message.starts_with(UndecidedCause::Solver.label()) || message.contains("LP solver") {
         UndecidedCause::Solver.label()
-    } else if message.starts_with(UndecidedCause::Unbounded.label())
-        || message.contains("do not bound")
-        || message.contains("unbounded")
-    {
+    } else if message.starts_with(UndecidedCause::Unbounded.label()) {
         UndecidedCause::Unbounded.label()
+    } else if message.contains("do not bound") || message.contains("unbounded") {
+        // No bisection (the designed experiment): the record itself leaves θ unbounded.
+        "stage 3 unbounded on the whole record"
     } else if message.contains("inconsistent") || message.contains("falsif") {
         "the data falsify the model"
     } else {
@@ -345,5 +345,44 @@ impl Trial {
         let mut spec = self.spec();
         any_record(&mut spec, &self.backlash.parameters(), self.seed);
         spec
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Causes are told apart: a cell left undecided by the branch and bound, a record that
+    /// leaves θ unbounded with no bisection at all, a solver failure, a falsification.
+    #[test]
+    fn causes_tell_a_cell_from_the_whole_record() {
+        let s = Summary {
+            trials: 4,
+            partial: vec![(
+                1,
+                format!("{}: a1 over in1.c_l", UndecidedCause::Unbounded.label()),
+            )],
+            errors: vec![
+                (
+                    2,
+                    "the data do not bound `a1`: the linear program is unbounded".into(),
+                ),
+                (3, "LP solver: numerical error".into()),
+                (
+                    4,
+                    "the data are inconsistent with the model and noise bound: stage 3".into(),
+                ),
+            ],
+            ..Default::default()
+        };
+        let c = causes(&s);
+        assert_eq!(c.len(), 4, "{c:?}");
+        assert!(c.contains(&(UndecidedCause::Unbounded.label(), 1)), "{c:?}");
+        assert!(
+            c.contains(&("stage 3 unbounded on the whole record", 1)),
+            "{c:?}"
+        );
+        assert!(c.contains(&(UndecidedCause::Solver.label(), 1)), "{c:?}");
+        assert!(c.contains(&("the data falsify the model", 1)), "{c:?}");
     }
 }
