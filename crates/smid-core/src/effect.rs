@@ -7,24 +7,23 @@
 //! y_t = w_t + s_t + η_t,   s_t ∈ S_t(ψ),   |η_t| <= Δη             (eqs 4-5 plus sensor terms)
 //! ```
 //!
-//! An [`Effect`] is one term of it, of one of three kinds, each a capability with a default
-//! that does nothing (like argmin's traits: one required method):
+//! An [`Effect`] is one term of it, of one of three kinds on the model side, each a small
+//! capability trait with one required method and defaults for the rest (argmin's style):
 //!
-//! * **orders** ([`Effect::orders`]): one more sample of delay (`nk`), one more pole (`na`,
+//! * **orders** ([`OrderChange`]): one more sample of delay (`nk`), one more pole (`na`,
 //!   e.g. an actuator lag), one more zero (`nb`); bounded by stage 3 as coefficients of `A`, `B`;
-//! * **equation terms** ([`Effect::regressors`]): known regressors `φ_k(t)` (a velocity, its
+//! * **equation terms** ([`EquationTerm`]): known regressors `φ_k(t)` (a velocity, its
 //!   sign...) whose coefficients `c_k` stage 3 bounds beside `θ`; they vanish at steady state,
 //!   so stage 1 is unchanged;
-//! * **sensor terms** ([`Effect::sensor`]): an additive output term `s_t` (an offset, a drift,
-//!   the error of a quantiser) known up to parameters `ψ` ([`Effect::cell_parameters`]), which
-//!   the branch and bound of [`crate::cells`] bisects over a prior box; every stage sees the
-//!   outputs `y - s` with `s` as an interval over the cell, so the bounds stay guaranteed.
+//! * **sensor terms** ([`SensorTerm`]): an additive output term `s_t` (an offset, a drift,
+//!   the error of a quantiser) known up to parameters `ψ`, which the branch and bound of
+//!   [`crate::cells`] bisects over a prior box; every stage sees the outputs `y - s` with `s` as
+//!   an interval over the cell, so the bounds stay guaranteed.
 //!
-//! The same effect, given its true values, is also applied by the built-in simulator
-//! ([`Effect::plant_factor`], [`Effect::plant_equation`], [`Effect::plant_output`]), so that data
-//! with an undeclared effect need no FMU. Effects register with `typetag` (the `type` tag) and
-//! with [`register_effect!`] (schema, example with true values, diagnosis candidates); the core
-//! names none of them.
+//! Apart from the model side, the plant side ([`PlantEffect`]) applies the same effect with its
+//! true values in the built-in simulator, so that data with an undeclared effect need no FMU.
+//! Effects register with `typetag` (the `type` tag) and with [`register_effect!`] (schema,
+//! example with true values, diagnosis candidates); the core names none of them.
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
 use serde::{Deserialize, Serialize};
@@ -94,10 +93,20 @@ pub struct DataScale {
     pub u_range: (f64, f64),
 }
 
-/// One term of the model. Required: [`Effect::label`]; every capability defaults to "none".
+/// One term of the model: the serialised handle (`type` tag) and the list of what it can do.
+/// Required: [`Effect::label`]. Each capability is a small trait of its own with one required
+/// method (argmin's style), reached through an accessor that defaults to "not this kind":
+///
+/// * model side: [`OrderChange`] (orders), [`EquationTerm`] (equation regressors),
+///   [`SensorTerm`] (an additive output term over bisected parameters);
+/// * plant side: [`PlantEffect`] (what the built-in simulator applies, with true values).
+///
+/// An effect implements the capabilities it has and returns `Some(self)` from their accessors.
+/// The rest of smid calls the capabilities through the methods on `dyn Effect` (which read
+/// "none" where an accessor says so), never through a list of effect types.
 ///
 /// ```
-/// use smid_core::effect::{Effect, Orders};
+/// use smid_core::effect::{Effect, Orders, PlantEffect, SensorTerm};
 /// use smid_core::interval::Interval;
 /// use serde::{Deserialize, Serialize};
 ///
@@ -105,37 +114,74 @@ pub struct DataScale {
 /// #[derive(Debug, Clone, Serialize, Deserialize)]
 /// struct Bias { value: Option<f64> }
 ///
-/// #[typetag::serde(name = "doc_bias")]
-/// impl Effect for Bias {
-///     fn label(&self) -> String { "sensor bias".into() }
-///     fn cell_parameters(&self) -> Vec<String> { vec!["bias".into()] }
+/// impl SensorTerm for Bias {
 ///     fn sensor(&self, _t: Option<usize>, cell: &[Interval]) -> smid_core::Result<Interval> {
 ///         Ok(cell[0])
 ///     }
+///     fn cell_parameters(&self) -> Vec<String> { vec!["bias".into()] }
+/// }
+/// impl PlantEffect for Bias {
+///     fn validate_plant(&self) -> smid_core::Result<()> { Ok(()) }
 ///     fn plant_output(&self, _t: usize, w: f64) -> f64 { w + self.value.unwrap_or(0.0) }
+/// }
+///
+/// #[typetag::serde(name = "doc_bias")]
+/// impl Effect for Bias {
+///     fn label(&self) -> String { "sensor bias".into() }
+///     fn as_sensor(&self) -> Option<&dyn SensorTerm> { Some(self) }
+///     fn as_plant(&self) -> Option<&dyn PlantEffect> { Some(self) }
 /// }
 ///
 /// let e: Box<dyn Effect> = serde_json::from_str(r#"{"type":"doc_bias","value":0.5}"#).unwrap();
 /// assert_eq!(e.sensor(Some(3), &[Interval::new(0.1, 0.2)]).unwrap(), Interval::new(0.1, 0.2));
+/// assert_eq!(e.cell_parameters(), vec!["bias".to_string()]);
 /// assert_eq!(e.plant_output(3, 1.0), 1.5);
 /// let mut o = Orders { na: 2, nb: 2, nk: 0 };
-/// e.orders(&mut o);
+/// e.orders(&mut o); // not an order change: nothing happens
 /// assert_eq!(o.na, 2);
+/// assert!(e.as_equation().is_none());
 /// ```
 #[typetag::serde(tag = "type")]
 pub trait Effect: Debug + Send + Sync {
     /// Human-readable name for reports (e.g. "sensor offset"). Required.
     fn label(&self) -> String;
-
-    // ---- the model side ------------------------------------------------------------------
-    /// Change the linear orders (delay, extra pole or zero). Default: none.
-    fn orders(&self, _orders: &mut Orders) {}
-    /// Equation regressors of one record (causal). Default: none.
-    fn regressors(&self, _signals: &Signals) -> Vec<Column> {
+    /// The effect changes the linear orders. Default: no.
+    fn as_orders(&self) -> Option<&dyn OrderChange> {
+        None
+    }
+    /// The effect adds regressors to the linear equation. Default: no.
+    fn as_equation(&self) -> Option<&dyn EquationTerm> {
+        None
+    }
+    /// The effect adds a sensor term to the output. Default: no.
+    fn as_sensor(&self) -> Option<&dyn SensorTerm> {
+        None
+    }
+    /// The built-in simulator can apply the effect with its true values. Default: no (a
+    /// simulator refuses it by name).
+    fn as_plant(&self) -> Option<&dyn PlantEffect> {
+        None
+    }
+    /// Settings this effect carries (a quantiser's step...), for reports. Default: none.
+    fn settings(&self) -> Vec<(String, f64)> {
         Vec::new()
     }
+}
+
+/// Model side: one more sample of delay (`nk`), one more pole (`na`, an actuator lag), one
+/// more zero (`nb`); stage 3 bounds the new coefficients of `A`, `B` (eq 1).
+pub trait OrderChange {
+    /// Change the linear orders. Required.
+    fn orders(&self, orders: &mut Orders);
+}
+
+/// Model side: known regressors `φ_k(t)` whose coefficients `c_k` stage 3 bounds beside `θ`.
+pub trait EquationTerm {
+    /// Equation regressors of one record (causal). Required.
+    fn regressors(&self, signals: &Signals) -> Vec<Column>;
     /// The regressors at sample `t` alone, from `u[..=t]` and `x[..t]` (a simulation asks
-    /// sample by sample when [`Effect::uses_output`]). Default: from [`Effect::regressors`].
+    /// sample by sample when [`EquationTerm::uses_output`]). Default: from
+    /// [`EquationTerm::regressors`].
     fn regressors_at(&self, signals: &Signals, t: usize) -> Vec<f64> {
         self.regressors(signals)
             .iter()
@@ -153,11 +199,20 @@ pub trait Effect: Debug + Send + Sync {
     fn vanishes_at_steady_state(&self) -> bool {
         true
     }
-    /// Names of the sensor parameters `ψ` that the branch and bound bisects. Default: none.
+}
+
+/// Model side: an additive output term `s_t` (an offset, a drift, the error of a quantiser)
+/// known up to parameters `ψ` that the branch and bound bisects (eqs 4-5 plus `s_t`).
+pub trait SensorTerm {
+    /// The sensor term `s_t` at sample `t` of its record (`None`: the time is unknown, e.g.
+    /// measured steady-state points) over the cell `ψ ∈ cell` of this term's parameters: a
+    /// guaranteed interval. Required.
+    fn sensor(&self, t: Option<usize>, cell: &[Interval]) -> Result<Interval>;
+    /// Names of the parameters `ψ` that the branch and bound bisects. Default: none.
     fn cell_parameters(&self) -> Vec<String> {
         Vec::new()
     }
-    /// Default prior box of [`Effect::cell_parameters`] for a diagnosis candidate, from the
+    /// Default prior box of [`SensorTerm::cell_parameters`] for a diagnosis candidate, from the
     /// training data's scale. Default: `|ψ| <= y_max`.
     fn default_prior(&self, scale: &DataScale) -> Vec<Interval> {
         self.cell_parameters()
@@ -165,28 +220,19 @@ pub trait Effect: Debug + Send + Sync {
             .map(|_| Interval::new(-scale.y_max, scale.y_max))
             .collect()
     }
-    /// The resolution of each of [`Effect::cell_parameters`]: the branch and bound stops
+    /// The resolution of each of [`SensorTerm::cell_parameters`]: the branch and bound stops
     /// halving a cell narrower than this. Default: `Δη / 2` (a sensor parameter in output
     /// units then widens the noise by at most a quarter of its bound).
     fn resolution(&self, delta: f64, _scale: &DataScale) -> Vec<f64> {
         vec![0.5 * delta; self.cell_parameters().len()]
     }
-    /// The sensor term `s_t` at sample `t` of its record (`None`: the time is unknown, e.g.
-    /// measured steady-state points) over the cell `ψ ∈ cell` of this effect's parameters:
-    /// a guaranteed interval. Default: `[0, 0]`.
-    fn sensor(&self, _t: Option<usize>, _cell: &[Interval]) -> Result<Interval> {
-        Ok(Interval::new(0.0, 0.0))
-    }
-    /// Settings this effect carries (a quantiser's step...), for reports. Default: none.
-    fn settings(&self) -> Vec<(String, f64)> {
-        Vec::new()
-    }
+}
 
-    // ---- the plant side (the built-in simulator, with true values) -----------------------
-    /// Check that the true values a simulator needs are given; errors name the field.
-    fn validate_plant(&self) -> Result<()> {
-        Ok(())
-    }
+/// Plant side: the effect as the built-in simulator applies it, with true values, so that data
+/// with an undeclared effect need no FMU.
+pub trait PlantEffect {
+    /// Check that the true values a simulator needs are given; errors name the field. Required.
+    fn validate_plant(&self) -> Result<()>;
     /// A unit-gain linear factor `F(q^-1) = Bf/Af` in series with the linear block (a delay
     /// `q^-1`, an actuator lag `(1-p)/(1 - p q^-1)`): `(Af without its leading 1, Bf)`.
     /// Default: none.
@@ -203,9 +249,97 @@ pub trait Effect: Debug + Send + Sync {
         w
     }
     /// True values of the model parameters this effect adds (sensor parameters and equation
-    /// coefficients, by name), when the effect is a simulator's. Default: none.
+    /// coefficients, by name). Default: none.
     fn truth(&self) -> Vec<(String, f64)> {
         Vec::new()
+    }
+}
+
+/// The capabilities read through the handle: each answers "none" (the capability's neutral
+/// value) where the effect does not have it. This is the only place that reads the accessors
+/// for the model's and the simulator's code.
+impl<'a> dyn Effect + 'a {
+    /// [`OrderChange::orders`], or no change.
+    pub fn orders(&self, orders: &mut Orders) {
+        if let Some(c) = self.as_orders() {
+            c.orders(orders)
+        }
+    }
+    /// [`EquationTerm::regressors`], or none.
+    pub fn regressors(&self, signals: &Signals) -> Vec<Column> {
+        self.as_equation()
+            .map(|c| c.regressors(signals))
+            .unwrap_or_default()
+    }
+    /// [`EquationTerm::regressors_at`], or none.
+    pub fn regressors_at(&self, signals: &Signals, t: usize) -> Vec<f64> {
+        self.as_equation()
+            .map(|c| c.regressors_at(signals, t))
+            .unwrap_or_default()
+    }
+    /// [`EquationTerm::uses_output`], or no.
+    pub fn uses_output(&self) -> bool {
+        self.as_equation().is_some_and(|c| c.uses_output())
+    }
+    /// [`EquationTerm::vanishes_at_steady_state`], or yes (nothing to vanish).
+    pub fn vanishes_at_steady_state(&self) -> bool {
+        self.as_equation()
+            .is_none_or(|c| c.vanishes_at_steady_state())
+    }
+    /// [`SensorTerm::cell_parameters`], or none.
+    pub fn cell_parameters(&self) -> Vec<String> {
+        self.as_sensor()
+            .map(|c| c.cell_parameters())
+            .unwrap_or_default()
+    }
+    /// [`SensorTerm::default_prior`], or none.
+    pub fn default_prior(&self, scale: &DataScale) -> Vec<Interval> {
+        self.as_sensor()
+            .map(|c| c.default_prior(scale))
+            .unwrap_or_default()
+    }
+    /// [`SensorTerm::resolution`], or none.
+    pub fn resolution(&self, delta: f64, scale: &DataScale) -> Vec<f64> {
+        self.as_sensor()
+            .map(|c| c.resolution(delta, scale))
+            .unwrap_or_default()
+    }
+    /// [`SensorTerm::sensor`], or `[0, 0]`.
+    pub fn sensor(&self, t: Option<usize>, cell: &[Interval]) -> Result<Interval> {
+        match self.as_sensor() {
+            Some(c) => c.sensor(t, cell),
+            None => Ok(Interval::new(0.0, 0.0)),
+        }
+    }
+    /// [`PlantEffect::validate_plant`]; an effect without a plant side is refused by name.
+    pub fn validate_plant(&self) -> Result<()> {
+        match self.as_plant() {
+            Some(c) => c.validate_plant(),
+            None => Err(SmidError::invalid(
+                "type",
+                format!(
+                    "effect `{}` has no plant side (`PlantEffect`): the built-in simulator \
+                     cannot apply it; use it in `model.effects`, or give the plant as data or an FMU",
+                    tag_of(self)
+                ),
+            )),
+        }
+    }
+    /// [`PlantEffect::plant_factor`], or none.
+    pub fn plant_factor(&self) -> Option<(Vec<f64>, Vec<f64>)> {
+        self.as_plant().and_then(|c| c.plant_factor())
+    }
+    /// [`PlantEffect::plant_equation`], or none.
+    pub fn plant_equation(&self, signals: &Signals) -> Option<Vec<f64>> {
+        self.as_plant().and_then(|c| c.plant_equation(signals))
+    }
+    /// [`PlantEffect::plant_output`], or `w`.
+    pub fn plant_output(&self, t: usize, w: f64) -> f64 {
+        self.as_plant().map_or(w, |c| c.plant_output(t, w))
+    }
+    /// [`PlantEffect::truth`], or none.
+    pub fn truth(&self) -> Vec<(String, f64)> {
+        self.as_plant().map(|c| c.truth()).unwrap_or_default()
     }
 }
 

@@ -20,7 +20,9 @@
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
-use smid_core::effect::{Column, DataScale, Effect, Orders, Signals};
+use smid_core::effect::{
+    Column, DataScale, Effect, EquationTerm, OrderChange, Orders, PlantEffect, SensorTerm, Signals,
+};
 use smid_core::interval::Interval;
 use smid_core::register_effect;
 use smid_core::{Result, SmidError};
@@ -57,18 +59,13 @@ pub struct Delay {
     pub samples: usize,
 }
 
-#[typetag::serde(name = "delay")]
-impl Effect for Delay {
-    fn label(&self) -> String {
-        if self.samples == 1 {
-            "one more sample of delay".into()
-        } else {
-            format!("{} more samples of delay", self.samples)
-        }
-    }
+impl OrderChange for Delay {
     fn orders(&self, o: &mut Orders) {
         o.nk += self.samples;
     }
+}
+
+impl PlantEffect for Delay {
     fn validate_plant(&self) -> Result<()> {
         if self.samples == 0 || self.samples > 1000 {
             return Err(SmidError::invalid("samples", "expected 1..=1000"));
@@ -79,6 +76,23 @@ impl Effect for Delay {
         let mut b = vec![0.0; self.samples + 1];
         b[self.samples] = 1.0;
         Some((Vec::new(), b))
+    }
+}
+
+#[typetag::serde(name = "delay")]
+impl Effect for Delay {
+    fn label(&self) -> String {
+        if self.samples == 1 {
+            "one more sample of delay".into()
+        } else {
+            format!("{} more samples of delay", self.samples)
+        }
+    }
+    fn as_orders(&self) -> Option<&dyn OrderChange> {
+        Some(self)
+    }
+    fn as_plant(&self) -> Option<&dyn PlantEffect> {
+        Some(self)
     }
 }
 register_effect!(
@@ -98,14 +112,13 @@ pub struct ActuatorLag {
     pub pole: Option<f64>,
 }
 
-#[typetag::serde(name = "actuator_lag")]
-impl Effect for ActuatorLag {
-    fn label(&self) -> String {
-        "one more pole (actuator lag)".into()
-    }
+impl OrderChange for ActuatorLag {
     fn orders(&self, o: &mut Orders) {
         o.na += 1;
     }
+}
+
+impl PlantEffect for ActuatorLag {
     fn validate_plant(&self) -> Result<()> {
         let p = need(self.pole, "pole")?;
         if !(0.0..1.0).contains(&p) {
@@ -122,6 +135,19 @@ impl Effect for ActuatorLag {
     }
     fn truth(&self) -> Vec<(String, f64)> {
         opt("actuator_pole", self.pole)
+    }
+}
+
+#[typetag::serde(name = "actuator_lag")]
+impl Effect for ActuatorLag {
+    fn label(&self) -> String {
+        "one more pole (actuator lag)".into()
+    }
+    fn as_orders(&self) -> Option<&dyn OrderChange> {
+        Some(self)
+    }
+    fn as_plant(&self) -> Option<&dyn PlantEffect> {
+        Some(self)
     }
 }
 register_effect!(
@@ -141,14 +167,13 @@ pub struct ExtraZero {
     pub zero: Option<f64>,
 }
 
-#[typetag::serde(name = "extra_zero")]
-impl Effect for ExtraZero {
-    fn label(&self) -> String {
-        "one more zero".into()
-    }
+impl OrderChange for ExtraZero {
     fn orders(&self, o: &mut Orders) {
         o.nb += 1;
     }
+}
+
+impl PlantEffect for ExtraZero {
     fn validate_plant(&self) -> Result<()> {
         let z = need(self.zero, "zero")?;
         if !(z.abs() < 1.0) {
@@ -162,6 +187,19 @@ impl Effect for ExtraZero {
     fn plant_factor(&self) -> Option<(Vec<f64>, Vec<f64>)> {
         let z = self.zero.unwrap_or(0.0);
         Some((Vec::new(), vec![1.0 / (1.0 + z), z / (1.0 + z)]))
+    }
+}
+
+#[typetag::serde(name = "extra_zero")]
+impl Effect for ExtraZero {
+    fn label(&self) -> String {
+        "one more zero".into()
+    }
+    fn as_orders(&self) -> Option<&dyn OrderChange> {
+        Some(self)
+    }
+    fn as_plant(&self) -> Option<&dyn PlantEffect> {
+        Some(self)
     }
 }
 register_effect!(
@@ -181,17 +219,16 @@ pub struct Offset {
     pub value: Option<f64>,
 }
 
-#[typetag::serde(name = "offset")]
-impl Effect for Offset {
-    fn label(&self) -> String {
-        "sensor offset".into()
-    }
+impl SensorTerm for Offset {
     fn cell_parameters(&self) -> Vec<String> {
         vec!["offset".into()]
     }
     fn sensor(&self, _t: Option<usize>, cell: &[Interval]) -> Result<Interval> {
         Ok(cell[0])
     }
+}
+
+impl PlantEffect for Offset {
     fn validate_plant(&self) -> Result<()> {
         need(self.value, "value").map(|_| ())
     }
@@ -200,6 +237,19 @@ impl Effect for Offset {
     }
     fn truth(&self) -> Vec<(String, f64)> {
         opt("offset", self.value)
+    }
+}
+
+#[typetag::serde(name = "offset")]
+impl Effect for Offset {
+    fn label(&self) -> String {
+        "sensor offset".into()
+    }
+    fn as_sensor(&self) -> Option<&dyn SensorTerm> {
+        Some(self)
+    }
+    fn as_plant(&self) -> Option<&dyn PlantEffect> {
+        Some(self)
     }
 }
 register_effect!(
@@ -223,11 +273,7 @@ pub struct Drift {
     pub rate: Option<f64>,
 }
 
-#[typetag::serde(name = "drift")]
-impl Effect for Drift {
-    fn label(&self) -> String {
-        "sensor drift".into()
-    }
+impl SensorTerm for Drift {
     fn cell_parameters(&self) -> Vec<String> {
         vec!["offset".into(), "drift".into()]
     }
@@ -250,6 +296,9 @@ impl Effect for Drift {
             cell[0].hi + cell[1].hi * t,
         ))
     }
+}
+
+impl PlantEffect for Drift {
     fn validate_plant(&self) -> Result<()> {
         need(self.offset, "offset")?;
         need(self.rate, "rate").map(|_| ())
@@ -261,6 +310,19 @@ impl Effect for Drift {
         let mut v = opt("offset", self.offset);
         v.extend(opt("drift", self.rate));
         v
+    }
+}
+
+#[typetag::serde(name = "drift")]
+impl Effect for Drift {
+    fn label(&self) -> String {
+        "sensor drift".into()
+    }
+    fn as_sensor(&self) -> Option<&dyn SensorTerm> {
+        Some(self)
+    }
+    fn as_plant(&self) -> Option<&dyn PlantEffect> {
+        Some(self)
     }
 }
 register_effect!(
@@ -288,11 +350,7 @@ pub struct Quantization {
     pub step: f64,
 }
 
-#[typetag::serde(name = "quantization")]
-impl Effect for Quantization {
-    fn label(&self) -> String {
-        format!("output quantization (step {:.3e})", self.step)
-    }
+impl SensorTerm for Quantization {
     fn sensor(&self, _t: Option<usize>, _cell: &[Interval]) -> Result<Interval> {
         if !(self.step.is_finite() && self.step > 0.0) {
             return Err(SmidError::invalid(
@@ -303,6 +361,9 @@ impl Effect for Quantization {
         let h = 0.5 * self.step;
         Ok(Interval::new(-h, h))
     }
+}
+
+impl PlantEffect for Quantization {
     fn validate_plant(&self) -> Result<()> {
         if !(self.step.is_finite() && self.step > 0.0) {
             return Err(SmidError::invalid("step", "expected a step > 0"));
@@ -312,8 +373,21 @@ impl Effect for Quantization {
     fn plant_output(&self, _t: usize, w: f64) -> f64 {
         self.step * (w / self.step).round()
     }
+}
+
+#[typetag::serde(name = "quantization")]
+impl Effect for Quantization {
+    fn label(&self) -> String {
+        format!("output quantization (step {:.3e})", self.step)
+    }
     fn settings(&self) -> Vec<(String, f64)> {
         vec![("step".into(), self.step)]
+    }
+    fn as_sensor(&self) -> Option<&dyn SensorTerm> {
+        Some(self)
+    }
+    fn as_plant(&self) -> Option<&dyn PlantEffect> {
+        Some(self)
     }
 }
 register_effect!(
@@ -411,14 +485,7 @@ impl CoulombFriction {
     }
 }
 
-#[typetag::serde(name = "coulomb_friction")]
-impl Effect for CoulombFriction {
-    fn label(&self) -> String {
-        match self.velocity {
-            Velocity::Input => "Coulomb friction (input velocity)".into(),
-            Velocity::Output => "Coulomb friction (output velocity)".into(),
-        }
-    }
+impl EquationTerm for CoulombFriction {
     fn regressors(&self, s: &Signals) -> Vec<Column> {
         let eps = self.eps(s);
         vec![Column {
@@ -434,6 +501,9 @@ impl Effect for CoulombFriction {
     fn uses_output(&self) -> bool {
         self.velocity == Velocity::Output
     }
+}
+
+impl PlantEffect for CoulombFriction {
     fn validate_plant(&self) -> Result<()> {
         if self.velocity == Velocity::Output {
             return Err(SmidError::invalid(
@@ -455,6 +525,22 @@ impl Effect for CoulombFriction {
     }
     fn truth(&self) -> Vec<(String, f64)> {
         opt(self.name(), self.value)
+    }
+}
+
+#[typetag::serde(name = "coulomb_friction")]
+impl Effect for CoulombFriction {
+    fn label(&self) -> String {
+        match self.velocity {
+            Velocity::Input => "Coulomb friction (input velocity)".into(),
+            Velocity::Output => "Coulomb friction (output velocity)".into(),
+        }
+    }
+    fn as_equation(&self) -> Option<&dyn EquationTerm> {
+        Some(self)
+    }
+    fn as_plant(&self) -> Option<&dyn PlantEffect> {
+        Some(self)
     }
 }
 register_effect!(
@@ -501,14 +587,7 @@ impl ViscousFriction {
     }
 }
 
-#[typetag::serde(name = "viscous_friction")]
-impl Effect for ViscousFriction {
-    fn label(&self) -> String {
-        match self.velocity {
-            Velocity::Input => "viscous friction (input velocity)".into(),
-            Velocity::Output => "viscous friction (output velocity)".into(),
-        }
-    }
+impl EquationTerm for ViscousFriction {
     fn regressors(&self, s: &Signals) -> Vec<Column> {
         vec![Column {
             name: self.name().into(),
@@ -521,6 +600,9 @@ impl Effect for ViscousFriction {
     fn uses_output(&self) -> bool {
         self.velocity == Velocity::Output
     }
+}
+
+impl PlantEffect for ViscousFriction {
     fn validate_plant(&self) -> Result<()> {
         if self.velocity == Velocity::Output {
             return Err(SmidError::invalid(
@@ -536,6 +618,22 @@ impl Effect for ViscousFriction {
     }
     fn truth(&self) -> Vec<(String, f64)> {
         opt(self.name(), self.value)
+    }
+}
+
+#[typetag::serde(name = "viscous_friction")]
+impl Effect for ViscousFriction {
+    fn label(&self) -> String {
+        match self.velocity {
+            Velocity::Input => "viscous friction (input velocity)".into(),
+            Velocity::Output => "viscous friction (output velocity)".into(),
+        }
+    }
+    fn as_equation(&self) -> Option<&dyn EquationTerm> {
+        Some(self)
+    }
+    fn as_plant(&self) -> Option<&dyn PlantEffect> {
+        Some(self)
     }
 }
 register_effect!(
@@ -569,11 +667,7 @@ pub struct Constant {
     pub value: Option<f64>,
 }
 
-#[typetag::serde(name = "constant")]
-impl Effect for Constant {
-    fn label(&self) -> String {
-        "constant term (load, bias)".into()
-    }
+impl EquationTerm for Constant {
     fn regressors(&self, s: &Signals) -> Vec<Column> {
         vec![Column::exact(
             "constant",
@@ -583,6 +677,9 @@ impl Effect for Constant {
     fn vanishes_at_steady_state(&self) -> bool {
         false
     }
+}
+
+impl PlantEffect for Constant {
     fn validate_plant(&self) -> Result<()> {
         need(self.value, "value").map(|_| ())
     }
@@ -591,6 +688,19 @@ impl Effect for Constant {
     }
     fn truth(&self) -> Vec<(String, f64)> {
         opt("constant", self.value)
+    }
+}
+
+#[typetag::serde(name = "constant")]
+impl Effect for Constant {
+    fn label(&self) -> String {
+        "constant term (load, bias)".into()
+    }
+    fn as_equation(&self) -> Option<&dyn EquationTerm> {
+        Some(self)
+    }
+    fn as_plant(&self) -> Option<&dyn PlantEffect> {
+        Some(self)
     }
 }
 register_effect!(
@@ -612,17 +722,16 @@ pub struct ParallelInput {
     pub value: Option<f64>,
 }
 
-#[typetag::serde(name = "parallel_input")]
-impl Effect for ParallelInput {
-    fn label(&self) -> String {
-        "parallel linear path of the input".into()
-    }
+impl EquationTerm for ParallelInput {
     fn regressors(&self, s: &Signals) -> Vec<Column> {
         vec![Column::exact("parallel", s.u.iter().copied())]
     }
     fn vanishes_at_steady_state(&self) -> bool {
         false
     }
+}
+
+impl PlantEffect for ParallelInput {
     fn validate_plant(&self) -> Result<()> {
         need(self.value, "value").map(|_| ())
     }
@@ -632,6 +741,19 @@ impl Effect for ParallelInput {
     }
     fn truth(&self) -> Vec<(String, f64)> {
         opt("parallel", self.value)
+    }
+}
+
+#[typetag::serde(name = "parallel_input")]
+impl Effect for ParallelInput {
+    fn label(&self) -> String {
+        "parallel linear path of the input".into()
+    }
+    fn as_equation(&self) -> Option<&dyn EquationTerm> {
+        Some(self)
+    }
+    fn as_plant(&self) -> Option<&dyn PlantEffect> {
+        Some(self)
     }
 }
 register_effect!(
