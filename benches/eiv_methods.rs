@@ -31,11 +31,17 @@ fn bench(c: &mut Criterion) {
     // The whole pipeline (experiments, stages 1-3) on examples/paper.yaml, default method.
     let spec = paper(None, EivMethod::default());
     g.bench_function("pipeline_paper_default_method", |b| {
-        b.iter(|| pipeline::run(&spec, Path::new(".")).expect("identifies"))
+        b.iter(|| {
+            pipeline::run(&spec, Path::new("."))
+                .expect("identifies")
+                .unwrap()
+        })
     });
     // Stage 3 alone on the same inner-signal bounds, n_bit = 10.
     let spec = paper(Some(10), EivMethod::Classical);
-    let id = pipeline::run(&spec, Path::new(".")).expect("identifies");
+    let id = pipeline::run(&spec, Path::new("."))
+        .expect("identifies")
+        .unwrap();
     let input: Vec<Interval> = id.data.records[0]
         .u
         .iter()

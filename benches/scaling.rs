@@ -25,7 +25,9 @@ fn bench(c: &mut Criterion) {
         let mut spec: Spec = smid::load_spec(Path::new("examples/paper.yaml")).expect("parses");
         spec.experiment.dynamic.length = n;
         spec.method.eiv = EivMethod::Classical;
-        let id = pipeline::run(&spec, Path::new("examples")).expect("identifies");
+        let id = pipeline::run(&spec, Path::new("examples"))
+            .expect("identifies")
+            .unwrap();
         let input: Vec<Interval> = id.data.records[0]
             .u
             .iter()

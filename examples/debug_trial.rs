@@ -26,7 +26,8 @@ fn main() {
     let x = data.records[0].x.clone().unwrap();
     let w = data.records[0].w.clone().unwrap();
     let truth = plant_truth(&t);
-    match pipeline::identify(&spec, data.clone(), &truth) {
+    match pipeline::identify(&spec, data.clone(), &truth).and_then(smid_core::Outcome::into_result)
+    {
         Ok(id) => {
             print!("{}", smid_core::report::table(&id));
             for (tt, (b, xv)) in id.inner.iter().zip(&x).enumerate() {

@@ -32,11 +32,13 @@ fn main() {
                 effects: &[],
                 dt: 1.0,
             };
-            let id = pipeline::run_with_plant(&spec, &mut plant).unwrap();
+            let id = pipeline::run_with_plant(&spec, &mut plant)
+                .unwrap()
+                .unwrap();
             (spec, id)
         } else {
             let spec = smid::reproduce::paper_spec(bits, seed).unwrap();
-            let id = pipeline::run(&spec, Path::new(".")).unwrap();
+            let id = pipeline::run(&spec, Path::new(".")).unwrap().unwrap();
             (spec, id)
         };
         let input: Vec<Interval> = id.data.records[0]

@@ -41,7 +41,8 @@ fn child(spec_path: &str, m: &str, n: usize) {
         spec.experiment.dynamic.length = n;
         spec.method.eiv = EivMethod::from_name(m)
             .ok_or_else(|| smid::SmidError::invalid("method", format!("unknown method {m}")))?;
-        let id = smid::run_spec(&spec, path.parent().unwrap_or(Path::new(".")), &|_| {})?;
+        let id = smid::run_spec(&spec, path.parent().unwrap_or(Path::new(".")), &|_| {})?
+            .into_result()?;
         let dir = std::env::temp_dir().join(format!("smid-scaling-{}", std::process::id()));
         smid::write_run(
             &id,

@@ -216,11 +216,13 @@ pub fn trial(seed: u64) -> Result<(Spec, Outcome)> {
     let spec = random_chain(seed)?;
     debug_assert_eq!(spec.model.structure, Structure::Wiener);
     let outcome = match pipeline_run(&spec) {
-        Ok(id) if !id.model.member_outside_bounds().is_empty() => Outcome::Missed(format!(
-            "the certified simulation member lies outside the bounds: {}",
-            id.model.member_outside_bounds().join(", ")
-        )),
-        Ok(id) => match id.all_contain_truth() {
+        Ok(smid_core::Outcome::Consistent(id)) if !id.model.member_outside_bounds().is_empty() => {
+            Outcome::Missed(format!(
+                "the certified simulation member lies outside the bounds: {}",
+                id.model.member_outside_bounds().join(", ")
+            ))
+        }
+        Ok(smid_core::Outcome::Consistent(id)) => match id.all_contain_truth() {
             Some(true) => Outcome::Contained,
             _ => Outcome::Missed(format!(
                 "bounds: {}",
@@ -232,15 +234,16 @@ pub fn trial(seed: u64) -> Result<(Spec, Outcome)> {
                     .join(", ")
             )),
         },
-        Err(e @ SmidError::Inconsistent { .. }) => {
-            Outcome::Missed(format!("the true chain was found inconsistent: {e}"))
-        }
+        Ok(smid_core::Outcome::Falsified(f)) => Outcome::Missed(format!(
+            "the true chain was found inconsistent: {}",
+            f.message()
+        )),
         Err(e) => Outcome::NoBound(e.to_string()),
     };
     Ok((spec, outcome))
 }
 
-fn pipeline_run(spec: &Spec) -> Result<smid_core::pipeline::Identification> {
+fn pipeline_run(spec: &Spec) -> Result<smid_core::Outcome<smid_core::pipeline::Identification>> {
     crate::link_plugins();
     smid_core::pipeline::run(spec, std::path::Path::new("."))
 }

@@ -75,7 +75,9 @@ pub fn compare(
         let mut names = Vec::new();
         for seed in 1..=seeds as u64 {
             let spec = crate::reproduce::paper_spec(b, seed)?;
-            let id = match pipeline::run(&spec, Path::new(".")) {
+            let id = match pipeline::run(&spec, Path::new("."))
+                .and_then(smid_core::Outcome::into_result)
+            {
                 Ok(id) => id,
                 Err(e) => {
                     errors.push((b, seed, "pipeline".into(), e.to_string()));

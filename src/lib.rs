@@ -7,7 +7,7 @@
 #![forbid(unsafe_code)]
 
 pub use smid_core as core;
-pub use smid_core::{Result, SmidError};
+pub use smid_core::{Falsification, Outcome, Result, SmidError};
 pub use smid_dead_zone as dead_zone;
 pub use smid_effects as effects;
 pub use smid_example_gain as example_gain;
@@ -93,7 +93,7 @@ pub fn load_simulated(path: &Path) -> Result<(Spec, pipeline::ExperimentData)> {
 
 /// Load a spec file, acquire its data (simulator, CSV or FMU) and identify. A relative FMU path
 /// resolves against the spec file's directory.
-pub fn run_spec_file(path: &Path) -> Result<Identification> {
+pub fn run_spec_file(path: &Path) -> Result<Outcome<Identification>> {
     run_spec_file_with(path, &|_| {})
 }
 
@@ -101,7 +101,7 @@ pub fn run_spec_file(path: &Path) -> Result<Identification> {
 pub fn run_spec_file_with(
     path: &Path,
     progress: &(dyn Fn(&smid_core::cells::Progress) + Sync),
-) -> Result<Identification> {
+) -> Result<Outcome<Identification>> {
     let spec = load_spec(path)?;
     let base = path.parent().unwrap_or(Path::new("."));
     run_spec(&spec, base, progress)
@@ -112,7 +112,7 @@ pub fn run_spec(
     spec: &Spec,
     base: &Path,
     progress: &(dyn Fn(&smid_core::cells::Progress) + Sync),
-) -> Result<Identification> {
+) -> Result<Outcome<Identification>> {
     if spec.plant.data.is_some() {
         let data = pipeline::load_data(spec, base)?;
         return pipeline::identify_with(spec, data, &pipeline::declared_truth(spec), progress);

@@ -466,9 +466,9 @@ fn real_main() -> Result<()> {
                     let id = smid::run_spec(&src.spec, &src.base, &|p| cell_progress(&pb, p));
                     pb.finish_and_clear();
                     match id {
-                        Ok(id) => id.model,
-                        Err(e @ smid::SmidError::Inconsistent { .. }) => {
-                            eprintln!("identification on the training data: {e}");
+                        Ok(smid::Outcome::Consistent(id)) => id.model,
+                        Ok(smid::Outcome::Falsified(f)) => {
+                            eprintln!("identification on the training data: {}", f.message());
                             std::process::exit(2);
                         }
                         Err(e) => {
@@ -601,10 +601,10 @@ fn real_main() -> Result<()> {
             let id = smid::run_spec_file_with(&spec, &|p| cell_progress(&pb, p));
             pb.finish_and_clear();
             let id = match id {
-                Ok(id) => id,
-                Err(e @ smid::SmidError::Inconsistent { .. }) => {
+                Ok(smid::Outcome::Consistent(id)) => id,
+                Ok(smid::Outcome::Falsified(f)) => {
                     // A finding, not a crash: say so plainly and exit with a distinct code.
-                    eprintln!("{e}");
+                    eprintln!("{}", f.message());
                     std::process::exit(2);
                 }
                 Err(e) => return Err(e).with_context(|| format!("identifying {}", spec.display())),

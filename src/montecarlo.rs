@@ -9,6 +9,7 @@ use smid_core::noise::NoiseSpec;
 use smid_core::pipeline::{self, Identification};
 use smid_core::plant::SimulatedPlant;
 use smid_core::spec::{ExperimentSpec, MethodSpec, ModelSpec, PlantSpec, Spec};
+use smid_core::Outcome as Status;
 use smid_core::Result;
 use smid_output_backlash::{Backlash, OutputBacklashModel};
 
@@ -111,7 +112,7 @@ impl Trial {
     }
 
     /// Run the whole pipeline on this trial.
-    pub fn run(&self) -> Result<Identification> {
+    pub fn run(&self) -> Result<Status<Identification>> {
         self.run_spec(&self.spec())
     }
 }
@@ -231,7 +232,7 @@ pub fn run_seeds(
     seeds: &[u64],
     jobs: usize,
     tick: impl Fn() + Sync,
-    trial: impl Fn(u64) -> Result<Identification> + Sync,
+    trial: impl Fn(u64) -> Result<Status<Identification>> + Sync,
 ) -> Summary {
     let n = seeds.len();
     let jobs = jobs.clamp(1, n.max(1));
@@ -245,7 +246,10 @@ pub fn run_seeds(
                         let o = match trial(seed) {
                             // A certified simulation member outside the bounds is a miss
                             // too (it lies in the feasible set).
-                            Ok(id) => Ok(outcome(&id)),
+                            Ok(Status::Consistent(id)) => Ok(outcome(&id)),
+                            // The true plant's data with noise inside its bound cannot
+                            // falsify the true model: a falsification is a miss.
+                            Ok(Status::Falsified(_)) => Ok(Outcome::Missed),
                             Err(e) => Err(e.to_string()),
                         };
                         v.push((seed, o));
@@ -306,14 +310,14 @@ fn outcome(id: &Identification) -> Outcome {
 
 impl Trial {
     /// Run the whole pipeline on this trial with stage 3 by `method`.
-    pub fn run_method(&self, method: smid_core::spec::EivMethod) -> Result<Identification> {
+    pub fn run_method(&self, method: smid_core::spec::EivMethod) -> Result<Status<Identification>> {
         let mut spec = self.spec();
         spec.method.eiv = method;
         self.run_spec(&spec)
     }
 
     /// Run `spec` on this trial's plant.
-    pub fn run_spec(&self, spec: &Spec) -> Result<Identification> {
+    pub fn run_spec(&self, spec: &Spec) -> Result<Status<Identification>> {
         let mut plant = SimulatedPlant {
             linear: self.linear.clone(),
             nonlinearity: &self.backlash,
@@ -331,7 +335,10 @@ impl Trial {
     /// Run this trial from one dynamic record, the backlash bisected over a random prior box
     /// around the truth ([`any_record`]); stage 3 by `method` (default
     /// classical).
-    pub fn run_any(&self, method: Option<smid_core::spec::EivMethod>) -> Result<Identification> {
+    pub fn run_any(
+        &self,
+        method: Option<smid_core::spec::EivMethod>,
+    ) -> Result<Status<Identification>> {
         let mut spec = self.any_spec();
         if let Some(m) = method {
             spec.method.eiv = m;

@@ -21,7 +21,7 @@ use smid_core::nonlinearity::{Nonlinearity, NonlinearityModel, Structure};
 use smid_core::pipeline::{self, Identification};
 use smid_core::plant::SimulatedPlant;
 use smid_core::spec::{EivMethod, ExperimentSpec, MethodSpec, ModelSpec, PlantSpec, Spec};
-use smid_core::{registry, Result, SmidError};
+use smid_core::{registry, Outcome, Result, SmidError};
 
 /// The check cases `smid check --plugin` knows, derived from the registry
 /// ([`registry::check_cases`]): every linked plugin that offers a random trial, in each
@@ -121,7 +121,7 @@ impl PluginTrial {
 
     /// Run the whole pipeline on this trial, stage 3 by `method` (`None`: the spec default),
     /// from the designed experiment or, with `any`, from one dynamic record ([`any_record`]).
-    pub fn run(self, method: Option<EivMethod>, any: bool) -> Result<Identification> {
+    pub fn run(self, method: Option<EivMethod>, any: bool) -> Result<Outcome<Identification>> {
         let structure = self.structure;
         let seed = self.seed;
         let (mut spec, nl, linear) = self.spec();
@@ -161,7 +161,7 @@ pub fn trial(
     seed: u64,
     method: Option<EivMethod>,
     any: bool,
-) -> Result<Identification> {
+) -> Result<Outcome<Identification>> {
     match (plugin, any) {
         ("output_backlash", true) => montecarlo::Trial::random(seed).run_any(method),
         ("output_backlash", false) => {

@@ -142,7 +142,9 @@ pub fn runs(seeds: &[u64], tick: &mut dyn FnMut()) -> Result<Vec<PaperRun>> {
     for bits in BITS {
         for &seed in seeds {
             let spec = paper_spec(bits, seed)?;
-            let outcome = match pipeline::run(&spec, Path::new(".")) {
+            let outcome = match pipeline::run(&spec, Path::new("."))
+                .and_then(smid_core::Outcome::into_result)
+            {
                 Ok(id) => Ok(PaperBounds {
                     snr_db: id.snr_db,
                     parameters: names

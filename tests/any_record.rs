@@ -25,7 +25,8 @@ fn every_plugin_is_bounded_from_a_dynamic_record_alone_with_the_truth_inside() {
         );
         assert!(!spec.model.prior.is_empty(), "{}: no prior", path.display());
         let id = smid::run_spec(&spec, &dir, &|_| {})
-            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+            .unwrap();
         assert_eq!(
             id.all_contain_truth(),
             Some(true),
@@ -57,7 +58,10 @@ fn cells_left_unbounded_give_a_partial_answer_and_a_stable_block_bounds_them() {
     spec.model.stable = false;
     spec.method.cells.max_cells = 800;
     spec.method.cells.max_leaves = 64;
-    let id = t.run_spec(&spec).expect("a partial answer, not an error");
+    let id = t
+        .run_spec(&spec)
+        .expect("a partial answer, not an error")
+        .unwrap();
     let s = &id.model.search;
     assert!(!s.unbounded.is_empty() && s.refined > 0, "{s:?}");
     assert!(s
@@ -76,7 +80,7 @@ fn cells_left_unbounded_give_a_partial_answer_and_a_stable_block_bounds_them() {
     assert!(report.contains("without a finite θ bound"), "{report}");
 
     spec.model.stable = true;
-    let id = t.run_spec(&spec).unwrap();
+    let id = t.run_spec(&spec).unwrap().unwrap();
     assert!(id.model.search.unbounded.is_empty());
     for p in &id.model.parameters {
         assert!(p.lower.is_finite() && p.upper.is_finite(), "{p:?}");

@@ -34,7 +34,8 @@ fn the_guaranteed_band_holds_the_true_output_on_random_plants_of_every_plugin() 
             }
             let mut plant = simulator(linear, nl.as_ref(), structure);
             let id = pipeline::run_with_plant(&spec, &mut plant)
-                .unwrap_or_else(|e| panic!("{plugin} seed {seed}: {e}"));
+                .unwrap_or_else(|e| panic!("{plugin} seed {seed}: {e}"))
+                .unwrap();
             let delta = id.model.delta;
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1000 + seed);
             let n = rng.gen_range(60..160);

@@ -21,7 +21,7 @@ fn validate_on(model: &smid::core::model::ModelSet, fresh: &[pipeline::Record]) 
 #[test]
 fn the_paper_model_validates_on_a_fresh_record_and_beats_the_arx_baseline() {
     let path = root().join("examples/paper.yaml");
-    let id = smid::run_spec_file(&path).unwrap();
+    let id = smid::run_spec_file(&path).unwrap().unwrap();
     let spec = smid::load_spec(&path).unwrap();
     let fresh =
         closeloop::fresh_records(&spec, &root().join("examples"), &[], 1001, 200, 1).unwrap();
@@ -45,7 +45,7 @@ fn the_paper_model_validates_on_a_fresh_record_and_beats_the_arx_baseline() {
 #[test]
 fn a_record_with_an_undeclared_delay_falsifies_the_model_at_a_sample() {
     let path = root().join("examples/paper.yaml");
-    let id = smid::run_spec_file(&path).unwrap();
+    let id = smid::run_spec_file(&path).unwrap().unwrap();
     let spec = smid::load_spec(&path).unwrap();
     let sim = spec.plant.simulator.as_ref().unwrap();
     let delay: Vec<Box<dyn smid::core::effect::Effect>> =
@@ -84,7 +84,7 @@ fn a_record_with_an_undeclared_delay_falsifies_the_model_at_a_sample() {
 fn result_json_carries_the_whole_model_set() {
     let path = root().join("examples/paper.yaml");
     let spec = smid::load_spec(&path).unwrap();
-    let id = smid::run_spec_file(&path).unwrap();
+    let id = smid::run_spec_file(&path).unwrap().unwrap();
     let dir = tempfile::tempdir().unwrap();
     smid::write_run(&id, &spec, path.parent().unwrap(), dir.path()).unwrap();
     let src = closeloop::load_source(&dir.path().join("result.json")).unwrap();
@@ -262,7 +262,9 @@ fn a_declared_offset_is_bounded_around_the_truth_by_the_branch_and_bound() {
     let mut spec = smid::load_spec(&path).unwrap();
     spec.model.effects = vec![serde_norway::from_str("{type: offset}").unwrap()];
     spec.model.prior.insert("offset".into(), [-0.05, 0.05]);
-    let id = smid::run_spec(&spec, &root().join("examples/diagnose"), &|_| {}).unwrap();
+    let id = smid::run_spec(&spec, &root().join("examples/diagnose"), &|_| {})
+        .unwrap()
+        .unwrap();
     assert_eq!(id.all_contain_truth(), Some(true));
     let off = id.parameter("offset").unwrap();
     assert!(off.lower > -0.05 && off.upper < 0.05, "{off:?}");
@@ -307,7 +309,8 @@ fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
         }
         let mut src = closeloop::load_source(&path).unwrap();
         let id = smid::run_spec(&src.spec, &src.base, &|_| {})
-            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+            .unwrap();
         src.model = Some(id.model);
         let length = src.spec.experiment.dynamic.length;
         let fresh = closeloop::fresh_records(&src.spec, &src.base, &[], 1001, length, 1).unwrap();
@@ -384,7 +387,8 @@ fn measured_examples_validate_on_their_held_out_rows() {
         let path = root().join(spec_path);
         let mut src = closeloop::load_source(&path).unwrap();
         let id = smid::run_spec(&src.spec, &src.base, &|_| {})
-            .unwrap_or_else(|e| panic!("{spec_path}: {e}"));
+            .unwrap_or_else(|e| panic!("{spec_path}: {e}"))
+            .unwrap();
         src.model = Some(id.model);
         let csv = root().join(held_out);
         let fresh = closeloop::fresh_records(&src.spec, &src.base, &[csv], 0, 0, 1).unwrap();

@@ -12,7 +12,7 @@ use smid_core::nonlinearity::{Nonlinearity, NonlinearitySet, SteadyPoint, Steady
 use smid_core::signals::prbs;
 use smid_core::spec::EivMethod;
 use smid_core::stage3::{self, EivProblem};
-use smid_core::SmidError;
+use smid_core::{Outcome, SmidError};
 use smid_output_backlash::branch_polygons;
 use smid_output_backlash::Backlash;
 
@@ -125,7 +125,8 @@ proptest! {
     #[test]
     fn end_to_end_bounds_contain_the_truth(seed in any::<u64>()) {
         match Trial::random(seed).run() {
-            Ok(id) => prop_assert_eq!(id.all_contain_truth(), Some(true), "{}", smid_core::report::table(&id)),
+            Ok(Outcome::Falsified(f)) => prop_assert!(false, "seed {seed}: the truth falsified: {f}"),
+            Ok(Outcome::Consistent(id)) => prop_assert_eq!(id.all_contain_truth(), Some(true), "{}", smid_core::report::table(&id)),
             Err(SmidError::Unbounded { .. }) => prop_assume!(false),
             Err(e) => prop_assert!(false, "seed {seed}: {e}"),
         }
@@ -144,7 +145,8 @@ proptest! {
         let mut shared = None;
         for m in EivMethod::registered().into_iter().filter(|m| m.available()) {
             match trial.run_method(m) {
-                Ok(id) => {
+                Ok(Outcome::Falsified(f)) => prop_assert!(false, "{}: the truth falsified: {f}", m.name()),
+                Ok(Outcome::Consistent(id)) => {
                     prop_assert_eq!(id.all_contain_truth(), Some(true), "{}: {}", m.name(), smid_core::report::table(&id));
                     let theta: Vec<Interval> = ["a1", "a2", "b1", "b2"]
                         .iter()

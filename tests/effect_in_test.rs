@@ -42,7 +42,9 @@ fn a_sensor_only_effect_bounds_the_plants_offset() {
     let mut spec = smid::load_spec(&path).unwrap();
     spec.model.effects = vec![serde_norway::from_str("{type: test_only_bias}").unwrap()];
     spec.model.prior.insert("bias".into(), [-0.05, 0.05]);
-    let id = smid::run_spec(&spec, &root().join("examples/diagnose"), &|_| {}).unwrap();
+    let id = smid::run_spec(&spec, &root().join("examples/diagnose"), &|_| {})
+        .unwrap()
+        .unwrap();
     // The plant's offset is 0.01 (the bundled `offset`'s plant side); the test's bias is its
     // model side, reached through the capability alone.
     let bias = id

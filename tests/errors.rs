@@ -2,7 +2,7 @@
 //! reported as "the data are inconsistent with the model and noise bound" with the stage and the
 //! first offending sample, never as a panic; `smid run` exits 2 on such a finding.
 use smid_core::spec::Spec;
-use smid_core::{SmidError, Stage};
+use smid_core::{Outcome, SmidError, Stage};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -148,7 +148,7 @@ fn paper_csv() -> (String, String) {
 fn measured_data_identify_and_bad_cells_are_named() {
     let (steady, dynamic) = paper_csv();
     let (_d, path) = data_spec(&steady, &dynamic, 1e-4);
-    let id = smid::run_spec_file(&path).unwrap();
+    let id = smid::run_spec_file(&path).unwrap().unwrap();
     assert!(id.parameter("a1").unwrap().radius < 0.01);
 
     let (_d, path) = data_spec(&steady, &dynamic.replacen("\n1,", "\nNaN,", 1), 1e-4);
@@ -185,7 +185,7 @@ fn an_outlier_is_reported_as_inconsistent_with_its_sample() {
     bad[7] = format!("{},{}", fields[0], fields[1] + 0.05);
     let (_d, path) = data_spec(&(bad.join("\n") + "\n"), &dynamic, 1e-4);
     match smid::run_spec_file(&path) {
-        Err(SmidError::Inconsistent { stage, sample, .. }) => {
+        Ok(Outcome::Falsified(smid_core::Falsification { stage, sample, .. })) => {
             assert_eq!(stage, Stage::SteadyState);
             assert_eq!(sample, 6);
         }
@@ -211,13 +211,45 @@ fn an_outlier_is_reported_as_inconsistent_with_its_sample() {
     dl[61] = format!("{},{}", f[0], f[1] + 0.03);
     let (_d, path) = data_spec(&steady, &(dl.join("\n") + "\n"), 1e-4);
     match smid::run_spec_file(&path) {
-        Err(SmidError::Inconsistent {
+        Ok(Outcome::Falsified(smid_core::Falsification {
             stage: Stage::Linear,
             sample,
             ..
-        }) => assert!((60..=64).contains(&sample), "{sample}"),
+        })) => assert!((60..=64).contains(&sample), "{sample}"),
         other => panic!("expected a stage-3 inconsistency, got {other:?}"),
     }
+}
+
+/// A falsification is an outcome, not an error, and it names the record: an outlier in the
+/// second of two training records is found there, at its own sample index (issue 26, item 4).
+#[test]
+fn a_falsified_identification_is_an_outcome_naming_record_and_sample() {
+    let (steady, dynamic) = paper_csv();
+    let mut dl: Vec<String> = dynamic.lines().map(String::from).collect();
+    let f: Vec<f64> = dl[61].split(',').map(|v| v.parse().unwrap()).collect();
+    dl[61] = format!("{},{}", f[0], f[1] + 0.03);
+    let (d, path) = data_spec(&steady, &dynamic, 1e-4);
+    std::fs::write(d.path().join("bad.csv"), dl.join("\n") + "\n").unwrap();
+    let text = std::fs::read_to_string(&path).unwrap().replace(
+        "dynamic: { file: dynamic.csv, u: u, y: y }",
+        "dynamic: [ { file: dynamic.csv, u: u, y: y }, { file: bad.csv, u: u, y: y } ]",
+    );
+    std::fs::write(&path, text).unwrap();
+    match smid::run_spec_file(&path) {
+        Ok(Outcome::Falsified(f)) => {
+            assert_eq!(f.stage, Stage::Linear, "{f}");
+            assert_eq!(f.record, 1, "{f}");
+            assert!((60..=64).contains(&f.sample), "{f}");
+        }
+        Ok(Outcome::Consistent(_)) => panic!("the outlier was not found"),
+        Err(e) => panic!("a falsification must be an outcome, got the error {e}"),
+    }
+    // The clean records alone are consistent.
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("{ file: bad.csv", "{ file: dynamic.csv");
+    std::fs::write(&path, text).unwrap();
+    assert!(smid::run_spec_file(&path).unwrap().is_consistent());
 }
 
 #[test]
@@ -266,10 +298,14 @@ fn cli_run_writes_results_and_rerun_on_its_data_gives_the_same_bounds() {
         method.replace("alpha: design", "alpha: zero")
     );
     std::fs::write(dir.path().join("rerun.yaml"), rerun).unwrap();
-    let again = smid::run_spec_file(&dir.path().join("rerun.yaml")).unwrap();
+    let again = smid::run_spec_file(&dir.path().join("rerun.yaml"))
+        .unwrap()
+        .unwrap();
     let mut orig = smid_core::spec::Spec::from_file(Path::new("examples/paper.yaml")).unwrap();
     orig.method.alpha = smid_core::spec::AlphaSpec::Zero;
-    let first = smid_core::pipeline::run(&orig, Path::new(".")).unwrap();
+    let first = smid_core::pipeline::run(&orig, Path::new("."))
+        .unwrap()
+        .unwrap();
     for (a, b) in first.parameters().iter().zip(again.parameters()) {
         assert_eq!(a.name, b.name);
         assert!(
@@ -311,7 +347,10 @@ model:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 2\n  nb: 2\
             assert!(parameter.contains("noise bound"), "{parameter}");
             assert!(message.contains("noise.delta"), "{message}");
         }
-        Ok(id) => panic!("a noise bound was estimated: {:e}", id.model.delta),
+        Ok(Outcome::Consistent(id)) => {
+            panic!("a noise bound was estimated: {:e}", id.model.delta)
+        }
+        Ok(Outcome::Falsified(f)) => panic!("expected the estimate refused as unbounded, got: {f}"),
         Err(e) => panic!("expected the estimate refused as unbounded, got: {e}"),
     }
 }

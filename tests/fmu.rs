@@ -8,8 +8,12 @@ use std::path::Path;
 #[test]
 fn fmu_paper_gives_the_bounds_of_the_builtin_paper_example() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let fmu = smid::run_spec_file(&root.join("examples/fmu-paper.yaml")).unwrap();
-    let sim = smid::run_spec_file(&root.join("examples/paper.yaml")).unwrap();
+    let fmu = smid::run_spec_file(&root.join("examples/fmu-paper.yaml"))
+        .unwrap()
+        .unwrap();
+    let sim = smid::run_spec_file(&root.join("examples/paper.yaml"))
+        .unwrap()
+        .unwrap();
     assert_eq!(fmu.parameters().len(), sim.parameters().len());
     assert_eq!(fmu.data.records[0].y.len(), sim.data.records[0].y.len());
     assert_eq!(

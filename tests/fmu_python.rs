@@ -56,8 +56,12 @@ fn a_pythonfmu_plant_gives_the_bounds_of_the_builtin_simulator_and_agrees_with_f
         return;
     };
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let py = smid::run_spec_file(&spec_for(&fmu, dir.path())).unwrap();
-    let sim = smid::run_spec_file(&root.join("examples/paper.yaml")).unwrap();
+    let py = smid::run_spec_file(&spec_for(&fmu, dir.path()))
+        .unwrap()
+        .unwrap();
+    let sim = smid::run_spec_file(&root.join("examples/paper.yaml"))
+        .unwrap()
+        .unwrap();
     // Same arithmetic in the same order: the same records, hence the same bounds to the bit.
     assert_eq!(py.data.records[0].w, sim.data.records[0].w);
     assert_eq!(py.parameters().len(), sim.parameters().len());

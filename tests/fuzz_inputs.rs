@@ -317,6 +317,8 @@ fn a_tolerance_below_float_resolution_is_refused() {
     terminates("tol 1e-12", Duration::from_secs(300), move || {
         smid::link_plugins();
         let spec = Spec::parse(&ok, Path::new("input-backlash.yaml")).unwrap();
-        smid::run_spec(&spec, Path::new("."), &|_| {}).unwrap();
+        smid::run_spec(&spec, Path::new("."), &|_| {})
+            .unwrap()
+            .unwrap();
     });
 }

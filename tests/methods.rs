@@ -32,7 +32,7 @@ fn paper_with(method: &str) -> Result<Spec> {
 
 fn bounds(spec: &Spec) -> Vec<(f64, f64)> {
     let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
-    let id = smid::run_spec(spec, &base, &|_| {}).unwrap();
+    let id = smid::run_spec(spec, &base, &|_| {}).unwrap().unwrap();
     id.parameters().iter().map(|p| (p.lower, p.upper)).collect()
 }
 

@@ -9,7 +9,7 @@ use std::path::Path;
 fn run(bits: u32, seed: u64) -> pipeline::Identification {
     let mut spec = paper_spec(bits, seed).unwrap();
     spec.method.eiv = EivMethod::Classical;
-    pipeline::run(&spec, Path::new(".")).unwrap()
+    pipeline::run(&spec, Path::new(".")).unwrap().unwrap()
 }
 
 #[test]
@@ -152,10 +152,14 @@ fn sdp_on_the_paper_example_is_within_shared_and_contains_the_truth() {
         println!("skipped: this build has no feature `sdp`");
         return;
     }
-    let sdp = smid::run_spec_file(Path::new("examples/paper-sdp.yaml")).unwrap();
+    let sdp = smid::run_spec_file(Path::new("examples/paper-sdp.yaml"))
+        .unwrap()
+        .unwrap();
     let mut spec = smid::load_spec(Path::new("examples/paper-sdp.yaml")).unwrap();
     spec.method.eiv = EivMethod::Shared;
-    let shared = pipeline::run(&spec, Path::new("examples")).unwrap();
+    let shared = pipeline::run(&spec, Path::new("examples"))
+        .unwrap()
+        .unwrap();
     assert_eq!(sdp.all_contain_truth(), Some(true));
     for name in ["a1", "a2", "b1", "b2"] {
         let (s, h) = (

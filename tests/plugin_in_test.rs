@@ -35,10 +35,8 @@ impl NonlinearityModel for TestGainModel {
         for p in d.points.iter().filter(|p| p.u != 0.0) {
             let (a, b) = ((p.y - p.dy) / p.u, (p.y + p.dy) / p.u);
             let here = Interval::new(a.min(b), a.max(b)).outward();
-            k = k.intersect(&here).ok_or_else(|| SmidError::Inconsistent {
-                stage: Stage::SteadyState,
-                sample: p.index,
-                detail: "no gain fits".into(),
+            k = k.intersect(&here).ok_or_else(|| {
+                SmidError::inconsistent(Stage::SteadyState, p.index, "no gain fits")
             })?;
         }
         Ok(Box::new(TestGainSet(k)))

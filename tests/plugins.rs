@@ -5,7 +5,7 @@
 use proptest::prelude::*;
 use smid::core::spec::Spec;
 use smid::plugin_check::PluginTrial;
-use smid::SmidError;
+use smid::{Outcome, SmidError};
 use std::path::Path;
 
 /// The plugin examples and what they identify.
@@ -22,7 +22,9 @@ fn bounds_view(name: &str) -> Vec<String> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("examples")
         .join(format!("{name}.yaml"));
-    let id = smid::run_spec_file(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let id = smid::run_spec_file(&path)
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
+        .unwrap();
     assert_eq!(
         id.all_contain_truth(),
         Some(true),
@@ -72,7 +74,7 @@ fn check_any(plugin: &str, seed: u64) -> std::result::Result<(), TestCaseError> 
 fn check_from(plugin: &str, seed: u64, any: bool) -> std::result::Result<(), TestCaseError> {
     let outcome = smid::plugin_check::trial(plugin, seed, None, any);
     match outcome {
-        Ok(id) => {
+        Ok(Outcome::Consistent(id)) => {
             prop_assert_eq!(
                 id.all_contain_truth(),
                 Some(true),
@@ -82,8 +84,11 @@ fn check_from(plugin: &str, seed: u64, any: bool) -> std::result::Result<(), Tes
                 id.parameters()
             );
         }
-        Err(e @ SmidError::Inconsistent { .. }) => {
-            return Err(TestCaseError::fail(format!("{plugin} seed {seed}: {e}")))
+        Ok(Outcome::Falsified(f)) => {
+            return Err(TestCaseError::fail(format!(
+                "{plugin} seed {seed}: {}",
+                f.message()
+            )))
         }
         Err(_) => {}
     }
@@ -187,7 +192,7 @@ fn plugin_trials_honour_the_stage3_method() {
         trial().run(Some(EivMethod::ExactGrid), false),
         Err(SmidError::Unsupported { .. })
     ));
-    let (Ok(classical), Ok(shared)) = (
+    let (Ok(Outcome::Consistent(classical)), Ok(Outcome::Consistent(shared))) = (
         trial().run(Some(EivMethod::Classical), false),
         trial().run(Some(EivMethod::Shared), false),
     ) else {

@@ -191,7 +191,9 @@ fn the_core_names_no_plugin() {
 
 #[test]
 fn the_example_plugin_runs_end_to_end() {
-    let id = smid::run_spec_file(&root().join("examples/example-gain.yaml")).unwrap();
+    let id = smid::run_spec_file(&root().join("examples/example-gain.yaml"))
+        .unwrap()
+        .unwrap();
     assert_eq!(id.all_contain_truth(), Some(true));
     let k = id.parameter("k").unwrap();
     assert!(k.lower <= 2.0 && 2.0 <= k.upper && k.radius < 1e-3, "{k:?}");

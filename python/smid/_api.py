@@ -125,13 +125,15 @@ class Parameter:
 @dataclass(frozen=True)
 class Verdict:
     """Consistent, or falsified: the data contradict the model and noise bound, at ``stage``
-    and first offending ``sample``."""
+    and first offending ``sample`` of ``record`` (the training record in an identification, the
+    fresh record in a validation)."""
 
     consistent: bool
     stage: Optional[str] = None
     sample: Optional[int] = None
     detail: Optional[str] = None
     message: Optional[str] = None
+    record: Optional[int] = None
 
 
 @dataclass(frozen=True)
@@ -299,6 +301,7 @@ class Identification:
                 sample=raw["sample"],
                 detail=raw["detail"],
                 message=raw["message"],
+                record=raw.get("record"),
             )
             self.table = raw["message"] + "\n"
             self.files = []
@@ -489,6 +492,7 @@ class Validation:
         if c["consistent"] or not f:
             return Verdict(consistent=bool(c["consistent"]))
         return Verdict(consistent=False, stage=f.get("stage"), sample=f.get("sample"), detail=f.get("detail"),
+                       record=f.get("record"),
                        message=f"record {f.get('record')}, sample {f.get('sample')}: {f.get('detail')}")
 
     @property

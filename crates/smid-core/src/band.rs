@@ -150,7 +150,7 @@ fn cell_band(
             &set.training.records,
         ) {
             Ok(s) => s,
-            Err(SmidError::Inconsistent { .. }) => return Ok(None),
+            Err(SmidError::Inconsistent(_)) => return Ok(None),
             Err(e) => return Err(e),
         };
         let mut prob = eiv_problem(&set.model, layout, &set.method, &train, Some(&c.theta));

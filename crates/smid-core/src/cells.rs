@@ -18,13 +18,14 @@
 //! Cells of one level are evaluated in parallel (rayon).
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
+use crate::outcome::{Falsification, Outcome};
 use rayon::prelude::*;
 
 /// What evaluating one cell proved.
 #[derive(Debug)]
 pub enum Verdict<T> {
-    /// The cell is inconsistent with the data (the error says where): discarded.
-    Infeasible(SmidError),
+    /// The cell is inconsistent with the data (the finding says where): discarded.
+    Infeasible(Falsification),
     /// The cell may hold consistent parameters; `T` holds guaranteed results over the cell.
     Feasible(T),
     /// The cell may hold consistent parameters but the results are not finite (stage 3 did
@@ -165,14 +166,14 @@ fn bisect(
 /// which gives the guaranteed results over each (and may still discard one). With no
 /// parameter to bisect, `finish` runs once on the empty cell and its errors are the result.
 /// When every cell is discarded the data falsify the model over the whole prior box: the
-/// result is the inconsistency with the latest first offending sample among the cells.
+/// outcome is `Falsified`, at the latest first offending sample among the cells.
 pub fn search<T: Send + Sync>(
     prior: &[Interval],
     budget: Budget,
     test: &(dyn Fn(&[Interval]) -> Result<Verdict<()>> + Sync),
     finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
     progress: &(dyn Fn(&Progress) + Sync),
-) -> Result<Search<T>> {
+) -> Result<Outcome<Search<T>>> {
     for (k, p) in prior.iter().enumerate() {
         if !(p.lo.is_finite() && p.hi.is_finite() && p.lo <= p.hi) {
             return Err(SmidError::invalid(
@@ -185,8 +186,8 @@ pub fn search<T: Send + Sync>(
     let mut discarded = 0usize;
     let mut budget_stopped = false;
     let mut coarsened = false;
-    let mut worst: Option<SmidError> = None;
-    let note = |e: SmidError, worst: &mut Option<SmidError>| {
+    let mut worst: Option<Falsification> = None;
+    let note = |e: Falsification, worst: &mut Option<Falsification>| {
         *worst = Some(match worst.take() {
             Some(w) if later(&w, &e) => w,
             _ => e,
@@ -309,33 +310,31 @@ pub fn search<T: Send + Sync>(
         }
     }
     if leaves.is_empty() {
-        return Err(match worst {
-            Some(SmidError::Inconsistent {
-                stage,
-                sample,
-                detail,
-            }) => SmidError::Inconsistent {
-                stage,
-                sample,
+        let f = match worst {
+            // No parameter bisected: the stages' own finding.
+            Some(f) if prior.is_empty() => f,
+            Some(f) => Falsification {
                 detail: format!(
-                    "no value in the prior box of the bisected parameters fits ({evaluated} cells tried); the latest contradiction: {detail}"
+                    "no value in the prior box of the bisected parameters fits ({evaluated} cells tried); the latest contradiction: {}",
+                    f.detail
                 ),
+                ..f
             },
-            Some(e) => e,
-            None => SmidError::Inconsistent {
-                stage: Stage::Linear,
-                sample: 0,
-                detail: "every cell of the prior box was discarded".into(),
-            },
-        });
+            None => Falsification::new(
+                Stage::Linear,
+                0,
+                "every cell of the prior box was discarded",
+            ),
+        };
+        return Ok(Outcome::Falsified(f));
     }
-    Ok(Search {
+    Ok(Outcome::Consistent(Search {
         leaves,
         evaluated,
         discarded,
         budget_stopped: budget_stopped || coarsened,
         refined,
-    })
+    }))
 }
 
 /// Halvings of each parameter of `cell` from `prior` (by widths; a bisection halves exactly).
@@ -353,18 +352,16 @@ fn depth_of(cell: &[Interval], prior: &[Interval]) -> Vec<u32> {
         .collect()
 }
 
-/// Whether inconsistency `a` names a later point of the data than `b` (stage, then sample).
-fn later(a: &SmidError, b: &SmidError) -> bool {
-    let key = |e: &SmidError| match e {
-        SmidError::Inconsistent { stage, sample, .. } => {
-            let s = match stage {
-                Stage::SteadyState => 0,
-                Stage::InnerSignal => 1,
-                Stage::Linear => 2,
-            };
-            (s, *sample)
-        }
-        _ => (0, 0),
+/// Whether finding `a` names a later point of the data than `b` (stage, then record and
+/// sample).
+fn later(a: &Falsification, b: &Falsification) -> bool {
+    let key = |f: &Falsification| {
+        let s = match f.stage {
+            Stage::SteadyState => 0,
+            Stage::InnerSignal => 1,
+            Stage::Linear => 2,
+        };
+        (s, f.record, f.sample)
     };
     key(a) >= key(b)
 }
@@ -373,12 +370,8 @@ fn later(a: &SmidError, b: &SmidError) -> bool {
 mod tests {
     use super::*;
 
-    fn incons(sample: usize) -> SmidError {
-        SmidError::Inconsistent {
-            stage: Stage::Linear,
-            sample,
-            detail: "test".into(),
-        }
+    fn incons(sample: usize) -> Falsification {
+        Falsification::new(Stage::Linear, sample, "test")
     }
 
     /// A 2-D set `x^2 + y^2 <= 0.25` "identified" by interval arithmetic: the surviving cells
@@ -417,6 +410,7 @@ mod tests {
             &eval,
             &|_| {},
         )
+        .unwrap()
         .unwrap();
         assert!(!s.budget_stopped);
         let h = s.hull();
@@ -454,7 +448,9 @@ mod tests {
             max_leaves,
         };
         let prior = [Interval::new(0.0, 1.0)];
-        let s = search(&prior, budget(100), &test, &eval, &|_| {}).unwrap();
+        let s = search(&prior, budget(100), &test, &eval, &|_| {})
+            .unwrap()
+            .unwrap();
         assert!(s
             .leaves
             .iter()
@@ -466,7 +462,9 @@ mod tests {
             let x = k as f64 / 100.0;
             assert!(s.leaves.iter().any(|l| l.cell[0].contains(x)), "{x}");
         }
-        let tight = search(&prior, budget(2), &test, &eval, &|_| {}).unwrap();
+        let tight = search(&prior, budget(2), &test, &eval, &|_| {})
+            .unwrap()
+            .unwrap();
         assert!(tight.leaves.iter().any(|l| l.value.is_none()
             && l.cause == Some((UndecidedCause::Unbounded, "too wide".into()))));
         assert_eq!(tight.hull(), vec![Interval::new(0.0, 1.0)]);
@@ -492,6 +490,7 @@ mod tests {
             &eval,
             &|_| {},
         )
+        .unwrap()
         .unwrap();
         assert!(s.budget_stopped);
         assert!(s.evaluated <= 10 + s.leaves.len(), "{}", s.evaluated);
@@ -517,8 +516,12 @@ mod tests {
             max_leaves,
         };
         let prior = [Interval::new(0.0, 4.0), Interval::new(0.0, 4.0)];
-        let fine = search(&prior, budget(100_000), &eval, &eval, &|_| {}).unwrap();
-        let coarse = search(&prior, budget(20), &eval, &eval, &|_| {}).unwrap();
+        let fine = search(&prior, budget(100_000), &eval, &eval, &|_| {})
+            .unwrap()
+            .unwrap();
+        let coarse = search(&prior, budget(20), &eval, &eval, &|_| {})
+            .unwrap()
+            .unwrap();
         assert!(fine.leaves.len() > 20 && !fine.budget_stopped);
         assert!(coarse.leaves.len() <= 20 && coarse.budget_stopped);
         for l in &fine.leaves {
@@ -552,7 +555,7 @@ mod tests {
             &eval,
             &|_| {},
         );
-        assert!(matches!(r, Err(SmidError::Inconsistent { .. })), "{r:?}");
+        assert!(matches!(r, Ok(Outcome::Falsified(_))), "{r:?}");
         let bad = |_: &[Interval]| -> Result<Verdict<()>> { Err(SmidError::Solver("x".into())) };
         let r = search(
             &[Interval::new(0.0, 1.0)],
@@ -607,6 +610,7 @@ mod tests {
             &eval,
             &|_| {},
         )
+        .unwrap()
         .unwrap();
         assert_eq!(s.evaluated, 2);
         let never = |_: &[Interval]| -> Result<Verdict<()>> { panic!("nothing to test") };
@@ -622,6 +626,7 @@ mod tests {
             &eval,
             &|_| {},
         )
+        .unwrap()
         .unwrap();
         assert_eq!((s.evaluated, s.leaves.len()), (1, 1));
     }

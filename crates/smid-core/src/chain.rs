@@ -146,13 +146,11 @@ fn invert_runs(block: &dyn NonlinearitySet, w: &[InnerBound]) -> Result<Vec<Inne
         if w[t].interval.lo > w[t].interval.hi {
             // The block after this one has no value here over the whole cell (a backlash's dead
             // band closed): the cell is inconsistent, as stage 3 would find from this interval.
-            return Err(SmidError::Inconsistent {
-                stage: Stage::InnerSignal,
-                sample: t,
-                detail:
-                    "the output side of the chain leaves no value for this sample over the cell"
-                        .into(),
-            });
+            return Err(SmidError::inconsistent(
+                Stage::InnerSignal,
+                t,
+                "the output side of the chain leaves no value for this sample over the cell",
+            ));
         }
         if !w[t].interval.is_finite() {
             t += 1;

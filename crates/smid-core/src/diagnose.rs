@@ -23,6 +23,7 @@ use crate::chain::{qualified, Side};
 use crate::effect::{self, DataScale, Effect};
 use crate::error::{Result, SmidError, Stage};
 use crate::model::ModelSet;
+use crate::outcome::{Falsification, Outcome};
 use crate::pipeline::{data_scale, identify, ExperimentData, Identification, Record};
 use crate::spec::{ModelSpec, Spec};
 use crate::validate::{self, Validation};
@@ -319,7 +320,7 @@ fn try_model(
     let s = with_model(spec, model);
     match identify(&s, data.clone(), &[]) {
         // Consistent, but cells left without a finite θ bound: no model to offer.
-        Ok(id) if !id.model.search.unbounded.is_empty() => (
+        Ok(Outcome::Consistent(id)) if !id.model.search.unbounded.is_empty() => (
             TrainVerdict::Failed {
                 message: format!(
                     "{} cell(s) left without a finite θ bound: first {} ({})",
@@ -330,7 +331,7 @@ fn try_model(
             },
             None,
         ),
-        Ok(id) => {
+        Ok(Outcome::Consistent(id)) => {
             let fit = training_fit(&id.model).unwrap_or(f64::NEG_INFINITY);
             let bound = id.model.delta;
             (
@@ -341,11 +342,12 @@ fn try_model(
                 Some(id),
             )
         }
-        Err(SmidError::Inconsistent {
+        Ok(Outcome::Falsified(Falsification {
             stage,
             sample,
             detail,
-        }) => (
+            ..
+        })) => (
             TrainVerdict::Falsified {
                 stage,
                 sample,
@@ -747,19 +749,23 @@ pub struct Column {
 /// Identify a model at the smallest noise bound (≥ the declared one) that makes the training
 /// data consistent: the declared bound when it suffices, else bisection between the last
 /// failing and the first passing of doubled bounds (relative resolution 2 %, at most 40
-/// identifications).
-pub fn identify_consistent(spec: &Spec, data: &ExperimentData) -> Result<(Identification, bool)> {
+/// identifications). `Falsified` when no bound tried makes them consistent.
+pub fn identify_consistent(
+    spec: &Spec,
+    data: &ExperimentData,
+) -> Result<Outcome<(Identification, bool)>> {
     let start = std::time::Instant::now();
     let r = identify_consistent_at(spec, data);
     log::info!(target: "smid::diagnose", "smallest consistent bound of {}: {:.2} s", label_of(&spec.model), start.elapsed().as_secs_f64());
     r
 }
 
-fn identify_consistent_at(spec: &Spec, data: &ExperimentData) -> Result<(Identification, bool)> {
-    match identify(spec, data.clone(), &[]) {
-        Ok(id) => return Ok((id, false)),
-        Err(SmidError::Inconsistent { .. }) => {}
-        Err(e) => return Err(e),
+fn identify_consistent_at(
+    spec: &Spec,
+    data: &ExperimentData,
+) -> Result<Outcome<(Identification, bool)>> {
+    if let Outcome::Consistent(id) = identify(spec, data.clone(), &[])? {
+        return Ok(Outcome::Consistent((id, false)));
     }
     let d0 = spec.noise.delta()?;
     let at = |d: f64| -> Result<Option<Identification>> {
@@ -781,9 +787,9 @@ fn identify_consistent_at(spec: &Spec, data: &ExperimentData) -> Result<(Identif
         // is then only larger (this bound serves the before/after table, not a guarantee).
         match identify(&s, d2, &[]) {
             // Cells left without a finite θ bound: no usable model at this bound either.
-            Ok(id) if !id.model.search.unbounded.is_empty() => Ok(None),
-            Ok(id) => Ok(Some(id)),
-            Err(SmidError::Inconsistent { .. })
+            Ok(Outcome::Consistent(id)) if !id.model.search.unbounded.is_empty() => Ok(None),
+            Ok(Outcome::Consistent(id)) => Ok(Some(id)),
+            Ok(Outcome::Falsified(_))
             | Err(SmidError::Unbounded { .. })
             | Err(SmidError::Solver(_)) => Ok(None),
             Err(e) => Err(e),
@@ -795,13 +801,11 @@ fn identify_consistent_at(spec: &Spec, data: &ExperimentData) -> Result<(Identif
     while best.is_none() {
         checks += 1;
         if checks > 30 {
-            return Err(SmidError::Inconsistent {
-                stage: Stage::Linear,
-                sample: 0,
-                detail: format!(
-                    "the training data stay inconsistent up to a noise bound of {hi:.3e}"
-                ),
-            });
+            return Ok(Outcome::Falsified(Falsification::new(
+                Stage::Linear,
+                0,
+                format!("the training data stay inconsistent up to a noise bound of {hi:.3e}"),
+            )));
         }
         match at(hi)? {
             Some(id) => best = Some(id),
@@ -825,7 +829,7 @@ fn identify_consistent_at(spec: &Spec, data: &ExperimentData) -> Result<(Identif
     }
     best.model.simulation_member =
         crate::members::simulation_member(&best.model, &spec.method.member)?;
-    Ok((best, true))
+    Ok(Outcome::Consistent((best, true)))
 }
 
 /// The before/after table on held-out records (the only place they are read).
@@ -844,16 +848,21 @@ pub fn assess(
             Some(m) => (m.duplicate(), false),
             None => {
                 let s = with_model(spec, model);
-                match identify_consistent(&s, training) {
-                    Ok((id, inflated)) => (id.model, inflated),
+                let stopped = match identify_consistent(&s, training) {
+                    Ok(Outcome::Consistent((id, inflated))) => Ok((id.model, inflated)),
                     // A model the training data falsify at every bound tried, or that no
                     // bound makes finite: a row that says where the search stopped.
+                    Ok(Outcome::Falsified(f)) => Err(f.message()),
                     Err(
-                        e @ (SmidError::Inconsistent { .. }
-                        | SmidError::Unbounded { .. }
+                        e @ (SmidError::Unbounded { .. }
                         | SmidError::Solver(_)
                         | SmidError::Unsupported { .. }),
-                    ) => {
+                    ) => Err(e.to_string()),
+                    Err(e) => return Err(e),
+                };
+                match stopped {
+                    Ok(m) => m,
+                    Err(stopped) => {
                         return Ok(Column {
                             label: label_of(model),
                             bound: f64::NAN,
@@ -861,11 +870,10 @@ pub fn assess(
                             parameters: 0,
                             mean_radius: f64::NAN,
                             validation: None,
-                            stopped: Some(e.to_string()),
+                            stopped: Some(stopped),
                             model: None,
                         })
                     }
-                    Err(e) => return Err(e),
                 }
             }
         };

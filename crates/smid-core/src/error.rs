@@ -2,8 +2,9 @@
 //!
 //! Every error names where it comes from: the spec file and field, the data file and sample,
 //! or the identification stage and the first sample that falsified the model. An empty
-//! feasible set is not a crash but [`SmidError::Inconsistent`]: the data are inconsistent with
-//! the model and noise bound, which is a finding about the plant.
+//! feasible set is not a crash but a finding about the plant: inside the engines it travels as
+//! [`SmidError::Inconsistent`], and identification and validation return it as a status
+//! ([`crate::outcome::Outcome::Falsified`]).
 use std::path::PathBuf;
 
 /// Identification stage, used to say where a feasible set became empty.
@@ -49,12 +50,9 @@ pub enum SmidError {
     #[error("invalid `{field}`: {message}")]
     Invalid { field: String, message: String },
     /// The feasible set is empty: the data falsify the model.
-    #[error("the data are inconsistent with the model and noise bound: {stage}: first offending sample {sample} ({detail})")]
-    Inconsistent {
-        stage: Stage,
-        sample: usize,
-        detail: String,
-    },
+    /// Inside the engines only: the boundaries return it as [`crate::outcome::Outcome`].
+    #[error("{}", .0.message())]
+    Inconsistent(crate::outcome::Falsification),
     /// The data do not determine a bounded set (e.g. too few distinct amplitudes).
     #[error("the data do not bound `{parameter}`: {message}")]
     Unbounded { parameter: String, message: String },
@@ -77,6 +75,18 @@ pub enum SmidError {
 }
 
 impl SmidError {
+    /// Shorthand for [`SmidError::Inconsistent`] at `sample` of record 0 (a plugin's or a
+    /// stage's proof that the feasible set is empty).
+    pub fn inconsistent(stage: Stage, sample: usize, detail: impl Into<String>) -> Self {
+        SmidError::Inconsistent(crate::outcome::Falsification::new(stage, sample, detail))
+    }
+    /// A falsification found in record `record` says so; any other error is returned as is.
+    pub fn in_record(self, record: usize) -> Self {
+        match self {
+            SmidError::Inconsistent(f) => SmidError::Inconsistent(f.in_record(record)),
+            e => e,
+        }
+    }
     /// Shorthand for [`SmidError::Invalid`].
     pub fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
         SmidError::Invalid {

@@ -28,6 +28,7 @@ pub mod members;
 pub mod model;
 pub mod noise;
 pub mod nonlinearity;
+pub mod outcome;
 pub mod pipeline;
 pub mod plant;
 pub mod plot;
@@ -41,6 +42,7 @@ pub mod stage3;
 pub mod validate;
 
 pub use error::{Result, SmidError, Stage};
+pub use outcome::{Falsification, Outcome};
 
 // Re-exported for the plugin registration macros (`register_nonlinearity!`, `register_model!`).
 #[doc(hidden)]
@@ -63,6 +65,7 @@ pub mod prelude {
         NonlinearityModel, NonlinearitySet, ParameterBound, Region, SteadyPoint, SteadyStateData,
         Structure,
     };
+    pub use crate::outcome::{Falsification, Outcome};
     pub use crate::polygon::{Polygon, Strip};
     pub use rand::{Rng, RngCore};
 }

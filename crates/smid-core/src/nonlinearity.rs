@@ -255,8 +255,7 @@ pub struct Region {
 ///         let mut k = Interval::entire();
 ///         for p in &d.points {
 ///             let (a, b) = ((p.y - p.dy) / p.u, (p.y + p.dy) / p.u);
-///             k = k.intersect(&Interval::new(a.min(b), a.max(b))).ok_or(SmidError::Inconsistent {
-///                 stage: Stage::SteadyState, sample: p.index, detail: "k".into() })?;
+///             k = k.intersect(&Interval::new(a.min(b), a.max(b))).ok_or(SmidError::inconsistent(Stage::SteadyState, p.index, "k"))?;
 ///         }
 ///         Ok(Box::new(GainSet(k.outward())))
 ///     }

@@ -106,13 +106,9 @@ impl Polygon {
                 .clip([s.n[0] - d, s.n[1]], s.hi)
                 .clip([-(s.n[0] + d), -s.n[1]], -s.lo);
             if poly.is_empty() {
-                return Err(SmidError::Inconsistent {
-                    stage: Stage::SteadyState,
-                    sample: s.sample,
-                    detail: format!(
+                return Err(SmidError::inconsistent(Stage::SteadyState, s.sample, format!(
                         "{what}: no parameter pair fits this sample (its input known to ±{d:.3e}) and the ones before it"
-                    ),
-                });
+                    )));
             }
         }
         Ok(poly)
@@ -140,10 +136,12 @@ impl Polygon {
                 ));
             }
         }
-        let empty_at = |sample: usize| SmidError::Inconsistent {
-            stage: Stage::SteadyState,
-            sample,
-            detail: format!("{what}: no parameter pair fits this sample and the ones before it"),
+        let empty_at = |sample: usize| {
+            SmidError::inconsistent(
+                Stage::SteadyState,
+                sample,
+                format!("{what}: no parameter pair fits this sample and the ones before it"),
+            )
         };
         let unbounded = || {
             SmidError::Unbounded {
@@ -211,13 +209,11 @@ impl Polygon {
         for (g, d) in domain {
             poly = poly.clip(*g, *d);
             if poly.is_empty() {
-                return Err(SmidError::Inconsistent {
-                    stage: Stage::SteadyState,
-                    sample: strips.last().map(|s| s.sample).unwrap_or(0),
-                    detail: format!(
-                        "{what}: the samples fit no parameters with positive slope and offset"
-                    ),
-                });
+                return Err(SmidError::inconsistent(
+                    Stage::SteadyState,
+                    strips.last().map(|s| s.sample).unwrap_or(0),
+                    format!("{what}: the samples fit no parameters with positive slope and offset"),
+                ));
             }
         }
         Ok(poly)
@@ -356,7 +352,9 @@ mod tests {
             },
         ];
         match Polygon::from_strips(&strips, &Polygon::positive_quadrant(), "t") {
-            Err(SmidError::Inconsistent { sample, stage, .. }) => {
+            Err(SmidError::Inconsistent(crate::outcome::Falsification {
+                sample, stage, ..
+            })) => {
                 assert_eq!(sample, 7);
                 assert_eq!(stage, Stage::SteadyState);
             }

@@ -22,10 +22,11 @@
 //! * **Warnings**: an unstable centre model, bisected parameters at the edge of their prior,
 //!   a noise bound estimated from the data, a cell budget that stopped the bisection.
 use crate::baseline::Arx;
-use crate::error::{Result, SmidError, Stage};
+use crate::error::{Result, SmidError};
 use crate::members;
 use crate::model::{BoundSource, ModelSet, Record};
-use crate::pipeline::{stage2, stage3};
+use crate::outcome::lift;
+use crate::pipeline::{relabel, stage2, stage3};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -67,15 +68,7 @@ pub struct Consistency {
     pub unchecked: usize,
 }
 
-/// The first offending sample of a falsification.
-#[derive(Debug, Clone, Serialize)]
-pub struct Falsification {
-    /// Index of the fresh record.
-    pub record: usize,
-    pub sample: usize,
-    pub stage: Stage,
-    pub detail: String,
-}
+pub use crate::outcome::Falsification;
 
 /// Figures of merit of a simulated or predicted output against the measured one.
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -266,54 +259,37 @@ fn check_cell(model: &ModelSet, k: usize, records: &[Record]) -> Result<Option<F
     let layout = model.layout()?;
     let nt = model.training.records.len();
     let c = &model.cells[k];
-    let sig = match stage2(
-        &model.model,
-        &layout,
-        c.nonlinearity.as_ref(),
-        &c.cell,
-        records,
-    ) {
-        Ok(sig) => sig,
-        Err(SmidError::Inconsistent {
-            stage,
-            sample,
-            detail,
-        }) => {
-            return Ok(Some(Falsification {
+    let found = (|| {
+        let sig = stage2(
+            &model.model,
+            &layout,
+            c.nonlinearity.as_ref(),
+            &c.cell,
+            records,
+        )?;
+        match stage3(&model.model, &layout, &model.method, &sig, None) {
+            // Unbounded is not a contradiction.
+            Ok(_) | Err(SmidError::Unbounded { .. }) => Ok(()),
+            Err(e) => Err(relabel(e, &sig)),
+        }
+    })();
+    // `(record, sample)` in the joint records: a fresh record's index follows the training
+    // records'. An inconsistency inside the training records (possible only when the training
+    // set changed) is reported as record 0 and named in the detail.
+    Ok(lift(found)?.falsification().cloned().map(|f| {
+        if f.record < nt {
+            Falsification {
+                detail: format!("in the training record {}: {}", f.record, f.detail),
                 record: 0,
-                sample,
-                stage,
-                detail,
-            }))
+                ..f
+            }
+        } else {
+            Falsification {
+                record: f.record - nt,
+                ..f
+            }
         }
-        Err(e) => return Err(e),
-    };
-    match stage3(&model.model, &layout, &model.method, &sig, None) {
-        // Unbounded is not a contradiction.
-        Ok(_) | Err(SmidError::Unbounded { .. }) => Ok(None),
-        // Where the joint equations fail: `(fresh record, sample)` from the concatenation; an
-        // inconsistency inside the training records (possible only when the training set
-        // changed) is reported as record 0 and named in the detail.
-        Err(SmidError::Inconsistent {
-            stage,
-            sample,
-            detail,
-        }) => {
-            let (r, t) = sig.locate(sample);
-            let detail = detail.replace(&format!("t = {sample}"), &format!("sample {t}"));
-            Ok(Some(Falsification {
-                record: r.saturating_sub(nt),
-                sample: t,
-                stage,
-                detail: if r < nt {
-                    format!("in the training record {r}: {detail}")
-                } else {
-                    detail
-                },
-            }))
-        }
-        Err(e) => Err(e),
-    }
+    }))
 }
 
 fn joint(model: &ModelSet, fresh: &[Record]) -> Vec<Record> {

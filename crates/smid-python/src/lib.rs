@@ -79,7 +79,7 @@ fn to_py(e: Error) -> PyErr {
         Error::Spec { .. } => SpecError::new_err(msg),
         Error::Data { .. } | Error::Io { .. } => DataError::new_err(msg),
         Error::Invalid { .. } => InvalidError::new_err(msg),
-        Error::Inconsistent { .. } => InconsistentError::new_err(msg),
+        Error::Inconsistent(_) => InconsistentError::new_err(msg),
         Error::Unbounded { .. } => UnboundedError::new_err(msg),
         Error::Solver(_) => SolverError::new_err(msg),
         Error::Plant { .. } => PlantError::new_err(msg),
@@ -99,7 +99,7 @@ fn parse_json<T: serde::de::DeserializeOwned>(text: &str, what: &str) -> PyResul
 /// relative paths in it resolve against `base`. With `out`, the CLI's files are written there
 /// too (`result.json`, `data.csv`, SVG plots). Returns JSON: `{"status": "identified",
 /// "result": <result.json>, "table": <the CLI's table>, "files": [...]}` or `{"status":
-/// "falsified", "stage", "sample", "detail", "message"}`.
+/// "falsified", "stage", "record", "sample", "detail", "message"}`.
 #[pyfunction]
 #[pyo3(signature = (spec_text, label, base, out=None))]
 fn identify(
@@ -114,20 +114,15 @@ fn identify(
     let spec = smid::parse_spec(spec_text, &label).map_err(to_py)?;
     let run = py.detach(|| smid::run_spec(&spec, &base, &|_| {}));
     let id = match run {
-        Ok(id) => id,
-        Err(
-            ref e @ Error::Inconsistent {
-                ref stage,
-                sample,
-                ref detail,
-            },
-        ) => {
+        Ok(smid::Outcome::Consistent(id)) => id,
+        Ok(smid::Outcome::Falsified(f)) => {
             return to_text(&json!({
                 "status": "falsified",
-                "stage": stage.to_string(),
-                "sample": sample,
-                "detail": detail,
-                "message": e.to_string(),
+                "stage": f.stage.to_string(),
+                "record": f.record,
+                "sample": f.sample,
+                "detail": f.detail,
+                "message": f.message(),
             }));
         }
         Err(e) => return Err(to_py(e)),

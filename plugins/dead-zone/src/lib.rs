@@ -134,14 +134,14 @@ fn branch(
             // Possibly in the zone: only sign·(n·z) <= hi.
             halves.push(([sign * n[0], sign * n[1]], hi, p.index));
         } else {
-            return Err(SmidError::Inconsistent {
-                stage: Stage::SteadyState,
-                sample: p.index,
-                detail: format!(
+            return Err(SmidError::inconsistent(
+                Stage::SteadyState,
+                p.index,
+                format!(
                     "{what}: the output has the wrong sign for ū = {} beyond the noise bound",
                     p.u
                 ),
-            });
+            ));
         }
     }
     Ok((strips, halves))
@@ -153,13 +153,13 @@ fn branch_polygon(data: &SteadyStateData, sign: f64, what: &str, slope: &str) ->
     for (g, d, sample) in halves {
         poly = poly.clip(g, d);
         if poly.is_empty() {
-            return Err(SmidError::Inconsistent {
-                stage: Stage::SteadyState,
+            return Err(SmidError::inconsistent(
+                Stage::SteadyState,
                 sample,
-                detail: format!(
+                format!(
                     "{what}: this sample's output may be 0 only for parameters the others exclude"
                 ),
-            });
+            ));
         }
     }
     if poly.vertices.iter().any(|v| v[0] <= 0.0) {
@@ -385,7 +385,9 @@ mod tests {
         let mut data = steady(&DZ, &[1.0, 2.0, 3.0], 1e-3, |_| 0.0);
         data.points[4].y = -0.5; // ū = +3 but a clearly negative output
         match branch_polygons(&data) {
-            Err(SmidError::Inconsistent { sample, .. }) => assert_eq!(sample, 4),
+            Err(SmidError::Inconsistent(smid_core::Falsification { sample, .. })) => {
+                assert_eq!(sample, 4)
+            }
             other => panic!("expected inconsistency, got {other:?}"),
         }
     }

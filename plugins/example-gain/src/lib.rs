@@ -70,10 +70,12 @@ impl NonlinearityModel for GainModel {
             }
             let (a, b) = ((p.y - p.dy) / p.u, (p.y + p.dy) / p.u);
             let here = Interval::new(a.min(b), a.max(b)).outward();
-            k = k.intersect(&here).ok_or_else(|| SmidError::Inconsistent {
-                stage: Stage::SteadyState,
-                sample: p.index,
-                detail: "no gain k > 0 fits this sample and the ones before it".into(),
+            k = k.intersect(&here).ok_or_else(|| {
+                SmidError::inconsistent(
+                    Stage::SteadyState,
+                    p.index,
+                    "no gain k > 0 fits this sample and the ones before it",
+                )
             })?;
         }
         if !(k.is_finite() && k.lo > 0.0) {
@@ -196,7 +198,9 @@ mod tests {
         let mut data = steady(1.0, &[1.0], 0.01, &[0.0]);
         data.points[1].y = -2.0;
         match (GainModel {}).bound_steady_state(&data) {
-            Err(SmidError::Inconsistent { sample, .. }) => assert_eq!(sample, 1),
+            Err(SmidError::Inconsistent(smid_core::Falsification { sample, .. })) => {
+                assert_eq!(sample, 1)
+            }
             other => panic!("expected an inconsistency at sample 1, got {other:?}"),
         }
     }

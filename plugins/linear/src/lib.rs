@@ -42,14 +42,14 @@ impl NonlinearityModel for LinearModel {
         data.validate()?;
         for p in &data.points {
             if (p.y - p.u).abs() > p.dy + p.alpha {
-                return Err(SmidError::Inconsistent {
-                    stage: Stage::SteadyState,
-                    sample: p.index,
-                    detail: format!(
+                return Err(SmidError::inconsistent(
+                    Stage::SteadyState,
+                    p.index,
+                    format!(
                         "ȳ = {} differs from ū = {} by more than the bound",
                         p.y, p.u
                     ),
-                });
+                ));
             }
         }
         Ok(Box::new(IdentitySet {}))
@@ -138,7 +138,9 @@ mod tests {
         };
         let r = LinearModel {}.bound_steady_state(&bad);
         match r {
-            Err(SmidError::Inconsistent { sample, .. }) => assert_eq!(sample, 1),
+            Err(SmidError::Inconsistent(smid_core::Falsification { sample, .. })) => {
+                assert_eq!(sample, 1)
+            }
             other => panic!("{other:?}"),
         }
     }

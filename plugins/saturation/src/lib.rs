@@ -154,13 +154,11 @@ impl Staircase {
             let first = (1..=samples.len())
                 .find(|&k| !feasible(k))
                 .unwrap_or(samples.len());
-            return Err(SmidError::Inconsistent {
-                stage: Stage::SteadyState,
-                sample: samples[first - 1].index,
-                detail: format!(
-                    "{what}: no slope and limit fit this sample and the ones before it"
-                ),
-            });
+            return Err(SmidError::inconsistent(
+                Stage::SteadyState,
+                samples[first - 1].index,
+                format!("{what}: no slope and limit fit this sample and the ones before it"),
+            ));
         }
         let (lo_m, lo_s) = Self::corner(samples);
         let steps: Vec<(f64, f64)> = samples.iter().map(|p| (up(p.hi), up(p.hi / p.a))).collect();
@@ -472,7 +470,10 @@ mod tests {
         data.points[6].y = 1.3;
         assert!(matches!(
             staircases(&data),
-            Err(SmidError::Inconsistent { sample: 6, .. })
+            Err(SmidError::Inconsistent(smid_core::Falsification {
+                sample: 6,
+                ..
+            }))
         ));
     }
 

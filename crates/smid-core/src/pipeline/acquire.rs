@@ -9,6 +9,7 @@ use crate::experiment::{self, FilterDesign, SteadyRecord};
 use crate::model::Layout;
 use crate::noise;
 use crate::nonlinearity::SteadyStateData;
+use crate::outcome::Outcome;
 use crate::plant::{Plant, SimulatedPlant};
 use crate::spec::Spec;
 use rand::SeedableRng;
@@ -324,7 +325,7 @@ pub fn declared_truth(spec: &Spec) -> Vec<(String, f64)> {
 
 /// Acquire data for a spec whose plant is the built-in simulator or CSV data, then identify.
 /// (Other plant kinds are built by the crates that provide them; see [`run_with_plant`].)
-pub fn run(spec: &Spec, base: &Path) -> Result<Identification> {
+pub fn run(spec: &Spec, base: &Path) -> Result<Outcome<Identification>> {
     if let Some(mut plant) = builtin_plant(spec) {
         return run_with_plant(spec, &mut plant);
     }
@@ -339,7 +340,7 @@ pub fn run(spec: &Spec, base: &Path) -> Result<Identification> {
 }
 
 /// Run the experiments on `plant` and identify.
-pub fn run_with_plant(spec: &Spec, plant: &mut dyn Plant) -> Result<Identification> {
+pub fn run_with_plant(spec: &Spec, plant: &mut dyn Plant) -> Result<Outcome<Identification>> {
     let data = simulate_experiments(spec, plant)?;
     let truth = plant_truth(spec, plant)?;
     identify(spec, data, &truth)

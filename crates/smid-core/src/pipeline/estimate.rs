@@ -5,6 +5,7 @@ use crate::cells::{self, Budget};
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
 use crate::model::Training;
+use crate::outcome::{Falsification, Outcome};
 use crate::spec::Spec;
 
 /// Whether the training data are consistent with the model at noise bound `d`, by the
@@ -44,8 +45,8 @@ pub fn consistent_at(spec: &Spec, data: &ExperimentData, d: f64) -> Result<bool>
         &test,
         &|_| {},
     ) {
-        Ok(s) => Ok(!s.leaves.is_empty()),
-        Err(SmidError::Inconsistent { .. }) => Ok(false),
+        Ok(Outcome::Consistent(s)) => Ok(!s.leaves.is_empty()),
+        Ok(Outcome::Falsified(_)) => Ok(false),
         Err(e) => Err(e),
     }
 }
@@ -60,9 +61,10 @@ pub const NO_BOUND_BELOW: f64 = 1e-9;
 /// largest output, then bisection to 2 %; at most 60 tests). That smallest bound is a lower
 /// bound of the exact one (the test is an outer relaxation), so the identification at the
 /// estimate may still find the data inconsistent: the estimate then grows by the margin again.
+/// `Falsified` when no bound up to 2^40 times the first try is consistent.
 /// When no bound down to [`NO_BOUND_BELOW`] of the largest output is proven inconsistent, the
 /// answer is `Unbounded` (the data do not bound the noise here), never a vanishing bound.
-pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<f64> {
+pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<Outcome<f64>> {
     let margin = spec.noise.estimate.unwrap_or(1.1);
     let scale = data_scale(data).y_max;
     let mut hi = 1e-3 * scale;
@@ -71,11 +73,11 @@ pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<f64> {
     while !consistent_at(spec, data, hi)? {
         n += 1;
         if n > 40 {
-            return Err(SmidError::Inconsistent {
-                stage: crate::error::Stage::Linear,
-                sample: 0,
-                detail: format!("no noise bound up to {hi:.3e} makes the training data consistent"),
-            });
+            return Ok(Outcome::Falsified(Falsification::new(
+                crate::error::Stage::Linear,
+                0,
+                format!("no noise bound up to {hi:.3e} makes the training data consistent"),
+            )));
         }
         lo = hi;
         hi *= 2.0;
@@ -98,5 +100,5 @@ pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<f64> {
         }
         n += 1;
     }
-    Ok(margin * hi)
+    Ok(Outcome::Consistent(margin * hi))
 }

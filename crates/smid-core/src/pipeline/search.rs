@@ -14,6 +14,7 @@ use crate::model::{
 };
 use crate::noise;
 use crate::nonlinearity::{NonlinearitySet, Structure};
+use crate::outcome::{Falsification, Outcome};
 use crate::spec::{AlphaSpec, ModelSpec, Spec};
 
 /// Result of a whole identification: the model set and the run's artifacts.
@@ -98,7 +99,7 @@ pub fn identify(
     spec: &Spec,
     data: ExperimentData,
     truth: &[(String, f64)],
-) -> Result<Identification> {
+) -> Result<Outcome<Identification>> {
     identify_with(spec, data, truth, &|_| {})
 }
 
@@ -115,11 +116,14 @@ fn identify_estimated(
     data: &ExperimentData,
     truth: &[(String, f64)],
     progress: &(dyn Fn(&cells::Progress) + Sync),
-) -> Result<Identification> {
+) -> Result<Outcome<Identification>> {
     let margin = spec.noise.estimate.unwrap_or(1.1).max(1.01);
     // The bracket identifies without the member search; the member is searched once, for the
     // bound kept.
-    let first = estimate_bound(spec, data)?;
+    let first = match estimate_bound(spec, data)? {
+        Outcome::Consistent(d) => d,
+        Outcome::Falsified(f) => return Ok(Outcome::Falsified(f)),
+    };
     let mut quiet = with_bound(spec, first);
     quiet.method.member.search = false;
     let at = |d: f64| {
@@ -131,7 +135,8 @@ fn identify_estimated(
             progress,
         );
         log::info!(target: "smid::estimate", "noise bound {d:.4e}: {} ({:.2} s)", match &r {
-            Ok(_) => "an answer".to_string(),
+            Ok(Outcome::Consistent(_)) => "an answer".to_string(),
+            Ok(Outcome::Falsified(f)) => format!("falsified: {f}").chars().take(60).collect(),
             Err(e) => e.to_string().chars().take(60).collect(),
         }, t0.elapsed().as_secs_f64());
         r
@@ -141,7 +146,7 @@ fn identify_estimated(
     let mut found = None;
     for _ in 0..40 {
         match at(hi) {
-            Err(SmidError::Inconsistent { .. }) => {
+            Ok(Outcome::Falsified(_)) => {
                 lo = hi;
                 hi *= 2.0;
             }
@@ -152,14 +157,10 @@ fn identify_estimated(
         }
     }
     let Some(mut best) = found else {
-        return Err(SmidError::Inconsistent {
-            stage: crate::error::Stage::Linear,
-            sample: 0,
-            detail: format!(
+        return Ok(Outcome::Falsified(Falsification::new(crate::error::Stage::Linear, 0, format!(
                 "the stage-3 method `{}` finds the training data inconsistent up to a noise bound of {hi:.3e}",
                 spec.method.eiv.name()
-            ),
-        });
+            ))));
     };
     if hi > first {
         // Narrow [lo, hi] (inconsistent at lo, an answer at hi) to 5 %, then identify at the
@@ -168,14 +169,14 @@ fn identify_estimated(
         while hi / lo > 1.05 {
             let mid = (lo * hi).sqrt();
             match at(mid) {
-                Err(SmidError::Inconsistent { .. }) => lo = mid,
+                Ok(Outcome::Falsified(_)) => lo = mid,
                 _ => hi = mid,
             }
         }
         hi *= margin;
         best = at(hi);
     }
-    if let Ok(id) = best.as_mut() {
+    if let Ok(Outcome::Consistent(id)) = best.as_mut() {
         id.model.method.member = spec.method.member;
         id.model.simulation_member =
             crate::members::simulation_member(&id.model, &spec.method.member)?;
@@ -199,7 +200,7 @@ pub fn identify_with(
     mut data: ExperimentData,
     truth: &[(String, f64)],
     progress: &(dyn Fn(&cells::Progress) + Sync),
-) -> Result<Identification> {
+) -> Result<Outcome<Identification>> {
     if spec.noise.estimated() && spec.noise.delta.is_none() {
         // Measured data without a known sensor bound: estimate it, then identify with it
         // (growing it by the margin while the stage-3 method still finds the data inconsistent).
@@ -270,7 +271,7 @@ pub fn identify_with(
     );
     let test = |cell: &[Interval]| test_cell(model, &layout, method, &training, cell);
     let eval = |cell: &[Interval]| evaluate_cell(model, &layout, method, &training, cell);
-    let search = cells::search(
+    let search = match cells::search(
         &prior,
         Budget {
             resolution,
@@ -281,7 +282,10 @@ pub fn identify_with(
         &test,
         &eval,
         progress,
-    )?;
+    )? {
+        Outcome::Consistent(s) => s,
+        Outcome::Falsified(f) => return Ok(Outcome::Falsified(f)),
+    };
     let mut summary = SearchSummary {
         evaluated: search.evaluated,
         discarded: search.discarded,
@@ -418,7 +422,7 @@ pub fn identify_with(
         }
         None => f64::NAN,
     };
-    Ok(Identification {
+    Ok(Outcome::Consistent(Identification {
         name: set.name.clone(),
         delta_eta: delta,
         snr_db,
@@ -429,7 +433,7 @@ pub fn identify_with(
         data,
         truth_in_nonlinearity_set: truth_in_set,
         inner_violations,
-    })
+    }))
 }
 
 pub(super) fn hull(it: impl IntoIterator<Item = Interval>) -> Interval {

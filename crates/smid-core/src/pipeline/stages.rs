@@ -228,8 +228,9 @@ pub fn stage2(
         }
         // Wiener: the nonlinearity is the first output block; Hammerstein: the last input
         // block (with no other block, the paper's calls exactly).
-        let output = chain::backward(&output_side, &yc, &dy)?;
-        let input: Vec<Interval> = chain::forward(&input_side, &rec.u)?
+        let output = chain::backward(&output_side, &yc, &dy).map_err(|e| e.in_record(r))?;
+        let input: Vec<Interval> = chain::forward(&input_side, &rec.u)
+            .map_err(|e| e.in_record(r))?
             .iter()
             .map(|b| b.interval)
             .collect();
@@ -308,35 +309,30 @@ pub fn stage3(
     }
 }
 
-/// A stage-3 inconsistency with its sample as the index within its record (the record named
-/// in the detail when there are several).
+/// A stage-3 inconsistency located in its record: the concatenated index of the equations
+/// becomes `(record, sample)` (the records in the order stage 2 was given them).
 pub fn relabel(e: SmidError, sig: &StageSignals) -> SmidError {
     match e {
-        SmidError::Inconsistent {
-            stage,
-            sample,
-            detail,
-        } => {
-            let (r, t) = sig.locate(sample);
-            let detail = detail.replace(&format!("t = {sample}"), &format!("sample {t}"));
-            SmidError::Inconsistent {
-                stage,
+        SmidError::Inconsistent(f) => {
+            let (r, t) = sig.locate(f.sample);
+            let detail = f
+                .detail
+                .replace(&format!("t = {}", f.sample), &format!("sample {t}"));
+            SmidError::Inconsistent(crate::outcome::Falsification {
+                stage: f.stage,
+                record: r,
                 sample: t,
-                detail: if sig.starts.len() > 1 {
-                    format!("training record {r}: {detail}")
-                } else {
-                    detail
-                },
-            }
+                detail,
+            })
         }
         other => other,
     }
 }
 
-/// Stages 1-3 over one cell: `Infeasible` when a stage proves the cell inconsistent,
-/// `Undecided` when stage 3 leaves a parameter unbounded over a bisected cell or its solvers
-/// fail there (the search then halves the cell further). Without bisected parameters every
-/// error is returned as is (the paper's three stages).
+/// Stages 1-3 over one cell: `Infeasible` when a stage proves the cell inconsistent (located
+/// in its record), `Undecided` when stage 3 leaves a parameter unbounded over a bisected cell
+/// or its solvers fail there (the search then halves the cell further). Without bisected
+/// parameters every error is returned as is (the paper's three stages).
 pub fn evaluate_cell(
     model: &ModelSpec,
     layout: &Layout,
@@ -357,7 +353,7 @@ pub fn evaluate_cell(
     })();
     match outcome {
         Ok(c) => Ok(Verdict::Feasible(c)),
-        Err(e @ SmidError::Inconsistent { .. }) if bisected => Ok(Verdict::Infeasible(e)),
+        Err(SmidError::Inconsistent(f)) => Ok(Verdict::Infeasible(f)),
         Err(e @ (SmidError::Unbounded { .. } | SmidError::Solver(_))) if bisected => {
             Ok(undecided(&e))
         }
@@ -381,16 +377,16 @@ pub fn test_cell(
         if crate::stage3::feasible(&problem)? {
             Ok(())
         } else {
-            Err(SmidError::Inconsistent {
-                stage: crate::error::Stage::Linear,
-                sample: sig.output.len(),
-                detail: "no θ fits the equations of this cell (classical outer set empty)".into(),
-            })
+            Err(SmidError::inconsistent(
+                crate::error::Stage::Linear,
+                sig.output.len(),
+                "no θ fits the equations of this cell (classical outer set empty)",
+            ))
         }
     })();
     match outcome {
         Ok(()) => Ok(Verdict::Feasible(())),
-        Err(e @ SmidError::Inconsistent { .. }) => Ok(Verdict::Infeasible(e)),
+        Err(SmidError::Inconsistent(f)) => Ok(Verdict::Infeasible(f)),
         // Nothing proven: the cell is kept (a solver failure never discards one).
         Err(e @ (SmidError::Unbounded { .. } | SmidError::Solver(_))) => Ok(undecided(&e)),
         Err(e) => Err(e),

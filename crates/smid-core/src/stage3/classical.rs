@@ -302,10 +302,10 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
         }
         // No equation at all: the prior box and the unit gain alone are empty.
         let sample = times.get(bad.saturating_sub(1)).copied().unwrap_or(0);
-        return Err(SmidError::Inconsistent {
-            stage: Stage::Linear,
+        return Err(SmidError::inconsistent(
+            Stage::Linear,
             sample,
-            detail: format!(
+            format!(
                 "no θ satisfies the equations up to t = {sample} within their error bounds{}",
                 if prob.prior.is_some() {
                     " and the prior box"
@@ -313,7 +313,7 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
                     ""
                 }
             ),
-        });
+        ));
     }
     // Fixed entries at their values; the others inside the prior (the LP's pads may reach past
     // it, and the truth is inside it by assumption).
@@ -327,14 +327,7 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
                 let (l, h) = (lo[k].max(start[k].lo), hi[k].min(start[k].hi));
                 if l > h {
                     let sample = times.last().copied().unwrap_or(0);
-                    return Err(SmidError::Inconsistent {
-                        stage: Stage::Linear,
-                        sample,
-                        detail: format!(
-                            "the equations up to t = {sample} leave `{}` outside its prior [{}, {}]",
-                            names[k], start[k].lo, start[k].hi
-                        ),
-                    });
+                    return Err(SmidError::inconsistent(Stage::Linear, sample, format!( "the equations up to t = {sample} leave `{}` outside its prior [{}, {}]", names[k], start[k].lo, start[k].hi )));
                 }
                 Interval::new(l, h)
             }
@@ -422,11 +415,11 @@ mod tests {
             prior: None,
         };
         match solve(&prob) {
-            Err(SmidError::Inconsistent {
+            Err(SmidError::Inconsistent(crate::outcome::Falsification {
                 stage: Stage::Linear,
                 sample,
                 ..
-            }) => assert!(sample == 40 || sample == 41, "{sample}"),
+            })) => assert!(sample == 40 || sample == 41, "{sample}"),
             other => panic!("expected inconsistency, got {other:?}"),
         }
     }

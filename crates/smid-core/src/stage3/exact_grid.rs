@@ -725,11 +725,11 @@ pub fn solve_from(
     let mut db = model.initial_deltas();
     for _ in 0..2 {
         if let Some(t) = model.propagate(&start.bounds, &mut db) {
-            return Err(SmidError::Inconsistent {
-                stage: Stage::Linear,
-                sample: t,
-                detail: "interval propagation emptied an inner-signal error box".into(),
-            });
+            return Err(SmidError::inconsistent(
+                Stage::Linear,
+                t,
+                "interval propagation emptied an inner-signal error box",
+            ));
         }
     }
     let mut g = Grid {
@@ -841,13 +841,11 @@ pub fn solve_from(
                 }
             }
             let Some(b) = bound else {
-                return Err(SmidError::Inconsistent {
-                    stage: Stage::Linear,
-                    sample: model.times.last().copied().unwrap_or(0),
-                    detail:
-                        "no cell of the a-grid admits b and inner-signal errors within their bounds"
-                            .into(),
-                });
+                return Err(SmidError::inconsistent(
+                    Stage::Linear,
+                    model.times.last().copied().unwrap_or(0),
+                    "no cell of the a-grid admits b and inner-signal errors within their bounds",
+                ));
             };
             if max {
                 outer[k].hi = b.min(start.bounds[k].hi);

@@ -234,16 +234,16 @@ impl EivProblem<'_> {
                 let prior = self.prior_of(k);
                 match self.fixed[k] {
                     Some(v) if prior.contains(v) => Ok(Interval::new(v, v)),
-                    Some(v) => Err(SmidError::Inconsistent {
-                        stage: Stage::Linear,
-                        sample: self.equation_times().first().copied().unwrap_or(0),
-                        detail: format!(
+                    Some(v) => Err(SmidError::inconsistent(
+                        Stage::Linear,
+                        self.equation_times().first().copied().unwrap_or(0),
+                        format!(
                             "the fixed value {v} of `{}` is outside its prior [{}, {}]",
                             self.name(k),
                             prior.lo,
                             prior.hi
                         ),
-                    }),
+                    )),
                     None => Ok(prior),
                 }
             })
@@ -778,11 +778,11 @@ mod tests {
                         ..prob.clone()
                     };
                     match imp.solve(&q) {
-                        Err(SmidError::Inconsistent {
+                        Err(SmidError::Inconsistent(crate::outcome::Falsification {
                             stage: Stage::Linear,
                             sample,
                             ..
-                        }) => assert!(
+                        })) => assert!(
                             classical.equations.contains(&sample),
                             "seed {seed} {} ({what}): sample {sample}",
                             m.name()

@@ -514,13 +514,7 @@ mod imp {
     }
 
     fn inconsistent(t: usize) -> SmidError {
-        SmidError::Inconsistent {
-            stage: Stage::Linear,
-            sample: t,
-            detail: format!(
-                "the moment relaxation admits no θ and inner-signal errors within their bounds (equations up to t = {t})"
-            ),
-        }
+        SmidError::inconsistent(Stage::Linear, t, format!( "the moment relaxation admits no θ and inner-signal errors within their bounds (equations up to t = {t})" ))
     }
 
     #[cfg(test)]

@@ -158,13 +158,13 @@ pub fn solve(prob: &EivProblem, opts: &SharedOptions) -> Result<EivResult> {
 }
 
 fn inconsistent(t: usize) -> SmidError {
-    SmidError::Inconsistent {
-        stage: Stage::Linear,
-        sample: t,
-        detail: format!(
+    SmidError::inconsistent(
+        Stage::Linear,
+        t,
+        format!(
             "no θ and inner-signal errors satisfy the equations up to t = {t} within their bounds"
         ),
-    }
+    )
 }
 
 /// The first equation whose addition empties the relaxation (bisection on prefixes).
@@ -218,10 +218,10 @@ mod tests {
         let c = out[30].interval;
         out[30].interval = Interval::new(c.lo + 0.5, c.hi + 0.5);
         match solve(&problem(&out, &input, true), &SharedOptions::default()) {
-            Err(SmidError::Inconsistent {
+            Err(SmidError::Inconsistent(crate::outcome::Falsification {
                 stage: Stage::Linear,
                 ..
-            }) => {}
+            })) => {}
             other => panic!("expected inconsistency, got {other:?}"),
         }
     }
