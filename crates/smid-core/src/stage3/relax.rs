@@ -159,24 +159,14 @@ impl<'p, 'a> SharedModel<'p, 'a> {
             lp.bound(self.col_delta(d), b.lo, b.hi);
         }
         for (w, &(k, d)) in self.products.iter().enumerate() {
-            let (l, u) = (tb[k].lo, tb[k].hi);
-            let (dl, du) = (db[d].lo, db[d].hi);
-            if !(l.is_finite() && u.is_finite()) {
-                return Err(SmidError::Unbounded {
-                    parameter: self.prob.name(k),
-                    message: "the shared-error relaxation needs a bounded start box".into(),
-                });
-            }
-            let (ct, cd, cw) = (
+            let cols = (
                 self.col_theta[k].unwrap_or(0),
                 self.col_delta(d),
                 self.col_product(w),
             );
-            // McCormick envelopes of w = θ δ over [l, u] x [dl, du].
-            lp.le(vec![(cd, l), (ct, dl), (cw, -1.0)], l * dl);
-            lp.le(vec![(cd, u), (ct, du), (cw, -1.0)], u * du);
-            lp.le(vec![(cw, 1.0), (cd, -u), (ct, -dl)], -u * dl);
-            lp.le(vec![(cw, 1.0), (cd, -l), (ct, -du)], -l * du);
+            for (row, rhs) in self.mccormick(k, tb[k], db[d], cols)? {
+                lp.le(row, rhs);
+            }
         }
         for &t in times {
             let (row, c0) = self.equation(t);
@@ -185,17 +175,7 @@ impl<'p, 'a> SharedModel<'p, 'a> {
             lp.le(row, -c0);
             lp.le(neg, c0);
         }
-        if self.prob.unit_gain {
-            // Σ b_j - Σ a_i = 1 (eq 8); the extras do not enter.
-            let mut row = Vec::new();
-            let mut rhs = 1.0;
-            for k in 0..self.prob.n_ab() {
-                let s = self.prob.gain_sign(k);
-                match self.prob.fixed[k] {
-                    Some(v) => rhs -= s * v,
-                    None => row.push((self.col_theta[k].unwrap_or(0), s)),
-                }
-            }
+        if let Some((row, rhs)) = self.gain_row() {
             lp.eq(row, rhs);
         }
         Ok(lp)
@@ -293,28 +273,14 @@ impl SharedModel<'_, '_> {
             let r0 = lp.ineq.len();
             for &w in ws {
                 let k = self.products[w].0;
-                let (l, u) = (tb[k].lo, tb[k].hi);
-                let (dl, du) = (db[d].lo, db[d].hi);
-                if !(l.is_finite() && u.is_finite()) {
-                    return Err(SmidError::Unbounded {
-                        parameter: self.prob.name(k),
-                        message: "the shared-error relaxation needs a bounded start box".into(),
-                    });
-                }
-                let (ct, cd, cw) = (
+                let cols = (
                     self.col_theta[k].unwrap_or(0),
                     glob[self.col_delta(d)],
                     glob[self.col_product(w)],
                 );
-                // McCormick envelopes of w = θ δ over [l, u] x [dl, du].
-                lp.ineq
-                    .push((merge(vec![(cd, l), (ct, dl), (cw, -1.0)]), l * dl));
-                lp.ineq
-                    .push((merge(vec![(cd, u), (ct, du), (cw, -1.0)]), u * du));
-                lp.ineq
-                    .push((merge(vec![(cw, 1.0), (cd, -u), (ct, -dl)]), -u * dl));
-                lp.ineq
-                    .push((merge(vec![(cw, 1.0), (cd, -l), (ct, -du)]), -l * du));
+                for (row, rhs) in self.mccormick(k, tb[k], db[d], cols)? {
+                    lp.ineq.push((merge(row), rhs));
+                }
             }
             lp.ineq_of.push((r0, lp.ineq.len()));
         }
@@ -364,7 +330,35 @@ impl SharedModel<'_, '_> {
         (row, c0)
     }
 
-    /// The unit gain `Σ b_j - Σ a_i = 1` (eq 8) over the free columns, when imposed.
+    /// The four McCormick inequalities `row · z <= rhs` of the product `w = θ_k δ` over
+    /// `θ_k ∈ t`, `δ ∈ d` (eqs 28-30), on the columns `(θ_k, δ, w)`: the one place they are
+    /// written, for the sparse and the block-form LP alike. A θ box that is not finite is
+    /// `Unbounded` (the relaxation needs a bounded start).
+    fn mccormick(
+        &self,
+        k: usize,
+        t: Interval,
+        d: Interval,
+        (ct, cd, cw): (usize, usize, usize),
+    ) -> Result<[(Vec<(usize, f64)>, f64); 4]> {
+        let (l, u) = (t.lo, t.hi);
+        let (dl, du) = (d.lo, d.hi);
+        if !(l.is_finite() && u.is_finite()) {
+            return Err(SmidError::Unbounded {
+                parameter: self.prob.name(k),
+                message: "the shared-error relaxation needs a bounded start box".into(),
+            });
+        }
+        Ok([
+            (vec![(cd, l), (ct, dl), (cw, -1.0)], l * dl),
+            (vec![(cd, u), (ct, du), (cw, -1.0)], u * du),
+            (vec![(cw, 1.0), (cd, -u), (ct, -dl)], -u * dl),
+            (vec![(cw, 1.0), (cd, -l), (ct, -du)], -l * du),
+        ])
+    }
+
+    /// The unit gain `Σ b_j - Σ a_i = 1` (eq 8) over the free columns, when imposed (fixed
+    /// entries moved to the right-hand side; the extras do not enter): one row for both LPs.
     fn gain_row(&self) -> Option<(Vec<(usize, f64)>, f64)> {
         if !self.prob.unit_gain {
             return None;
