@@ -135,6 +135,8 @@ def test_falsification_is_a_result_not_an_exception():
     r = smid.identify_arrays(u, y, model=LINEAR, noise={"delta": 0.01}, method={"eiv": "classical"})
     assert not r.consistent
     assert r.verdict.stage is not None and r.verdict.sample is not None
+    # The one record, at the outlier (an equation reaches back na + nb samples at most).
+    assert r.verdict.record == 0 and 150 <= r.verdict.sample <= 155, r.verdict
     assert "inconsistent" in r.verdict.message
     with pytest.raises(smid.InvalidError, match="falsify"):
         r.parameters
