@@ -517,12 +517,14 @@ fn real_main() -> Result<()> {
                 ..Default::default()
             };
             let pb = progress(1, "candidates (training data)");
+            let t0 = std::time::Instant::now();
             let choice = smid::core::diagnose::choose(&src.spec, &training, &opts, &|d, t| {
                 pb.set_length(t as u64);
                 pb.set_position(d as u64);
             })
             .with_context(|| format!("diagnosing {}", spec.display()))?;
             pb.finish_and_clear();
+            log::info!(target: "smid::diagnose", "training data and choice: {:.2} s", t0.elapsed().as_secs_f64());
             print!("{}", smid::closeloop::format_choice(&choice));
             // Only now are the held-out records read.
             let seed = src.spec.experiment.seed + 1000;
@@ -533,6 +535,7 @@ fn real_main() -> Result<()> {
             let (before, after) =
                 smid::core::diagnose::assess(&src.spec, &training, &choice, &held, opts.k)
                     .context("the before/after table")?;
+            log::info!(target: "smid::diagnose", "held-out records and the before/after table: {:.2} s", t0.elapsed().as_secs_f64());
             print!("{}", smid::closeloop::format_table(&before, &after));
             let files =
                 smid::closeloop::write_diagnosis(&src.spec, &choice, &before, &after, &dir)?;

@@ -902,16 +902,22 @@ pub fn assess(
         })
     };
     let unchanged = choice.added.is_empty();
-    let before = column(
-        &choice.before,
-        if unchanged {
-            choice.after_set.as_ref()
-        } else {
-            None
+    // The two columns are independent (the before column's bound search is the longer part):
+    // computed side by side.
+    let (before, after) = rayon::join(
+        || {
+            column(
+                &choice.before,
+                if unchanged {
+                    choice.after_set.as_ref()
+                } else {
+                    None
+                },
+            )
         },
-    )?;
-    let after = column(&choice.after, choice.after_set.as_ref())?;
-    Ok((before, after))
+        || column(&choice.after, choice.after_set.as_ref()),
+    );
+    Ok((before?, after?))
 }
 
 /// Add effects to a model (for tests and the diagnosis check): the model with `extra` appended
