@@ -11,6 +11,7 @@ use smid_core::plant::SimulatedPlant;
 use smid_core::spec::{ExperimentSpec, MethodSpec, ModelSpec, PlantSpec, Spec};
 use smid_core::Outcome as Status;
 use smid_core::Result;
+use smid_core::SmidError;
 use smid_output_backlash::{Backlash, OutputBacklashModel};
 
 /// One random problem.
@@ -142,6 +143,41 @@ pub fn any_record(spec: &mut Spec, truth: &[(String, f64)], seed: u64) {
     }
 }
 
+/// Why a trial gave no finite bound: taken from the typed result of the trial (the cell's
+/// [`UndecidedCause`], the [`SmidError`] variant), never from its message.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Cause {
+    /// Cells left undecided when the refinement budget was spent (every other bound holds).
+    Cell(UndecidedCause),
+    /// No bisection (the designed experiment): the record itself leaves θ unbounded.
+    UnboundedRecord,
+    /// The LP solver failed outside the branch and bound's recovery.
+    Solver,
+    /// Any other error (a plant, a data or spec problem).
+    Other,
+}
+
+impl Cause {
+    /// The cause of a trial that ended in `e`.
+    pub fn of_error(e: &SmidError) -> Cause {
+        match e {
+            SmidError::Unbounded { .. } => Cause::UnboundedRecord,
+            SmidError::Solver(_) => Cause::Solver,
+            _ => Cause::Other,
+        }
+    }
+    /// What `smid check` prints.
+    pub fn label(self) -> &'static str {
+        match self {
+            Cause::Cell(c) => c.label(),
+            Cause::UnboundedRecord => "stage 3 unbounded on the whole record",
+            Cause::Solver => "LP solver failure",
+            Cause::Other => "other error",
+        }
+    }
+}
+
 /// Outcome counts of a Monte Carlo run (or of one shard of it: `smid check --shard K/M --json`;
 /// [`Summary::merge`] joins shards into the summary of the whole run).
 #[derive(Debug, Default, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -153,33 +189,19 @@ pub struct Summary {
     /// Trials that ended in an error (e.g. too few invertible samples): seed and message.
     pub errors: Vec<(u64, String)>,
     /// Trials whose every bound holds but some `θ` bound is infinite (cells left unbounded
-    /// when the refinement budget was spent): seed and cause. Not counted in `contained`.
+    /// when the refinement budget was spent): seed and detail. Not counted in `contained`.
     #[serde(default)]
     pub partial: Vec<(u64, String)>,
-}
-
-/// The cause of a trial without a finite bound, for the counts `smid check` prints: an
-/// unbounded stage 3, an LP solver failure, an inconsistency, or another error.
-pub fn cause_of(message: &str) -> &'static str {
-    if message.starts_with(UndecidedCause::Solver.label()) || message.contains("LP solver") {
-        UndecidedCause::Solver.label()
-    } else if message.starts_with(UndecidedCause::Unbounded.label()) {
-        UndecidedCause::Unbounded.label()
-    } else if message.contains("do not bound") || message.contains("unbounded") {
-        // No bisection (the designed experiment): the record itself leaves θ unbounded.
-        "stage 3 unbounded on the whole record"
-    } else if message.contains("inconsistent") || message.contains("falsif") {
-        "the data falsify the model"
-    } else {
-        "other error"
-    }
+    /// The cause of each trial in `errors` and `partial`, by seed (in seed order).
+    #[serde(default)]
+    pub causes: Vec<(u64, Cause)>,
 }
 
 /// Trials without a finite bound (partial and errors) counted by cause, most frequent first.
 pub fn causes(s: &Summary) -> Vec<(&'static str, usize)> {
     let mut out: Vec<(&'static str, usize)> = Vec::new();
-    for (_, m) in s.partial.iter().chain(&s.errors) {
-        let c = cause_of(m);
+    for (_, c) in &s.causes {
+        let c = c.label();
         match out.iter_mut().find(|(k, _)| *k == c) {
             Some((_, n)) => *n += 1,
             None => out.push((c, 1)),
@@ -200,10 +222,12 @@ impl Summary {
             s.missed.extend(&p.missed);
             s.errors.extend(p.errors.iter().cloned());
             s.partial.extend(p.partial.iter().cloned());
+            s.causes.extend(p.causes.iter().cloned());
         }
         s.missed.sort_unstable();
         s.errors.sort_by_key(|e| e.0);
         s.partial.sort_by_key(|e| e.0);
+        s.causes.sort_by_key(|e| e.0);
         s
     }
 }
@@ -236,37 +260,38 @@ pub fn run_seeds(
 ) -> Summary {
     let n = seeds.len();
     let jobs = jobs.clamp(1, n.max(1));
-    let mut outcomes: Vec<(u64, std::result::Result<Outcome, String>)> = std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..jobs)
-            .map(|j| {
-                let (tick, trial) = (&tick, &trial);
-                sc.spawn(move || {
-                    let mut v = Vec::new();
-                    for &seed in seeds.iter().skip(j).step_by(jobs) {
-                        let o = match trial(seed) {
-                            // A certified simulation member outside the bounds is a miss
-                            // too (it lies in the feasible set).
-                            Ok(Status::Consistent(id)) => Ok(outcome(&id)),
-                            // The true plant's data with noise inside its bound cannot
-                            // falsify the true model: a falsification is a miss.
-                            Ok(Status::Falsified(_)) => Ok(Outcome::Missed),
-                            Err(e) => Err(e.to_string()),
-                        };
-                        v.push((seed, o));
-                        tick();
-                    }
-                    v
+    let mut outcomes: Vec<(u64, std::result::Result<Outcome, (Cause, String)>)> =
+        std::thread::scope(|sc| {
+            let handles: Vec<_> = (0..jobs)
+                .map(|j| {
+                    let (tick, trial) = (&tick, &trial);
+                    sc.spawn(move || {
+                        let mut v = Vec::new();
+                        for &seed in seeds.iter().skip(j).step_by(jobs) {
+                            let o = match trial(seed) {
+                                // A certified simulation member outside the bounds is a miss
+                                // too (it lies in the feasible set).
+                                Ok(Status::Consistent(id)) => Ok(outcome(&id)),
+                                // The true plant's data with noise inside its bound cannot
+                                // falsify the true model: a falsification is a miss.
+                                Ok(Status::Falsified(_)) => Ok(Outcome::Missed),
+                                Err(e) => Err((Cause::of_error(&e), e.to_string())),
+                            };
+                            v.push((seed, o));
+                            tick();
+                        }
+                        v
+                    })
                 })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .flat_map(|h| match h.join() {
-                Ok(v) => v,
-                Err(p) => std::panic::resume_unwind(p),
-            })
-            .collect()
-    });
+                .collect();
+            handles
+                .into_iter()
+                .flat_map(|h| match h.join() {
+                    Ok(v) => v,
+                    Err(p) => std::panic::resume_unwind(p),
+                })
+                .collect()
+        });
     outcomes.sort_by_key(|o| o.0);
     let mut s = Summary {
         trials: n,
@@ -276,8 +301,14 @@ pub fn run_seeds(
         match o {
             Ok(Outcome::Contained) => s.contained += 1,
             Ok(Outcome::Missed) => s.missed.push(seed),
-            Ok(Outcome::Partial(cause)) => s.partial.push((seed, cause)),
-            Err(e) => s.errors.push((seed, e)),
+            Ok(Outcome::Partial(cause, detail)) => {
+                s.partial.push((seed, detail));
+                s.causes.push((seed, cause));
+            }
+            Err((cause, e)) => {
+                s.errors.push((seed, e));
+                s.causes.push((seed, cause));
+            }
         }
     }
     s
@@ -287,8 +318,8 @@ pub fn run_seeds(
 enum Outcome {
     /// Every bound finite and holding the truth.
     Contained,
-    /// Every bound holds, some `θ` bound infinite (the cause).
-    Partial(String),
+    /// Every bound holds, some `θ` bound infinite (the cause and its detail).
+    Partial(Cause, String),
     /// A bound misses the truth, or a certified member lies outside a bound.
     Missed,
 }
@@ -300,8 +331,12 @@ fn outcome(id: &Identification) -> Outcome {
         return Outcome::Missed;
     }
     match id.model.search.unbounded.first() {
-        Some(u) => Outcome::Partial(format!("{}: {}", u.cause.label(), u.detail)),
+        Some(u) => Outcome::Partial(
+            Cause::Cell(u.cause),
+            format!("{}: {}", u.cause.label(), u.detail),
+        ),
         None if id.parameters().iter().any(|p| !p.interval().is_finite()) => Outcome::Partial(
+            Cause::Cell(UndecidedCause::Unbounded),
             format!("{}: an infinite bound", UndecidedCause::Unbounded.label()),
         ),
         None => Outcome::Contained,
@@ -359,37 +394,50 @@ impl Trial {
 mod tests {
     use super::*;
 
-    /// Causes are told apart: a cell left undecided by the branch and bound, a record that
-    /// leaves θ unbounded with no bisection at all, a solver failure, a falsification.
+    /// Causes come from the typed result of each trial, not from its message: a plant error
+    /// whose text says "unbounded" and "LP solver" is still "other error"; a solver failure
+    /// and an unbounded record are told apart, and a cell left undecided keeps its cause
+    /// through a merge of shards.
     #[test]
-    fn causes_tell_a_cell_from_the_whole_record() {
-        let s = Summary {
-            trials: 4,
-            partial: vec![(
-                1,
-                format!("{}: a1 over in1.c_l", UndecidedCause::Unbounded.label()),
-            )],
-            errors: vec![
-                (
-                    2,
-                    "the data do not bound `a1`: the linear program is unbounded".into(),
-                ),
-                (3, "LP solver: numerical error".into()),
-                (
-                    4,
-                    "the data are inconsistent with the model and noise bound: stage 3".into(),
-                ),
-            ],
+    fn causes_come_from_the_typed_result() {
+        let s = run_seeds(
+            &[1, 2, 3, 4],
+            2,
+            || {},
+            |seed| match seed {
+                1 => Err(SmidError::Solver("numerical error".into())),
+                2 => Err(SmidError::Unbounded {
+                    parameter: "a1".into(),
+                    message: "the linear program is unbounded".into(),
+                }),
+                3 => Err(SmidError::Plant {
+                    plant: "sim".into(),
+                    message: "LP solver said the state is unbounded".into(),
+                }),
+                _ => Err(SmidError::Solver("again".into())),
+            },
+        );
+        assert_eq!(s.errors.len(), 4);
+        let c = causes(&s);
+        assert_eq!(
+            c,
+            vec![
+                (Cause::Solver.label(), 2),
+                (Cause::Other.label(), 1),
+                (Cause::UnboundedRecord.label(), 1),
+            ]
+        );
+        let cell = Summary {
+            trials: 1,
+            partial: vec![(5, "a1 over in1.c_l".into())],
+            causes: vec![(5, Cause::Cell(UndecidedCause::Unbounded))],
             ..Default::default()
         };
-        let c = causes(&s);
-        assert_eq!(c.len(), 4, "{c:?}");
-        assert!(c.contains(&(UndecidedCause::Unbounded.label(), 1)), "{c:?}");
-        assert!(
-            c.contains(&("stage 3 unbounded on the whole record", 1)),
-            "{c:?}"
-        );
-        assert!(c.contains(&(UndecidedCause::Solver.label(), 1)), "{c:?}");
-        assert!(c.contains(&("the data falsify the model", 1)), "{c:?}");
+        let merged = Summary::merge(&[s, cell]);
+        assert_eq!(merged.causes.len(), 5);
+        assert!(causes(&merged).contains(&(UndecidedCause::Unbounded.label(), 1)));
+        // A shard's JSON keeps the causes.
+        let back: Summary = serde_json::from_str(&serde_json::to_string(&merged).unwrap()).unwrap();
+        assert_eq!(back, merged);
     }
 }
