@@ -174,6 +174,31 @@ pub fn search<T: Send + Sync>(
     finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
     progress: &(dyn Fn(&Progress) + Sync),
 ) -> Result<Outcome<Search<T>>> {
+    run(prior, budget, test, finish, progress, false)
+}
+
+/// Whether the data are consistent, by the same search as [`search`], stopping at the first
+/// cell `finish` gives a value: `Consistent` then holds that one leaf (its bounds cover that
+/// cell only, not the set), `Falsified` exactly when [`search`] would say so. The cells are
+/// finished a thread-count at a time, so an error on a cell after the first with a value may
+/// go unseen (a verdict, not bounds, is asked for). The noise-bound bracket uses it.
+pub fn search_consistent<T: Send + Sync>(
+    prior: &[Interval],
+    budget: Budget,
+    test: &(dyn Fn(&[Interval]) -> Result<Verdict<()>> + Sync),
+    finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
+) -> Result<Outcome<Search<T>>> {
+    run(prior, budget, test, finish, &|_| {}, true)
+}
+
+fn run<T: Send + Sync>(
+    prior: &[Interval],
+    budget: Budget,
+    test: &(dyn Fn(&[Interval]) -> Result<Verdict<()>> + Sync),
+    finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
+    progress: &(dyn Fn(&Progress) + Sync),
+    first_value: bool,
+) -> Result<Outcome<Search<T>>> {
     for (k, p) in prior.iter().enumerate() {
         if !(p.lo.is_finite() && p.hi.is_finite() && p.lo <= p.hi) {
             return Err(SmidError::invalid(
@@ -275,6 +300,63 @@ pub fn search<T: Send + Sync>(
         })
         .collect();
     while !round.is_empty() {
+        if first_value {
+            // A thread-count of cells at a time; the first with a value ends the search.
+            let chunk = rayon::current_num_threads().max(1);
+            let mut rest = Vec::new();
+            let mut undecided = Vec::new();
+            let mut queue = std::mem::take(&mut round).into_iter();
+            loop {
+                let batch: Vec<(Vec<Interval>, Vec<u32>)> = queue.by_ref().take(chunk).collect();
+                if batch.is_empty() {
+                    break;
+                }
+                let done: Vec<Result<Verdict<T>>> =
+                    batch.par_iter().map(|(c, _)| finish(c)).collect();
+                evaluated += batch.len();
+                for ((cell, depth), v) in batch.into_iter().zip(done) {
+                    match v? {
+                        Verdict::Infeasible(e) => {
+                            discarded += 1;
+                            note(e, &mut worst);
+                        }
+                        Verdict::Feasible(t) => {
+                            return Ok(Outcome::Consistent(Search {
+                                leaves: vec![Leaf {
+                                    cell,
+                                    value: Some(t),
+                                    cause: None,
+                                }],
+                                evaluated,
+                                discarded,
+                                budget_stopped: budget_stopped || coarsened,
+                                refined,
+                            }));
+                        }
+                        Verdict::Undecided(cause, detail) => {
+                            undecided.push((cell, depth, (cause, detail)))
+                        }
+                    }
+                }
+            }
+            // No value yet: refine the undecided cells as the full search does.
+            for (cell, depth, why) in undecided {
+                match bisect(&cell, &depth, &budget, true) {
+                    Some(children) if spare >= 2 => {
+                        spare -= 2;
+                        refined += 1;
+                        rest.extend(children);
+                    }
+                    _ => leaves.push(Leaf {
+                        cell,
+                        value: None,
+                        cause: Some(why),
+                    }),
+                }
+            }
+            round = rest;
+            continue;
+        }
         let done: Vec<Result<Verdict<T>>> = round.par_iter().map(|(c, _)| finish(c)).collect();
         evaluated += round.len();
         let mut undecided: Vec<(Vec<Interval>, Vec<u32>, (UndecidedCause, String))> = Vec::new();
@@ -376,6 +458,71 @@ mod tests {
 
     /// A 2-D set `x^2 + y^2 <= 0.25` "identified" by interval arithmetic: the surviving cells
     /// cover it, and every discarded cell is disjoint from it.
+    /// The verdict-only search agrees with the full one on random discs (inside, across and
+    /// outside the prior box, a cheap test looser than the finish, finishes that leave cells
+    /// undecided): `Falsified` exactly when the full search says so, and otherwise its one
+    /// leaf has a value and meets the disc.
+    #[test]
+    fn the_verdict_search_agrees_with_the_full_search() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for trial in 0..200 {
+            let (cx, cy): (f64, f64) = (rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0));
+            let r: f64 = rng.gen_range(0.01..0.8);
+            let undecided_band: f64 = rng.gen_range(0.0..0.3);
+            let dist2 = move |c: &[Interval]| {
+                let d = |i: Interval, m: f64| {
+                    if i.lo <= m && i.hi >= m {
+                        0.0
+                    } else {
+                        (i.lo - m).abs().min((i.hi - m).abs()).powi(2)
+                    }
+                };
+                d(c[0], cx) + d(c[1], cy)
+            };
+            let test = move |c: &[Interval]| -> Result<Verdict<()>> {
+                Ok(if dist2(c) > (r + 0.2).powi(2) {
+                    Verdict::Infeasible(incons(1))
+                } else {
+                    Verdict::Feasible(())
+                })
+            };
+            let finish = move |c: &[Interval]| -> Result<Verdict<f64>> {
+                let d = dist2(c);
+                Ok(if d > r * r {
+                    Verdict::Infeasible(incons(2))
+                } else if c[0].center() < cx - r + undecided_band {
+                    Verdict::Undecided(UndecidedCause::Unbounded, "left part".into())
+                } else {
+                    Verdict::Feasible(d)
+                })
+            };
+            let budget = || Budget {
+                resolution: vec![0.25, 0.25],
+                depth: 12,
+                max_cells: 400,
+                max_leaves: 16,
+            };
+            let prior = [Interval::new(-2.0, 2.0), Interval::new(-2.0, 2.0)];
+            let full = search(&prior, budget(), &test, &finish, &|_| {}).unwrap();
+            let quick = search_consistent(&prior, budget(), &test, &finish).unwrap();
+            assert_eq!(
+                full.is_consistent(),
+                quick.is_consistent(),
+                "trial {trial}: disc ({cx}, {cy}) r {r}"
+            );
+            if let Outcome::Consistent(q) = quick {
+                if let Some(l) = q.leaves.iter().find(|l| l.value.is_some()) {
+                    assert!(dist2(&l.cell) <= r * r, "trial {trial}");
+                } else {
+                    // No cell with a value: the full search has none either.
+                    let f = full.unwrap();
+                    assert!(f.leaves.iter().all(|l| l.value.is_none()), "trial {trial}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn surviving_cells_cover_the_feasible_set() {
         let eval = |c: &[Interval]| -> Result<Verdict<f64>> {

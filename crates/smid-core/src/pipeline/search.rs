@@ -107,7 +107,9 @@ pub fn identify(
 /// margin times the smallest bound the cheap classical test finds consistent
 /// ([`estimate_bound`]). A tighter stage-3 method can prove the data inconsistent there: the
 /// bound is then doubled until the method finds them consistent, the bracket narrowed
-/// geometrically to 5 %, and the identification run at the margin times its upper end. When
+/// geometrically to 5 %, and the identification run at the margin times its upper end. The
+/// bracket's steps ask for the method's verdict alone ([`consistent_by_method`]: the search
+/// stops at the first cell with bounds); only the bound kept is identified whole. When
 /// the method's start set
 /// is unbounded at that bound, the error says what bounds it (a stable block, a prior, or the
 /// classical method at its own smaller bound).
@@ -126,6 +128,19 @@ fn identify_estimated(
     };
     let mut quiet = with_bound(spec, first);
     quiet.method.member.search = false;
+    // The bracket's steps ask only whether the method finds the data consistent at `d`: the
+    // search stops at the first cell with bounds (the same verdict, a fraction of the cells
+    // finished). The bound kept is then identified whole.
+    let verdict = |d: f64| {
+        let t0 = std::time::Instant::now();
+        let r = consistent_by_method(&with_bound(&quiet, d), data_with_bound(data, d));
+        log::info!(target: "smid::estimate", "noise bound {d:.4e}: {} ({:.2} s)", match &r {
+            Ok(Outcome::Consistent(_)) => "consistent".to_string(),
+            Ok(Outcome::Falsified(f)) => format!("falsified: {f}").chars().take(60).collect(),
+            Err(e) => e.to_string().chars().take(60).collect(),
+        }, t0.elapsed().as_secs_f64());
+        r
+    };
     let at = |d: f64| {
         let t0 = std::time::Instant::now();
         let r = identify_with(
@@ -143,39 +158,39 @@ fn identify_estimated(
     };
     let mut lo = first;
     let mut hi = first;
-    let mut found = None;
+    let mut found = false;
     for _ in 0..40 {
-        match at(hi) {
+        match verdict(hi) {
             Ok(Outcome::Falsified(_)) => {
                 lo = hi;
                 hi *= 2.0;
             }
-            r => {
-                found = Some(r);
+            _ => {
+                found = true;
                 break;
             }
         }
     }
-    let Some(mut best) = found else {
+    if !found {
         return Ok(Outcome::Falsified(Falsification::new(crate::error::Stage::Linear, 0, format!(
                 "the stage-3 method `{}` finds the training data inconsistent up to a noise bound of {hi:.3e}",
                 spec.method.eiv.name()
             ))));
-    };
+    }
     if hi > first {
         // Narrow [lo, hi] (inconsistent at lo, an answer at hi) to 5 %, then identify at the
         // margin above its upper end: the margin times the smallest bound the method accepts
         // (to 5 %), as `noise.estimate` promises.
         while hi / lo > 1.05 {
             let mid = (lo * hi).sqrt();
-            match at(mid) {
+            match verdict(mid) {
                 Ok(Outcome::Falsified(_)) => lo = mid,
                 _ => hi = mid,
             }
         }
         hi *= margin;
-        best = at(hi);
     }
+    let mut best = at(hi);
     if let Ok(Outcome::Consistent(id)) = best.as_mut() {
         id.model.method.member = spec.method.member;
         id.model.simulation_member =
@@ -206,86 +221,13 @@ pub fn identify_with(
         // (growing it by the margin while the stage-3 method still finds the data inconsistent).
         return identify_estimated(spec, &data, truth, progress);
     }
-    let delta = spec.noise.delta()?;
-    let layout = spec.model.layout()?;
-    if let Some(steady) = data.steady.as_mut() {
-        let step = data
-            .filter
-            .as_ref()
-            .and_then(|f| f.step)
-            .unwrap_or(spec.experiment.filter.step);
-        match spec.method.alpha {
-            AlphaSpec::Bias => experiment::apply_alpha(steady, step),
-            AlphaSpec::Design => match data.filter.as_ref().and_then(|f| f.overshoot) {
-                Some(d) => experiment::apply_design_alpha(steady, d, step),
-                None => {
-                    return Err(SmidError::invalid(
-                        "method.alpha",
-                        "`design` needs the filter pole from the Appendix search on the plant; with a given pole or measured data choose `bias` or `zero`",
-                    ))
-                }
-            },
-            AlphaSpec::Zero => {}
-        }
-        steady.validate()?;
-    }
-    for r in &data.records {
-        r.validate()?;
-    }
-    if data.steady.is_some() {
-        if let Some(e) = spec
-            .model
-            .effects
-            .iter()
-            .find(|e| !e.vanishes_at_steady_state())
-        {
-            return Err(SmidError::invalid(
-                "model.effects",
-                format!(
-                    "`{}` does not vanish at steady state, so stage 1 from steady-state data would be biased: use it on records without the designed steady-state experiment",
-                    e.label()
-                ),
-            ));
-        }
-    }
-    if data.records.is_empty() {
-        return Err(SmidError::invalid(
-            "plant",
-            "no dynamic record to identify from",
-        ));
-    }
-    let training = Training {
-        steady: data.steady.clone(),
-        records: data.records.clone(),
-    };
-    let model = &spec.model;
-    let method = &spec.method;
-    let prior: Vec<Interval> = layout.dims.iter().map(|d| d.prior).collect();
-    let scale = data_scale(&data);
-    let resolution = resolution(
-        model,
-        &layout,
-        method.cells.nonlinearity_halvings,
-        delta,
-        &scale,
-    );
-    let test = |cell: &[Interval]| test_cell(model, &layout, method, &training, cell);
-    let eval = |cell: &[Interval]| evaluate_cell(model, &layout, method, &training, cell);
-    let search = match cells::search(
-        &prior,
-        Budget {
-            resolution,
-            depth: method.cells.depth,
-            max_cells: method.cells.max_cells,
-            max_leaves: method.cells.max_leaves,
-        },
-        &test,
-        &eval,
-        progress,
-    )? {
-        Outcome::Consistent(s) => s,
+    let (layout, training, search) = match searched(spec, &mut data, progress, false)? {
+        Outcome::Consistent(x) => x,
         Outcome::Falsified(f) => return Ok(Outcome::Falsified(f)),
     };
+    let delta = spec.noise.delta()?;
+    let model = &spec.model;
+    let method = &spec.method;
     let mut summary = SearchSummary {
         evaluated: search.evaluated,
         discarded: search.discarded,
@@ -434,6 +376,104 @@ pub fn identify_with(
         truth_in_nonlinearity_set: truth_in_set,
         inner_violations,
     }))
+}
+
+/// The data prepared for the stages (α applied to the steady-state points, every record and
+/// effect checked) and the branch and bound over the bisected parameters at the spec's
+/// declared bound. With `first_value` the search stops at the first cell with bounds
+/// ([`cells::search_consistent`]): a verdict, not the set.
+#[allow(clippy::type_complexity)]
+fn searched(
+    spec: &Spec,
+    data: &mut ExperimentData,
+    progress: &(dyn Fn(&cells::Progress) + Sync),
+    first_value: bool,
+) -> Result<Outcome<(Layout, Training, cells::Search<CellSet>)>> {
+    let delta = spec.noise.delta()?;
+    let layout = spec.model.layout()?;
+    if let Some(steady) = data.steady.as_mut() {
+        let step = data
+            .filter
+            .as_ref()
+            .and_then(|f| f.step)
+            .unwrap_or(spec.experiment.filter.step);
+        match spec.method.alpha {
+            AlphaSpec::Bias => experiment::apply_alpha(steady, step),
+            AlphaSpec::Design => match data.filter.as_ref().and_then(|f| f.overshoot) {
+                Some(d) => experiment::apply_design_alpha(steady, d, step),
+                None => {
+                    return Err(SmidError::invalid(
+                        "method.alpha",
+                        "`design` needs the filter pole from the Appendix search on the plant; with a given pole or measured data choose `bias` or `zero`",
+                    ))
+                }
+            },
+            AlphaSpec::Zero => {}
+        }
+        steady.validate()?;
+    }
+    for r in &data.records {
+        r.validate()?;
+    }
+    if data.steady.is_some() {
+        if let Some(e) = spec
+            .model
+            .effects
+            .iter()
+            .find(|e| !e.vanishes_at_steady_state())
+        {
+            return Err(SmidError::invalid(
+                "model.effects",
+                format!(
+                    "`{}` does not vanish at steady state, so stage 1 from steady-state data would be biased: use it on records without the designed steady-state experiment",
+                    e.label()
+                ),
+            ));
+        }
+    }
+    if data.records.is_empty() {
+        return Err(SmidError::invalid(
+            "plant",
+            "no dynamic record to identify from",
+        ));
+    }
+    let training = Training {
+        steady: data.steady.clone(),
+        records: data.records.clone(),
+    };
+    let model = &spec.model;
+    let method = &spec.method;
+    let prior: Vec<Interval> = layout.dims.iter().map(|d| d.prior).collect();
+    let scale = data_scale(&data);
+    let resolution = resolution(
+        model,
+        &layout,
+        method.cells.nonlinearity_halvings,
+        delta,
+        &scale,
+    );
+    let test = |cell: &[Interval]| test_cell(model, &layout, method, &training, cell);
+    let eval = |cell: &[Interval]| evaluate_cell(model, &layout, method, &training, cell);
+    let budget = Budget {
+        resolution,
+        depth: method.cells.depth,
+        max_cells: method.cells.max_cells,
+        max_leaves: method.cells.max_leaves,
+    };
+    let search = if first_value {
+        cells::search_consistent(&prior, budget, &test, &eval)?
+    } else {
+        cells::search(&prior, budget, &test, &eval, progress)?
+    };
+    Ok(search.map(|s| (layout, training, s)))
+}
+
+/// Whether the spec's stage-3 method finds the data consistent at the spec's declared bound,
+/// by the identification's own search stopped at the first cell with bounds: `Falsified`
+/// exactly when [`identify`] would return it; an error may be reported where `identify` would
+/// have given an answer (and the other way round), which the noise-bound bracket treats alike.
+pub fn consistent_by_method(spec: &Spec, mut data: ExperimentData) -> Result<Outcome<()>> {
+    Ok(searched(spec, &mut data, &|_| {}, true)?.map(|_| ()))
 }
 
 pub(super) fn hull(it: impl IntoIterator<Item = Interval>) -> Interval {
