@@ -583,7 +583,7 @@ impl<'s> Search<'s> {
 }
 
 /// The simulation member of `set` (see the module doc). When no certified point is found in
-/// the cells tried, the best free run over the outer bounds of the best-probed cell, marked
+/// the cells tried, the best free run over the outer bounds of any probed cell, marked
 /// `certified: false`; `None` only when even that fails (the centre then stands in). The cells are ranked by
 /// the phase-1 measure at their centres (the nearest `opts.probe` to the central cell are
 /// probed) and the best `opts.cells` are searched, in that order; when the best-ranked cell
@@ -648,12 +648,19 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
         }
     }
     if best.is_none() {
-        // Nothing certified: the best free run over the outer bounds of the most promising
-        // cell stands in (marked not certified), so a candidate whose centre diverges is
-        // judged by a point that simulates, not by its centre.
-        if let Some((_, sp)) = spaces.first() {
-            best = search.best_uncertified(sp, opts, &centre_values);
-            log::debug!(target: "smid::members", "cell {}: best uncertified point after {} evaluations", sp.k, search.evaluations.get());
+        // Nothing certified: the best free run over the outer bounds of the probed cells
+        // stands in (marked not certified), so a candidate whose centre diverges is judged by
+        // a point that simulates, not by its centre. (The ranking above is by nearness to a
+        // certificate, not by simulation, and a saturation level's cells differ in how they
+        // simulate: every probed cell is tried; free runs only, one LP each for its report.)
+        for (_, sp) in &spaces {
+            let found = search.best_uncertified(sp, opts, &centre_values);
+            log::debug!(target: "smid::members", "cell {}: best uncertified point {:?} after {} evaluations", sp.k, found.as_ref().map(|f| f.0), search.evaluations.get());
+            if let Some((e2, m)) = found {
+                if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
+                    best = Some((e2, m));
+                }
+            }
         }
     }
     if let Some((_, m)) = best.as_mut().filter(|(_, m)| opts.spread && m.certified) {
