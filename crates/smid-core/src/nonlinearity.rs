@@ -441,8 +441,11 @@ pub trait NonlinearitySet: Debug + Send + Sync {
         false
     }
     /// The block's steady output for the steady input `u` (stage 1 of a chain whose input side
-    /// holds this block before the nonlinearity that steady-state data bound). Default: the
-    /// propagation of that one sample. A unit-gain filter returns `[u, u]`.
+    /// holds this block before the nonlinearity that steady-state data bound). Contract: it
+    /// holds for every state the block may have reached at rest (any history), since the
+    /// steady-state test of a prior-box cell relies on it behind blocks with memory. Default:
+    /// the propagation of that one sample (a block whose `propagate` assumes a start at rest
+    /// overrides it, as the play does). A unit-gain filter returns `[u, u]`.
     fn propagate_steady(&self, u: f64) -> Result<Interval> {
         Ok(self.propagate(&[u])?[0].interval)
     }

@@ -197,6 +197,11 @@ impl NonlinearitySet for InputBacklashSet {
     fn parameters(&self) -> Vec<ParameterBound> {
         self.polygons.parameters()
     }
+    /// At rest after any history the play's output is anywhere in its dead band at `u`: one
+    /// step from an unknown state, whatever `at_rest` says of a record's start.
+    fn propagate_steady(&self, u: f64) -> Result<Interval> {
+        Ok(self.step(Interval::entire(), u))
+    }
 
     fn propagate(&self, u: &[f64]) -> Result<Vec<InnerBound>> {
         let mut state = if self.at_rest {

@@ -25,13 +25,11 @@ pub fn stage1(
 ) -> Result<Box<dyn NonlinearitySet>> {
     let range = layout.nonlinearity_cells.clone();
     if !range.is_empty() {
-        if steady.is_some() {
-            return Err(SmidError::invalid(
-                "model.prior",
-                "a prior box for the nonlinearity's parameters together with steady-state data is not supported yet: give one or the other",
-            ));
+        let set = model.nonlinearity.set_from_box(&cell[range])?;
+        if let Some(steady) = steady {
+            prune_by_steady_points(model, layout, steady, cell, set.as_ref())?;
         }
-        return model.nonlinearity.set_from_box(&cell[range]);
+        return Ok(set);
     }
     let steady = match steady {
         Some(s) => s,
@@ -71,7 +69,7 @@ pub fn stage1(
                 if !b.keeps_steady_design() {
                     return Err(SmidError::invalid(
                         "model.input",
-                        "steady-state data reach the nonlinearity through an input block that may make the linear block overshoot under the designed square wave (a clipped or kinked wave; see NonlinearitySet::keeps_steady_design): give the nonlinearity's parameters a prior box (`model.prior`), or identify from records without the steady-state experiment",
+                        "steady-state data reach the nonlinearity through an input block that may make the linear block overshoot under the designed square wave (a clipped or kinked wave; see NonlinearitySet::keeps_steady_design): give the nonlinearity's parameters a prior box (`model.prior`; the steady-state points then prune its cells without the design's assumption), or identify from records without the steady-state experiment",
                     ));
                 }
                 let lo = b.propagate_steady(v.lo)?;
@@ -101,6 +99,64 @@ pub fn stage1(
     // out of stage 1 (fewer points can only widen the set).
     data.points.retain(|p| p.dy.is_finite());
     model.nonlinearity.bound_steady_state(&data)
+}
+
+/// Steady-state points as a necessary test of a cell whose nonlinearity is bisected over a
+/// prior box (instead of the polygons of eqs 13-20): at rest the linear block's output equals
+/// its input (unit gain, eq 8), so for every point the steady input carried **forward** through
+/// the input side over the cell (`propagate_steady` at both ends of each monotone block) must
+/// meet the measured `ȳ ± Δη̄` (less the sensor terms) carried **backward** through the output
+/// side (`invert_steady`, each block's inversion of one sample **with any history**: for a
+/// backlash the whole dead band). Neither carry assumes the designed filter kept the linear
+/// block free of overshoot, so the test holds behind any input block (a dead zone, a play, a
+/// saturation), where the polygons would not. A point either side leaves unknown, or one that
+/// reaches a non-monotone block as an interval, proves nothing and is passed over; a model
+/// without unit gain, or with a term that does not vanish at rest, is not tested. An empty
+/// meeting is a proof that the cell is inconsistent (stage 1, the point's index).
+fn prune_by_steady_points(
+    model: &ModelSpec,
+    layout: &Layout,
+    steady: &SteadyStateData,
+    cell: &[Interval],
+    set: &dyn NonlinearitySet,
+) -> Result<()> {
+    if !model.unit_gain || model.effects.iter().any(|e| !e.vanishes_at_steady_state()) {
+        return Ok(());
+    }
+    let slices = layout.effect_slices(cell);
+    let blocks = BlockSets::new(model, layout, cell)?;
+    let (input, output) = blocks.sides(model.structure, set);
+    'points: for p in &steady.points {
+        let s = effect::sensor_sum(&model.effects, &slices, p.time)?;
+        let (c, r) = chain::backward_steady(&output, p.y - s.center(), p.dy + s.radius())?;
+        if !r.is_finite() {
+            continue;
+        }
+        let x = Interval::new(c - r, c + r).outward();
+        let mut v = Interval::new(p.u - p.du, p.u + p.du);
+        for b in &input {
+            if v.lo != v.hi && !b.monotone() {
+                continue 'points;
+            }
+            let lo = b.propagate_steady(v.lo)?;
+            let hi = b.propagate_steady(v.hi)?;
+            v = Interval::new(lo.lo.min(hi.lo), lo.hi.max(hi.hi));
+            if v.lo.is_nan() || v.hi.is_nan() {
+                continue 'points;
+            }
+        }
+        if x.intersect(&v.outward()).is_none() {
+            return Err(SmidError::inconsistent(
+                crate::error::Stage::SteadyState,
+                p.index,
+                format!(
+                    "steady-state point {}: the input side gives [{:.6e}, {:.6e}] at rest, the output {:.6e} ± {:.3e} inverts to [{:.6e}, {:.6e}] over this cell",
+                    p.index, v.lo, v.hi, p.y, p.dy, x.lo, x.hi
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The stage-1 sets of a chain's blocks over one cell (each plugin's set of its prior cell).
