@@ -504,6 +504,12 @@ impl Default for MemberSpec {
 }
 
 impl MemberSpec {
+    /// Whether the search only ranks (no spread: the diagnosis's candidates, whose fits are
+    /// compared, not reported as the model's member): it may then give up on a cell, and on the
+    /// lower-ranked cells, once a run ends far from a certified point. A full search does not.
+    pub fn gives_up_early(&self) -> bool {
+        !self.spread
+    }
     /// The light budget the diagnosis gives each candidate (its choice needs a fit, not the
     /// envelope): 16 cells probed, two searched, no spread.
     pub const LIGHT: MemberSpec = MemberSpec {
