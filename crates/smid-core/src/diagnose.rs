@@ -23,6 +23,7 @@ use crate::chain::{qualified, Side};
 use crate::effect::{self, DataScale, Effect};
 use crate::error::{Result, SmidError, Stage};
 use crate::model::ModelSet;
+use crate::nonlinearity::SteadyStateData;
 use crate::outcome::{Falsification, Outcome};
 use crate::pipeline::{data_scale, identify, ExperimentData, Identification, Record};
 use crate::spec::{ModelSpec, Spec};
@@ -402,8 +403,9 @@ fn candidates(
     base: &ModelSpec,
     scale: &DataScale,
     opts: &Options,
-    steady: bool,
+    steady_data: Option<&SteadyStateData>,
 ) -> Vec<(ModelSpec, Evidence)> {
+    let steady = steady_data.is_some();
     let mut out = Vec::new();
     for entry in effect::effects() {
         if !opts.only.is_empty() && !opts.only.iter().any(|t| t == entry.tag) {
@@ -513,8 +515,32 @@ fn candidates(
                 m.prior.insert(name.clone(), [p.lo, p.hi]);
                 given.push((name, [p.lo, p.hi]));
             }
-            if m.layout().is_err() {
+            let Ok(layout) = m.layout() else {
                 continue;
+            };
+            let added = prior.iter().filter(|p| p.hi > p.lo).count();
+            if side == Side::Input {
+                if let Some(st) = steady_data {
+                    match design_prior_for(&m, &layout, st, position) {
+                        // The nonlinearity's parameters were in the model already: bisected
+                        // now, not added.
+                        Ok(Some(boxes)) => {
+                            for (n, p) in boxes {
+                                m.prior.insert(n.clone(), [p.lo, p.hi]);
+                                given.push((n, [p.lo, p.hi]));
+                            }
+                            if m.layout().is_err() {
+                                continue;
+                            }
+                        }
+                        Ok(None) => {}
+                        // No box from the points: the candidate is tried as it is (and its
+                        // verdict says why it fails).
+                        Err(e) => {
+                            log::info!(target: "smid::diagnose", "{}: no prior box for the nonlinearity from the steady-state points: {e}", entry.tag)
+                        }
+                    }
+                }
             }
             out.push((
                 m,
@@ -528,7 +554,7 @@ fn candidates(
                         }
                     ),
                     tag: entry.tag.to_string(),
-                    added_parameters: prior.iter().filter(|p| p.hi > p.lo).count(),
+                    added_parameters: added,
                     priors: given,
                     train: TrainVerdict::Failed {
                         message: "not tried".into(),
@@ -541,6 +567,50 @@ fn candidates(
     }
     out
 }
+
+/// The prior box of a model's nonlinearity when the input block at `position` of candidate
+/// `m` breaks the designed steady-state experiment (`keeps_steady_design` is false over its
+/// prior) and the nonlinearity is not bisected yet: the polygons' hull as if the design held,
+/// with each point's input an interval over the blocks' priors, widened
+/// ([`crate::pipeline::design_prior`], `DESIGN_MARGIN`). The nonlinearity is then bisected in
+/// that box and the steady-state points prune its cells with any history. `None`: nothing to
+/// add (the block keeps the design, or the nonlinearity has no parameters or a prior already).
+fn design_prior_for(
+    m: &ModelSpec,
+    layout: &crate::model::Layout,
+    steady: &SteadyStateData,
+    position: usize,
+) -> Result<Option<Vec<(String, crate::interval::Interval)>>> {
+    let names = crate::registry::parameter_names(&m.nonlinearity_tag());
+    if names.is_empty() || !layout.nonlinearity_cells.is_empty() {
+        return Ok(None);
+    }
+    let Some(b) = layout
+        .blocks
+        .iter()
+        .find(|b| b.side == Side::Input && b.index == position)
+    else {
+        return Ok(None);
+    };
+    let cell: Vec<crate::interval::Interval> = layout.dims.iter().map(|d| d.prior).collect();
+    if m.input[position]
+        .set_from_box(&cell[b.cells.clone()])?
+        .keeps_steady_design()
+    {
+        return Ok(None);
+    }
+    let boxes = crate::pipeline::design_prior(m, layout, steady, &cell, DESIGN_MARGIN)?;
+    Ok(Some(
+        boxes
+            .into_iter()
+            .filter(|(n, _)| names.contains(n))
+            .collect(),
+    ))
+}
+
+/// Relative widening of a design-derived prior box (see [`design_prior_for`]), beyond its own
+/// width on each side.
+pub const DESIGN_MARGIN: f64 = 0.05;
 
 /// Choose what to add, from the training data alone. `progress(done, total)` after each
 /// candidate.
@@ -584,7 +654,7 @@ pub fn choose(
         _ => f64::INFINITY,
     };
     while (estimated || !base_train.admissible()) && added.len() < opts.max_effects {
-        let mut cands = candidates(&base, &scale, opts, training.steady.is_some());
+        let mut cands = candidates(&base, &scale, opts, training.steady.as_ref());
         let mut sets = try_candidates(spec, &mut cands, training, progress);
         // Admissible candidates whose centre members simulate the training records within
         // FIT_SLACK points of the best one; among them the fewest added parameters, then the
@@ -672,7 +742,7 @@ pub fn choose(
         // The model as declared is consistent: one round tells which candidates the training
         // records cannot tell apart from it (an output offset on a backlash is a shift of its
         // plays); none is added.
-        let mut cands = candidates(&base, &scale, opts, training.steady.is_some());
+        let mut cands = candidates(&base, &scale, opts, training.steady.as_ref());
         let sets = try_candidates(spec, &mut cands, training, progress);
         let mut round = Round {
             base: label_of(&base),

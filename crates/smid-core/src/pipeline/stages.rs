@@ -23,6 +23,54 @@ pub fn stage1(
     steady: Option<&SteadyStateData>,
     cell: &[Interval],
 ) -> Result<Box<dyn NonlinearitySet>> {
+    stage1_with(model, layout, steady, cell, false)
+}
+
+/// A box for the nonlinearity's parameters from the steady-state points **as if** every input
+/// block kept the designed experiment valid (the polygons, each point's input an interval over
+/// the blocks' whole prior boxes `cell`), widened on each side by a quarter of its width and
+/// by `relative` of its centre's magnitude (a positive parameter, a slope, stays above half its
+/// lower end; a non-negative one, a play, stays non-negative).
+/// This is an assumption, not a bound: a block that breaks the design may make the linear block
+/// overshoot, which the polygons do not allow for. The diagnosis uses it, reported, as the
+/// prior box of a candidate whose input block breaks the design; identification within it then
+/// uses the steady-state points only through the any-history test of
+/// [`prune_by_steady_points`], which is sound.
+pub fn design_prior(
+    model: &ModelSpec,
+    layout: &Layout,
+    steady: &SteadyStateData,
+    cell: &[Interval],
+    relative: f64,
+) -> Result<Vec<(String, Interval)>> {
+    let set = stage1_with(model, layout, Some(steady), cell, true)?;
+    Ok(set
+        .parameters()
+        .into_iter()
+        .map(|b| {
+            let i = b.interval;
+            let w = 0.25 * (i.hi - i.lo) + relative * i.center().abs();
+            let lo = if i.lo > 0.0 {
+                (i.lo - w).max(0.5 * i.lo)
+            } else if i.lo == 0.0 {
+                0.0
+            } else {
+                i.lo - w
+            };
+            (b.name, Interval::new(lo, i.hi + w))
+        })
+        .collect())
+}
+
+/// [`stage1`]; `assume_design`: steady-state points pass every input block as if it kept the
+/// designed experiment valid (only [`design_prior`] asks for this).
+fn stage1_with(
+    model: &ModelSpec,
+    layout: &Layout,
+    steady: Option<&SteadyStateData>,
+    cell: &[Interval],
+    assume_design: bool,
+) -> Result<Box<dyn NonlinearitySet>> {
     let range = layout.nonlinearity_cells.clone();
     if !range.is_empty() {
         let set = model.nonlinearity.set_from_box(&cell[range])?;
@@ -66,7 +114,7 @@ pub fn stage1(
             // The steady input through the input blocks over their cell: an interval.
             let mut v = Interval::new(p.u - p.du, p.u + p.du);
             for b in &inputs {
-                if !b.keeps_steady_design() {
+                if !assume_design && !b.keeps_steady_design() {
                     return Err(SmidError::invalid(
                         "model.input",
                         "steady-state data reach the nonlinearity through an input block that may make the linear block overshoot under the designed square wave (a clipped or kinked wave; see NonlinearitySet::keeps_steady_design): give the nonlinearity's parameters a prior box (`model.prior`; the steady-state points then prune its cells without the design's assumption), or identify from records without the steady-state experiment",
