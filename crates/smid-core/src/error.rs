@@ -5,28 +5,8 @@
 //! feasible set is not a crash but a finding about the plant: inside the engines it travels as
 //! [`SmidError::Inconsistent`], and identification and validation return it as a status
 //! ([`crate::outcome::Outcome::Falsified`]).
+pub use crate::finding::Stage;
 use std::path::PathBuf;
-
-/// Identification stage, used to say where a feasible set became empty.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-pub enum Stage {
-    /// Stage 1: nonlinearity parameters from steady-state data (paper Section 3).
-    SteadyState,
-    /// Stage 2: inner-signal bounds (paper Section 4).
-    InnerSignal,
-    /// Stage 3: linear-block parameters (paper Section 5).
-    Linear,
-}
-
-impl std::fmt::Display for Stage {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Stage::SteadyState => "stage 1 (nonlinearity parameters from steady-state data)",
-            Stage::InnerSignal => "stage 2 (inner-signal bounds)",
-            Stage::Linear => "stage 3 (linear-block parameters)",
-        })
-    }
-}
 
 /// Everything that can go wrong in the core, each variant naming its origin.
 #[derive(Debug, thiserror::Error)]
@@ -52,7 +32,7 @@ pub enum SmidError {
     /// The feasible set is empty: the data falsify the model.
     /// Inside the engines only: the boundaries return it as [`crate::outcome::Outcome`].
     #[error("{}", .0.message())]
-    Inconsistent(crate::outcome::Falsification),
+    Inconsistent(crate::finding::Falsification),
     /// The data do not determine a bounded set (e.g. too few distinct amplitudes).
     #[error("the data do not bound `{parameter}`: {message}")]
     Unbounded { parameter: String, message: String },
@@ -78,7 +58,7 @@ impl SmidError {
     /// Shorthand for [`SmidError::Inconsistent`] at `sample` of record 0 (a plugin's or a
     /// stage's proof that the feasible set is empty).
     pub fn inconsistent(stage: Stage, sample: usize, detail: impl Into<String>) -> Self {
-        SmidError::Inconsistent(crate::outcome::Falsification::new(stage, sample, detail))
+        SmidError::Inconsistent(crate::finding::Falsification::new(stage, sample, detail))
     }
     /// A falsification found in record `record` says so; any other error is returned as is.
     pub fn in_record(self, record: usize) -> Self {

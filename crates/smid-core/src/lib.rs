@@ -20,6 +20,7 @@ pub mod effect;
 pub mod error;
 pub mod exact;
 pub mod experiment;
+pub mod finding;
 pub mod interval;
 pub mod inversion;
 pub mod linear;

@@ -9,53 +9,7 @@
 //! boundaries (a cell's verdict, [`crate::pipeline::identify`], validation, the noise-bound
 //! estimate, the diagnosis) turn it into an outcome, so no public entry point of
 //! identification or validation returns a falsification as an error.
-use crate::error::Stage;
-use serde::Serialize;
-
-/// Where and why the data falsify the model: the first offending sample of the record.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Falsification {
-    pub stage: Stage,
-    /// Index of the record (training records in identification, fresh records in validation;
-    /// 0 for stage 1, whose sample is a steady-state point).
-    pub record: usize,
-    /// The first offending sample within that record (or steady-state point).
-    pub sample: usize,
-    pub detail: String,
-}
-
-impl Falsification {
-    /// A falsification at `sample` of record 0 (a plugin's or a stage's proof; the boundary
-    /// that knows the record sets it with [`Falsification::in_record`]).
-    pub fn new(stage: Stage, sample: usize, detail: impl Into<String>) -> Self {
-        Falsification {
-            stage,
-            record: 0,
-            sample,
-            detail: detail.into(),
-        }
-    }
-    /// The finding as a sentence (what the CLI prints, the error's message inside the
-    /// engines).
-    pub fn message(&self) -> String {
-        format!("the data are inconsistent with the model and noise bound: {self}")
-    }
-    /// The same finding in record `record`.
-    pub fn in_record(mut self, record: usize) -> Self {
-        self.record = record;
-        self
-    }
-}
-
-impl std::fmt::Display for Falsification {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}: first offending sample {}", self.stage, self.sample)?;
-        if self.record > 0 {
-            write!(f, " of record {}", self.record)?;
-        }
-        write!(f, " ({})", self.detail)
-    }
-}
+pub use crate::finding::Falsification;
 
 /// The conclusion of an identification or a check of a model against data.
 #[derive(Debug)]

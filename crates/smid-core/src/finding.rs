@@ -1,0 +1,72 @@
+//! A finding about the plant: the data falsify the model at a stage (paper Sections 3-5) and a
+//! `(record, sample)`. The plain data that both an [`crate::outcome::Outcome`] (the status the
+//! boundaries return) and [`crate::SmidError::Inconsistent`] (the proof travelling out of the
+//! engines) carry; it imports nothing of the crate, so neither of those two modules needs the
+//! other to name it.
+use serde::Serialize;
+
+/// Identification stage, used to say where a feasible set became empty.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Stage {
+    /// Stage 1: nonlinearity parameters from steady-state data (paper Section 3).
+    SteadyState,
+    /// Stage 2: inner-signal bounds (paper Section 4).
+    InnerSignal,
+    /// Stage 3: linear-block parameters (paper Section 5).
+    Linear,
+}
+
+impl std::fmt::Display for Stage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Stage::SteadyState => "stage 1 (nonlinearity parameters from steady-state data)",
+            Stage::InnerSignal => "stage 2 (inner-signal bounds)",
+            Stage::Linear => "stage 3 (linear-block parameters)",
+        })
+    }
+}
+
+/// Where and why the data falsify the model: the first offending sample of the record.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Falsification {
+    pub stage: Stage,
+    /// Index of the record (training records in identification, fresh records in validation;
+    /// 0 for stage 1, whose sample is a steady-state point).
+    pub record: usize,
+    /// The first offending sample within that record (or steady-state point).
+    pub sample: usize,
+    pub detail: String,
+}
+
+impl Falsification {
+    /// A falsification at `sample` of record 0 (a plugin's or a stage's proof; the boundary
+    /// that knows the record sets it with [`Falsification::in_record`]).
+    pub fn new(stage: Stage, sample: usize, detail: impl Into<String>) -> Self {
+        Falsification {
+            stage,
+            record: 0,
+            sample,
+            detail: detail.into(),
+        }
+    }
+    /// The finding as a sentence (what the CLI prints, the error's message inside the
+    /// engines).
+    pub fn message(&self) -> String {
+        format!("the data are inconsistent with the model and noise bound: {self}")
+    }
+    /// The same finding in record `record`.
+    pub fn in_record(mut self, record: usize) -> Self {
+        self.record = record;
+        self
+    }
+}
+
+impl std::fmt::Display for Falsification {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: first offending sample {}", self.stage, self.sample)?;
+        if self.record > 0 {
+            write!(f, " of record {}", self.record)?;
+        }
+        write!(f, " ({})", self.detail)
+    }
+}
