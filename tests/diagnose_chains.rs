@@ -104,3 +104,48 @@ fn input_side_blocks_that_break_the_design_are_diagnosed_from_the_designed_exper
         "named: {named:?}"
     );
 }
+
+/// Observationally equivalent explanations are said so, not silently chosen between: on a
+/// binary record (the input alternating between two levels further apart than the plays) a play
+/// before the linear block and a dead zone with the same plays give the same signal. Both are
+/// consistent; the diagnosis names one and reports the other as indistinguishable, found by
+/// putting one's member into the other's model class (the same parameter names).
+#[test]
+fn a_play_and_a_dead_zone_on_a_binary_record_are_reported_indistinguishable() {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/paper-lag.yaml"),
+    )
+    .unwrap()
+    .replace("name: paper-lag", "name: paper-play-binary")
+    .replace(
+        "    output: [ { type: lag, p: 0.5 } ]",
+        "    input: [ { type: input_backlash, m_l: 1.0, c_l: 0.3, m_r: 1.0, c_r: 0.2 } ]",
+    )
+    .replace("levels: 8", "levels: 2");
+    assert!(text.contains("input_backlash") && text.contains("levels: 2"));
+    let dir = std::env::temp_dir().join(format!("smid-play-binary-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("paper-play-binary.yaml");
+    std::fs::write(&path, text).unwrap();
+    let (spec, data) = smid::load_simulated(&path).unwrap();
+    let choice = diagnose::choose(
+        &spec,
+        &data,
+        &Options {
+            only: vec!["dead_zone".into(), "input_backlash".into()],
+            ..Options::default()
+        },
+        &|_, _| {},
+    )
+    .unwrap();
+    let play = "`input_backlash` on the input side";
+    let zone = "`dead_zone` on the input side";
+    let named =
+        choice.added.iter().any(|a| a == play) || choice.equivalents().iter().any(|e| e == play);
+    assert!(named, "{}", choice.summary());
+    assert!(
+        choice.added.iter().any(|a| a == play || a == zone),
+        "{}",
+        choice.summary()
+    );
+}

@@ -149,8 +149,38 @@ fn indistinguishable(a: &[Vec<f64>], b: &[Vec<f64>], tol: f64, skip: usize) -> b
         })
 }
 
+/// Free runs on `to`'s training records of `to`'s model at the representative member's values
+/// of `from`, when both models have exactly the same parameter names (a dead zone and a play at
+/// the same place, say): whether `to`'s model class holds a point that simulates as `from`'s
+/// member does.
+fn transplanted_runs(from: &ModelSet, to: &ModelSet) -> Option<Vec<Vec<f64>>> {
+    let values = match &from.simulation_member {
+        Some(m) => m.values.clone(),
+        None => crate::members::central_values(from).ok()?,
+    };
+    let mut a: Vec<&str> = from.parameters.iter().map(|p| p.name.as_str()).collect();
+    let mut b: Vec<&str> = to.parameters.iter().map(|p| p.name.as_str()).collect();
+    a.sort_unstable();
+    b.sort_unstable();
+    if a != b || !b.iter().all(|n| values.iter().any(|(k, _)| k == n)) {
+        return None;
+    }
+    let p = crate::members::point(to, &values).ok()?;
+    let runs: Vec<Vec<f64>> = to
+        .training
+        .records
+        .iter()
+        .map(|r| p.simulate(&r.u, r.dt).y)
+        .collect();
+    runs.iter()
+        .all(|y| y.iter().all(|v| v.is_finite()))
+        .then_some(runs)
+}
+
 /// Mark every pair of admissible candidates (and the admissible base model) whose training
-/// behaviour the data cannot tell apart.
+/// behaviour the data cannot tell apart: their members simulate within twice the noise bound
+/// of each other, or one's member, put into the other's model class (the same parameter
+/// names), simulates within that of itself.
 fn mark_equivalences(
     evidence: &mut [Evidence],
     sets: &[Option<ModelSet>],
@@ -178,7 +208,12 @@ fn mark_equivalences(
                 continue;
             }
             if let (Some(rj), Some(sj)) = (&runs[j], &sets[j]) {
-                if indistinguishable(ri, rj, tol(si, sj), skip) {
+                let t = tol(si, sj);
+                let swapped = |from: &ModelSet, to: &ModelSet, own: &[Vec<f64>]| {
+                    transplanted_runs(from, to).is_some_and(|r| indistinguishable(own, &r, t, skip))
+                };
+                if indistinguishable(ri, rj, t, skip) || swapped(si, sj, ri) || swapped(sj, si, rj)
+                {
                     let l = evidence[j].label.clone();
                     evidence[i].equivalent_to.push(l);
                 }
