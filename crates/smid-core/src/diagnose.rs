@@ -1,10 +1,18 @@
 //! Diagnosis: trace what the model lacks to one of the registered effects, on the **training
 //! data only**, then report the error before and after on held-out records touched once.
 //!
-//! * **Candidates**: every registered effect (delay, actuator lag, sensor offset or drift,
-//!   friction, quantisation...) not yet in the model, each added to the model as one more term
-//!   ([`crate::effect`]); sensor parameters get a prior box from the training data's scale
-//!   (reported).
+//! * **Candidates**, generated from the registries: every registered effect (delay, actuator
+//!   lag, sensor offset or drift, friction, quantisation...) not yet in the model, each added to
+//!   the model as one more term ([`crate::effect`]), and every registered plugin with a default
+//!   prior as a chain block at the input side's front and the output side's end
+//!   ([`crate::chain`]); bisected parameters get a prior box from the training data's scale
+//!   (reported). An input block that breaks the designed steady-state experiment gives the
+//!   model's nonlinearity a box from the steady-state points too
+//!   ([`crate::pipeline::design_prior`], an assumption, reported), inside which the points
+//!   prune the cells with any history.
+//! * **Equivalences**: candidates whose members simulate the training records within twice
+//!   the noise bound of each other, or whose member put into the other's model class (the same
+//!   parameter names) does, are reported as indistinguishable, never silently chosen between.
 //! * **Choice (training data only)**: the base model and every candidate are identified on the
 //!   training records with the declared noise bound. A model is *admissible* when its feasible
 //!   set is not empty (the training data do not falsify it). When the base model is admissible
