@@ -191,6 +191,28 @@ pub fn backward_steady(blocks: &[&dyn NonlinearitySet], y: f64, dy: f64) -> Resu
     Ok((c, r))
 }
 
+/// A steady input `v` (an interval) carried forward through the input blocks (signal order) at
+/// both ends of each block: the hull of `propagate_steady` at the two ends, which holds every
+/// member of an order-preserving block. `None` when an interval reaches a block that is not
+/// [`NonlinearitySet::monotone`] (nothing can be said) or a block's answer is not a number.
+pub fn forward_steady(
+    blocks: &[&dyn NonlinearitySet],
+    mut v: Interval,
+) -> Result<Option<Interval>> {
+    for b in blocks {
+        if v.lo != v.hi && !b.monotone() {
+            return Ok(None);
+        }
+        let lo = b.propagate_steady(v.lo)?;
+        let hi = b.propagate_steady(v.hi)?;
+        v = Interval::new(lo.lo.min(hi.lo), lo.hi.max(hi.hi));
+        if v.lo.is_nan() || v.hi.is_nan() {
+            return Ok(None);
+        }
+    }
+    Ok(Some(v))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

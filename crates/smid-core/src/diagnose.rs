@@ -130,18 +130,22 @@ pub struct Evidence {
 /// The label of the base model in equivalence lists.
 pub const AS_DECLARED: &str = "the model as declared";
 
-/// Free runs from rest of the centre member of `set` on each training record.
-fn centre_runs(set: &ModelSet) -> Option<Vec<Vec<f64>>> {
-    let c = crate::members::representative(set).ok()?;
+/// Free runs from rest of `point` on each training record of `set` (`None` when one diverges).
+fn training_runs(point: &crate::members::ModelPoint, set: &ModelSet) -> Option<Vec<Vec<f64>>> {
     let runs: Vec<Vec<f64>> = set
         .training
         .records
         .iter()
-        .map(|r| c.simulate(&r.u, r.dt).y)
+        .map(|r| point.simulate(&r.u, r.dt).y)
         .collect();
     runs.iter()
         .all(|y| y.iter().all(|v| v.is_finite()))
         .then_some(runs)
+}
+
+/// Free runs from rest of the representative member of `set` on each training record.
+fn centre_runs(set: &ModelSet) -> Option<Vec<Vec<f64>>> {
+    training_runs(&crate::members::representative(set).ok()?, set)
 }
 
 /// Whether two models' centre free runs stay within `tol` of each other on every training
@@ -162,10 +166,7 @@ fn indistinguishable(a: &[Vec<f64>], b: &[Vec<f64>], tol: f64, skip: usize) -> b
 /// the same place, say): whether `to`'s model class holds a point that simulates as `from`'s
 /// member does.
 fn transplanted_runs(from: &ModelSet, to: &ModelSet) -> Option<Vec<Vec<f64>>> {
-    let values = match &from.simulation_member {
-        Some(m) => m.values.clone(),
-        None => crate::members::central_values(from).ok()?,
-    };
+    let values = crate::members::representative_values(from).ok()?;
     let mut a: Vec<&str> = from.parameters.iter().map(|p| p.name.as_str()).collect();
     let mut b: Vec<&str> = to.parameters.iter().map(|p| p.name.as_str()).collect();
     a.sort_unstable();
@@ -173,16 +174,7 @@ fn transplanted_runs(from: &ModelSet, to: &ModelSet) -> Option<Vec<Vec<f64>>> {
     if a != b || !b.iter().all(|n| values.iter().any(|(k, _)| k == n)) {
         return None;
     }
-    let p = crate::members::point(to, &values).ok()?;
-    let runs: Vec<Vec<f64>> = to
-        .training
-        .records
-        .iter()
-        .map(|r| p.simulate(&r.u, r.dt).y)
-        .collect();
-    runs.iter()
-        .all(|y| y.iter().all(|v| v.is_finite()))
-        .then_some(runs)
+    training_runs(&crate::members::point(to, &values).ok()?, to)
 }
 
 /// Mark every pair of admissible candidates (and the admissible base model) whose training
@@ -615,7 +607,7 @@ fn candidates(
 /// `m` breaks the designed steady-state experiment (`keeps_steady_design` is false over its
 /// prior) and the nonlinearity is not bisected yet: the polygons' hull as if the design held,
 /// with each point's input an interval over the blocks' priors, widened
-/// ([`crate::pipeline::design_prior`], `DESIGN_MARGIN`). The nonlinearity is then bisected in
+/// ([`crate::pipeline::design_prior`]). The nonlinearity is then bisected in
 /// that box and the steady-state points prune its cells with any history. `None`: nothing to
 /// add (the block keeps the design, or the nonlinearity has no parameters or a prior already).
 fn design_prior_for(
@@ -642,7 +634,7 @@ fn design_prior_for(
     {
         return Ok(None);
     }
-    let boxes = crate::pipeline::design_prior(m, layout, steady, &cell, DESIGN_MARGIN)?;
+    let boxes = crate::pipeline::design_prior(m, layout, steady, &cell)?;
     Ok(Some(
         boxes
             .into_iter()
@@ -650,10 +642,6 @@ fn design_prior_for(
             .collect(),
     ))
 }
-
-/// Relative widening of a design-derived prior box (see [`design_prior_for`]), beyond its own
-/// width on each side.
-pub const DESIGN_MARGIN: f64 = 0.05;
 
 /// Choose what to add, from the training data alone. `progress(done, total)` after each
 /// candidate.

@@ -239,9 +239,14 @@ pub fn centre(set: &ModelSet) -> Result<ModelPoint> {
 /// The member that stands for the set in free runs, predictions and plots: the simulation
 /// member when one was certified ([`simulation`]), else the central member (uncertified).
 pub fn representative(set: &ModelSet) -> Result<ModelPoint> {
+    point(set, &representative_values(set)?)
+}
+
+/// The parameter values of [`representative`], by name.
+pub fn representative_values(set: &ModelSet) -> Result<Vec<(String, f64)>> {
     match &set.simulation_member {
-        Some(m) => point(set, &m.values),
-        None => centre(set),
+        Some(m) => Ok(m.values.clone()),
+        None => central_values(set),
     }
 }
 

@@ -26,10 +26,15 @@ pub fn stage1(
     stage1_with(model, layout, steady, cell, false)
 }
 
+/// Widening of a [`design_prior`] box on each side, as a fraction of its width.
+pub const DESIGN_WIDEN_WIDTH: f64 = 0.25;
+/// Widening of a [`design_prior`] box on each side, as a fraction of its centre's magnitude.
+pub const DESIGN_WIDEN_CENTRE: f64 = 0.05;
+
 /// A box for the nonlinearity's parameters from the steady-state points **as if** every input
 /// block kept the designed experiment valid (the polygons, each point's input an interval over
-/// the blocks' whole prior boxes `cell`), widened on each side by a quarter of its width and
-/// by `relative` of its centre's magnitude (a positive parameter, a slope, stays above half its
+/// the blocks' whole prior boxes `cell`), widened on each side by [`DESIGN_WIDEN_WIDTH`] of its
+/// width and [`DESIGN_WIDEN_CENTRE`] of its centre's magnitude (a positive parameter, a slope, stays above half its
 /// lower end; a non-negative one, a play, stays non-negative).
 /// This is an assumption, not a bound: a block that breaks the design may make the linear block
 /// overshoot, which the polygons do not allow for. The diagnosis uses it, reported, as the
@@ -41,7 +46,6 @@ pub fn design_prior(
     layout: &Layout,
     steady: &SteadyStateData,
     cell: &[Interval],
-    relative: f64,
 ) -> Result<Vec<(String, Interval)>> {
     let set = stage1_with(model, layout, Some(steady), cell, true)?;
     Ok(set
@@ -49,7 +53,7 @@ pub fn design_prior(
         .into_iter()
         .map(|b| {
             let i = b.interval;
-            let w = 0.25 * (i.hi - i.lo) + relative * i.center().abs();
+            let w = DESIGN_WIDEN_WIDTH * (i.hi - i.lo) + DESIGN_WIDEN_CENTRE * i.center().abs();
             let lo = if i.lo > 0.0 {
                 (i.lo - w).max(0.5 * i.lo)
             } else if i.lo == 0.0 {
@@ -112,24 +116,17 @@ fn stage1_with(
         }
         if !inputs.is_empty() {
             // The steady input through the input blocks over their cell: an interval.
-            let mut v = Interval::new(p.u - p.du, p.u + p.du);
-            for b in &inputs {
-                if !assume_design && !b.keeps_steady_design() {
-                    return Err(SmidError::invalid(
-                        "model.input",
-                        "steady-state data reach the nonlinearity through an input block that may make the linear block overshoot under the designed square wave (a clipped or kinked wave; see NonlinearitySet::keeps_steady_design): give the nonlinearity's parameters a prior box (`model.prior`; the steady-state points then prune its cells without the design's assumption), or identify from records without the steady-state experiment",
-                    ));
-                }
-                let lo = b.propagate_steady(v.lo)?;
-                let hi = b.propagate_steady(v.hi)?;
-                if !b.monotone() && v.lo != v.hi {
-                    return Err(SmidError::invalid(
-                        "model.input",
-                        "a steady input reaches a non-monotone input block as an interval: give the nonlinearity's parameters a prior box (`model.prior`)",
-                    ));
-                }
-                v = Interval::new(lo.lo.min(hi.lo), lo.hi.max(hi.hi));
+            if !assume_design && inputs.iter().any(|b| !b.keeps_steady_design()) {
+                return Err(SmidError::invalid(
+                    "model.input",
+                    "steady-state data reach the nonlinearity through an input block that may make the linear block overshoot under the designed square wave (a clipped or kinked wave; see NonlinearitySet::keeps_steady_design): give the nonlinearity's parameters a prior box (`model.prior`; the steady-state points then prune its cells without the design's assumption), or identify from records without the steady-state experiment",
+                ));
             }
+            let v = chain::forward_steady(&inputs, Interval::new(p.u - p.du, p.u + p.du))?
+                .ok_or_else(|| SmidError::invalid(
+                    "model.input",
+                    "a steady input reaches a non-monotone input block as an interval: give the nonlinearity's parameters a prior box (`model.prior`)",
+                ))?;
             if v.lo != v.hi && !model.nonlinearity.accepts_input_radius() {
                 return Err(SmidError::invalid(
                     "model.input",
@@ -159,7 +156,8 @@ fn stage1_with(
 /// block free of overshoot, so the test holds behind any input block (a dead zone, a play, a
 /// saturation), where the polygons would not. A point either side leaves unknown, or one that
 /// reaches a non-monotone block as an interval, proves nothing and is passed over; a model
-/// without unit gain, or with a term that does not vanish at rest, is not tested. An empty
+/// without unit gain, or with a term that does not vanish at rest, is an error (the points would
+/// be dropped unused otherwise). An empty
 /// meeting is a proof that the cell is inconsistent (stage 1, the point's index).
 fn prune_by_steady_points(
     model: &ModelSpec,
@@ -168,31 +166,34 @@ fn prune_by_steady_points(
     cell: &[Interval],
     set: &dyn NonlinearitySet,
 ) -> Result<()> {
-    if !model.unit_gain || model.effects.iter().any(|e| !e.vanishes_at_steady_state()) {
-        return Ok(());
+    if !model.unit_gain {
+        return Err(SmidError::invalid(
+            "model.unit_gain",
+            "steady-state points with a prior box on the nonlinearity need `unit_gain: true` (at rest the linear block's output is then its input, eq 8); give the steady-state data or the prior box, not both",
+        ));
+    }
+    if let Some(e) = model.effects.iter().find(|e| !e.vanishes_at_steady_state()) {
+        return Err(SmidError::invalid(
+            "model.effects",
+            format!(
+                "steady-state points with a prior box on the nonlinearity need every term to vanish at rest, and `{}` does not; give the steady-state data or the prior box, not both",
+                e.label()
+            ),
+        ));
     }
     let slices = layout.effect_slices(cell);
     let blocks = BlockSets::new(model, layout, cell)?;
     let (input, output) = blocks.sides(model.structure, set);
-    'points: for p in &steady.points {
+    for p in &steady.points {
         let s = effect::sensor_sum(&model.effects, &slices, p.time)?;
         let (c, r) = chain::backward_steady(&output, p.y - s.center(), p.dy + s.radius())?;
         if !r.is_finite() {
             continue;
         }
         let x = Interval::new(c - r, c + r).outward();
-        let mut v = Interval::new(p.u - p.du, p.u + p.du);
-        for b in &input {
-            if v.lo != v.hi && !b.monotone() {
-                continue 'points;
-            }
-            let lo = b.propagate_steady(v.lo)?;
-            let hi = b.propagate_steady(v.hi)?;
-            v = Interval::new(lo.lo.min(hi.lo), lo.hi.max(hi.hi));
-            if v.lo.is_nan() || v.hi.is_nan() {
-                continue 'points;
-            }
-        }
+        let Some(v) = chain::forward_steady(&input, Interval::new(p.u - p.du, p.u + p.du))? else {
+            continue;
+        };
         if x.intersect(&v.outward()).is_none() {
             return Err(SmidError::inconsistent(
                 crate::error::Stage::SteadyState,
