@@ -43,6 +43,9 @@ use good_lp::{solvers::clarabel::clarabel, Expression, ProblemVariables, SolverM
 use nalgebra::{DMatrix, DVector};
 use num_traits::Signed;
 
+/// LU factors of a basis matrix's transpose.
+type LuT = nalgebra::linalg::LU<f64, nalgebra::Dyn, nalgebra::Dyn>;
+
 /// Relative outward relaxation of each right-hand side.
 pub const ROW_PAD: f64 = 1e-9;
 /// Relative outward widening of each optimum.
@@ -229,7 +232,7 @@ impl Polytope {
             basis.extend((0..n).filter(|&k| !pivoted[k]).map(|k| Row::Box(k, false)));
         }
         // Box signs so that the starting multipliers are >= 0.
-        let Some(mut u) = self.multipliers(&basis, c) else {
+        let Some(mut u) = Self::multipliers_lu(&self.lu_t(&basis), c) else {
             return Simplex::Unknown;
         };
         for (b, ub) in basis.iter_mut().zip(u.iter_mut()) {
@@ -244,12 +247,16 @@ impl Polytope {
             .map(|i| self.grow(i).iter().map(|v| v * v).sum::<f64>().sqrt())
             .collect();
         let cap = 50 * n + 100;
+        // The factors of `G_Bᵀ` for the current basis, kept from the multipliers after a pivot
+        // for the next iteration's entering row (the same matrix, the same factors).
+        let mut factors: Option<LuT> = None;
         for _ in 0..cap {
             let Some(x) = self.vertex(&basis) else {
                 return Simplex::Unknown;
             };
             // The most violated row (normalised), data rows and then the box.
             let mut best: Option<(Row, f64)> = None;
+            let xmax = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
             for i in 0..m {
                 let g = self.grow(i);
                 let hi = self.hp(i, 1.0);
@@ -262,8 +269,7 @@ impl Polytope {
                     }
                     continue;
                 }
-                let tol = 1e-12
-                    * (1.0 + hi.abs() + norms[i] * x.iter().fold(0.0f64, |a, v| a.max(v.abs())));
+                let tol = 1e-12 * (1.0 + hi.abs() + norms[i] * xmax);
                 if viol > tol {
                     let s = viol / norms[i];
                     if best.map_or(true, |b| s > b.1) {
@@ -292,7 +298,8 @@ impl Polytope {
             };
             // Express the entering row in the basis: G_Bᵀ v = g_enter.
             let (ge, _) = self.row(enter);
-            let Some(v) = self.solve_t(&basis, &ge) else {
+            let lu = factors.take().unwrap_or_else(|| self.lu_t(&basis));
+            let Some(v) = Self::solve_lu_t(&lu, &ge) else {
                 return Simplex::Unknown;
             };
             // Ratio test over the inequality rows of the basis.
@@ -322,10 +329,12 @@ impl Polytope {
                 }
                 Some((idx, _, _)) => {
                     basis[idx] = enter;
-                    match self.multipliers(&basis, c) {
+                    let lu = self.lu_t(&basis);
+                    match Self::multipliers_lu(&lu, c) {
                         Some(nu) => u = nu,
                         None => return Simplex::Unknown,
                     }
+                    factors = Some(lu);
                     // Rounding may leave tiny negative multipliers: they are clamped in the
                     // certificate (which accounts for the residual they leave).
                 }
@@ -371,19 +380,24 @@ impl Polytope {
             .then(|| x.iter().copied().collect())
     }
 
-    /// `G_Bᵀ y = rhs`.
-    fn solve_t(&self, basis: &[Row], rhs: &[f64]) -> Option<Vec<f64>> {
+    /// The LU factors of `G_Bᵀ`.
+    fn lu_t(&self, basis: &[Row]) -> LuT {
         let (a, _) = self.basis_matrix(basis);
-        let y = a.transpose().lu().solve(&DVector::from_column_slice(rhs))?;
+        a.transpose().lu()
+    }
+
+    /// `G_Bᵀ y = rhs` from the factors of `G_Bᵀ` ([`Self::lu_t`]).
+    fn solve_lu_t(lu: &LuT, rhs: &[f64]) -> Option<Vec<f64>> {
+        let y = lu.solve(&DVector::from_column_slice(rhs))?;
         y.iter()
             .all(|v| v.is_finite())
             .then(|| y.iter().copied().collect())
     }
 
-    /// The multipliers of the basis for `min c·θ`: `G_Bᵀ u = -c`.
-    fn multipliers(&self, basis: &[Row], c: &[f64]) -> Option<Vec<f64>> {
+    /// The multipliers of the basis for `min c·θ` (`G_Bᵀ u = -c`) from the factors of `G_Bᵀ`.
+    fn multipliers_lu(lu: &LuT, c: &[f64]) -> Option<Vec<f64>> {
         let neg: Vec<f64> = c.iter().map(|v| -v).collect();
-        self.solve_t(basis, &neg)
+        Self::solve_lu_t(lu, &neg)
     }
 
     /// Whether the Farkas combination `g_enter - Σ v_i g_i` (weights `1`, `-v_i`) proves that no
