@@ -20,19 +20,34 @@ use crate::stage3::exact_grid::{best_at_a, consistency_at, extreme_at_a, CERTIFI
 use argmin::core::{CostFunction, Error as ArgminError, Executor, State};
 use argmin::solver::neldermead::NelderMead;
 use std::cell::Cell;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering::Relaxed};
 
 /// How hard the search tries: the spec's `method.member` ([`crate::spec::MemberSpec`]).
 pub use crate::spec::MemberSpec as Options;
 
-/// A cost for argmin from a closure (non-finite values count as `+inf`).
-struct Cost<'f>(&'f dyn Fn(&[f64]) -> f64);
+/// A cost for argmin from a closure (non-finite values count as `+inf`), with an optional
+/// give-up: after `.0` evaluations whose best is still above `.1`, the run is abandoned.
+struct Cost<'f> {
+    f: &'f dyn Fn(&[f64]) -> f64,
+    give_up: Option<(usize, f64)>,
+    seen: Cell<(usize, f64)>,
+}
 
 impl CostFunction for Cost<'_> {
     type Param = Vec<f64>;
     type Output = f64;
     fn cost(&self, p: &Self::Param) -> std::result::Result<f64, ArgminError> {
-        let v = (self.0)(p);
-        Ok(if v.is_nan() { f64::INFINITY } else { v })
+        let v = (self.f)(p);
+        let v = if v.is_nan() { f64::INFINITY } else { v };
+        let (n, best) = self.seen.get();
+        let seen = (n + 1, best.min(v));
+        self.seen.set(seen);
+        match self.give_up {
+            Some((after, above)) if seen.0 >= after && seen.1 > above => Err(ArgminError::msg(
+                format!("best {:.3e} after {} evaluations: given up", seen.1, seen.0),
+            )),
+            _ => Ok(v),
+        }
     }
 }
 
@@ -43,6 +58,19 @@ fn nelder_mead(
     step: f64,
     iterations: u64,
     target: f64,
+) -> Option<(Vec<f64>, f64)> {
+    nelder_mead_or_give_up(f, z0, step, iterations, target, None)
+}
+
+/// [`nelder_mead`] that gives up (`None`) once `give_up = (n, level)` holds: `n` evaluations
+/// made and the best still above `level`.
+fn nelder_mead_or_give_up(
+    f: &dyn Fn(&[f64]) -> f64,
+    z0: &[f64],
+    step: f64,
+    iterations: u64,
+    target: f64,
+    give_up: Option<(usize, f64)>,
 ) -> Option<(Vec<f64>, f64)> {
     let f0 = f(z0);
     if z0.is_empty() || f0 <= target {
@@ -55,7 +83,12 @@ fn nelder_mead(
         simplex.push(v);
     }
     let solver = NelderMead::new(simplex).with_sd_tolerance(1e-12).ok()?;
-    let res = Executor::new(Cost(f), solver)
+    let cost = Cost {
+        f,
+        give_up,
+        seen: Cell::new((1, f0)),
+    };
+    let res = Executor::new(cost, solver)
         .configure(|s| s.max_iters(iterations).target_cost(target))
         .run()
         .ok()?;
@@ -114,6 +147,17 @@ fn nonlinearity_point(c: &CellSet) -> Option<Vec<f64>> {
 /// every certified search ended its first run below 0.013, every failed one above 0.72.
 const FAR: f64 = 0.1;
 
+/// A ranking search's ([`Options::gives_up_early`]) first phase-1 run is abandoned when, after
+/// [`HOPELESS_AFTER`] evaluations, its best measure is still above [`HOPELESS`]. Measured on
+/// the three 12-bit diagnoses (36 searches): after 30 evaluations every search that went on to
+/// certify stood at or below 0.18, every one that did not at or above 0.53 (most above 0.75);
+/// a failed search otherwise spends ~250 evaluations (0.3-2.8 s) before the `FAR` rule stops
+/// it. A full search does not give up this way: on examples/hammerstein-wiener.yaml the cell
+/// that certifies ends its first run at 4.3 and its fourth below zero.
+const HOPELESS_AFTER: usize = 30;
+/// See [`HOPELESS_AFTER`].
+const HOPELESS: f64 = 0.35;
+
 /// What the search shares between cells: the training records, their warm starts (the
 /// centre's, as `validate`'s free run) and their spread.
 struct Search<'s> {
@@ -121,9 +165,9 @@ struct Search<'s> {
     layout: &'s crate::model::Layout,
     x_warm: Vec<Vec<f64>>,
     spread: f64,
-    evaluations: Cell<usize>,
+    evaluations: AtomicUsize,
     /// The phase-1 measure the last cell's search ended with.
-    last_measure: Cell<f64>,
+    last_measure: AtomicU64,
 }
 
 /// One cell's search space: a point of the cell (nonlinearity parameters, then bisected
@@ -282,7 +326,7 @@ impl<'s> Search<'s> {
     /// `a`, with the uncertain input samples (a block's unknown initial state) at the member's
     /// own run; and the `θ` attaining it.
     fn measure_at_a(&self, sp: &CellSpace, z: &[f64]) -> (f64, Option<Vec<f64>>) {
-        self.evaluations.set(self.evaluations.get() + 1);
+        self.evaluations.fetch_add(1, Relaxed);
         let split = sp.moved.len();
         let g = sp.at(&sp.base, &z[..split]);
         let Some(sig) = self.signals_at(sp, &g) else {
@@ -302,7 +346,7 @@ impl<'s> Search<'s> {
 
     /// The exact consistency measure at a whole point (the certificate).
     fn certify(&self, sp: &CellSpace, g: &[f64], th: &[f64]) -> f64 {
-        self.evaluations.set(self.evaluations.get() + 1);
+        self.evaluations.fetch_add(1, Relaxed);
         let Some(sig) = self.signals_at(sp, g) else {
             return f64::INFINITY;
         };
@@ -347,21 +391,27 @@ impl<'s> Search<'s> {
         let mut z1 = vec![0.0; split + self.a_free().len()];
         let mut step = 0.1;
         let mut last = f64::INFINITY;
-        for _ in 0..opts.restarts.max(1) {
-            let (z, m) = nelder_mead(
+        for run in 0..opts.restarts.max(1) {
+            let give_up = (run == 0 && opts.gives_up_early()).then_some((HOPELESS_AFTER, HOPELESS));
+            let Some((z, m)) = nelder_mead_or_give_up(
                 &|z| self.measure_at_a(sp, z).0,
                 &z1,
                 step,
                 opts.iterations,
                 2.0 * CERTIFIED,
-            )?;
+                give_up,
+            ) else {
+                log::debug!(target: "smid::members", "cell {}: phase 1 given up after {HOPELESS_AFTER} evaluations above {HOPELESS}", sp.k);
+                self.last_measure.store(f64::INFINITY.to_bits(), Relaxed);
+                return None;
+            };
             z1 = z;
-            log::debug!(target: "smid::members", "cell {}: phase-1 measure {m:.3e} after {} evaluations", sp.k, self.evaluations.get());
+            log::debug!(target: "smid::members", "cell {}: phase-1 measure {m:.3e} after {} evaluations", sp.k, self.evaluations.load(Relaxed));
             // Certified, or a run that gained less than 10 % of the measure, or one that ends
             // with the boxes more than FAR short: stop (a search that stalls this way has not
             // reached a certified point in any case seen; the ones that do gain 40-90 % a run,
             // and end their first run below 0.013, the failing ones above 0.72).
-            self.last_measure.set(m);
+            self.last_measure.store(m.to_bits(), Relaxed);
             if m <= 2.0 * CERTIFIED
                 || (opts.gives_up_early() && m > FAR)
                 || (last.is_finite() && last - m < 0.1 * last.abs())
@@ -619,8 +669,8 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
             })
             .sum(),
         layout,
-        evaluations: Cell::new(0),
-        last_measure: Cell::new(f64::INFINITY),
+        evaluations: AtomicUsize::new(0),
+        last_measure: AtomicU64::new(f64::INFINITY.to_bits()),
     };
     let centre_fit = search.fit(search.sse(&centre_values));
 
@@ -636,11 +686,31 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
         }
     }
     spaces.sort_by(|a, b| a.0.total_cmp(&b.0));
-    log::debug!(target: "smid::members", "probed {} cell(s): {} evaluations", spaces.len(), search.evaluations.get());
+    log::debug!(target: "smid::members", "probed {} cell(s): {} evaluations", spaces.len(), search.evaluations.load(Relaxed));
     let mut best: Option<(f64, SimulationMember)> = None;
-    for (_, sp) in spaces.iter().take(opts.cells.max(1)) {
-        let found = search.search(sp, opts);
-        log::debug!(target: "smid::members", "cell {}: {} after {} evaluations", sp.k, if found.is_some() { "certified member" } else { "nothing certified" }, search.evaluations.get());
+    let searched = spaces.iter().take(opts.cells.max(1));
+    // A full search's cells are independent: searched side by side, kept in rank order (the
+    // member does not depend on the thread timing). A ranking search goes one by one, as it
+    // may stop after the first.
+    let found: Vec<Option<(f64, SimulationMember)>> = if opts.gives_up_early() {
+        Vec::new()
+    } else {
+        use rayon::prelude::*;
+        searched
+            .clone()
+            .collect::<Vec<_>>()
+            .par_iter()
+            .map(|(_, sp)| search.search(sp, opts))
+            .collect()
+    };
+    let mut found = found.into_iter();
+    for (_, sp) in searched {
+        let found = if opts.gives_up_early() {
+            search.search(sp, opts)
+        } else {
+            found.next().flatten()
+        };
+        log::debug!(target: "smid::members", "cell {}: {} after {} evaluations", sp.k, if found.is_some() { "certified member" } else { "nothing certified" }, search.evaluations.load(Relaxed));
         match found {
             Some((e2, m)) => {
                 if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
@@ -653,7 +723,10 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
             // later cell, and each cost as much as the first: 0.5-3.6 s). A full search goes on:
             // on examples/hammerstein-wiener.yaml the best-ranked cell's first run ends at 2.1
             // and never certifies, and the next cell does.
-            None if best.is_none() && opts.gives_up_early() && search.last_measure.get() > FAR => {
+            None if best.is_none()
+                && opts.gives_up_early()
+                && f64::from_bits(search.last_measure.load(Relaxed)) > FAR =>
+            {
                 break
             }
             None => {}
@@ -667,7 +740,7 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
         // simulate: every probed cell is tried; free runs only, one LP each for its report.)
         for (_, sp) in &spaces {
             let found = search.best_uncertified(sp, opts, &centre_values);
-            log::debug!(target: "smid::members", "cell {}: best uncertified point {:?} after {} evaluations", sp.k, found.as_ref().map(|f| f.0), search.evaluations.get());
+            log::debug!(target: "smid::members", "cell {}: best uncertified point {:?} after {} evaluations", sp.k, found.as_ref().map(|f| f.0), search.evaluations.load(Relaxed));
             if let Some((e2, m)) = found {
                 if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
                     best = Some((e2, m));
@@ -687,7 +760,7 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
     }
     Ok(best.map(|(_, mut m)| {
         m.centre_training_fit = centre_fit;
-        m.evaluations = search.evaluations.get();
+        m.evaluations = search.evaluations.load(Relaxed);
         m
     }))
 }

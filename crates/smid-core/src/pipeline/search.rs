@@ -350,7 +350,9 @@ pub fn identify_with(
         simulation_member: None,
         resolved: std::sync::OnceLock::from(layout.clone()),
     };
+    let member_start = std::time::Instant::now();
     set.simulation_member = crate::members::simulation_member(&set, &method.member)?;
+    log::debug!(target: "smid::members", "member search: {:.2} s", member_start.elapsed().as_secs_f64());
     let snr_db = match data.records.first() {
         Some(Record {
             w: Some(w),
