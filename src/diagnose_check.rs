@@ -421,7 +421,7 @@ fn run_trial(
     };
     let _ = std::fs::remove_dir_all(&dir);
     let spec = &spec_used;
-    let choice =
+    let mut choice =
         diagnose::choose(spec, &training, &Options::default(), &|_, _| {}).map_err(at("choice"))?;
     out.chosen = choice.added.clone();
     out.named = match expected_label(kind) {
@@ -440,7 +440,7 @@ fn run_trial(
             .first()
             .is_none_or(|a| *a != w && tag_of_label(a) != w)
     });
-    let (before, after) = diagnose::assess(&spec, &training, &choice, &holdout, 5)
+    let (before, after) = diagnose::assess(&spec, &training, &mut choice, &holdout, 5)
         .map_err(at("before/after table"))?;
     let fit = |c: &diagnose::Column| {
         c.validation

@@ -518,7 +518,7 @@ fn real_main() -> Result<()> {
             };
             let pb = progress(1, "candidates (training data)");
             let t0 = std::time::Instant::now();
-            let choice = smid::core::diagnose::choose(&src.spec, &training, &opts, &|d, t| {
+            let mut choice = smid::core::diagnose::choose(&src.spec, &training, &opts, &|d, t| {
                 pb.set_length(t as u64);
                 pb.set_position(d as u64);
             })
@@ -533,7 +533,7 @@ fn real_main() -> Result<()> {
                 smid::closeloop::fresh_records(&src.spec, &src.base, &holdout, seed, length, 2)
                     .context("reading the held-out records")?;
             let (before, after) =
-                smid::core::diagnose::assess(&src.spec, &training, &choice, &held, opts.k)
+                smid::core::diagnose::assess(&src.spec, &training, &mut choice, &held, opts.k)
                     .context("the before/after table")?;
             log::info!(target: "smid::diagnose", "held-out records and the before/after table: {:.2} s", t0.elapsed().as_secs_f64());
             print!("{}", smid::closeloop::format_table(&before, &after));

@@ -14,7 +14,7 @@ fn paper_lag() -> (smid_core::spec::Spec, pipeline::ExperimentData) {
 #[test]
 fn an_undeclared_sensor_lag_is_found_and_the_after_model_holds() {
     let (spec, data) = paper_lag();
-    let choice = diagnose::choose(&spec, &data, &Options::default(), &|_, _| {}).unwrap();
+    let mut choice = diagnose::choose(&spec, &data, &Options::default(), &|_, _| {}).unwrap();
     assert_eq!(
         choice.added,
         ["`lag` on the output side"],
@@ -36,7 +36,7 @@ fn an_undeclared_sensor_lag_is_found_and_the_after_model_holds() {
         .iter()
         .map(|&s| pipeline::fresh_record(&spec, &mut plant, s, 300).unwrap())
         .collect();
-    let (_, after_col) = diagnose::assess(&spec, &data, &choice, &holdout, 5).unwrap();
+    let (_, after_col) = diagnose::assess(&spec, &data, &mut choice, &holdout, 5).unwrap();
     assert!(
         after_col
             .validation

@@ -255,6 +255,11 @@ pub struct Choice {
     /// the training records (label, model, its set): offered beside the choice, not instead.
     #[serde(skip)]
     pub equivalent_models: Vec<(String, ModelSpec, ModelSet)>,
+    /// The model as declared at its smallest consistent bound, searched beside the candidates
+    /// when the training data falsify it at the declared bound (the table's before column,
+    /// from the training records only); `None`: [`assess`] searches it when needed.
+    #[serde(skip)]
+    pub before_identified: Option<Result<Outcome<(Identification, bool)>>>,
 }
 
 impl Choice {
@@ -664,8 +669,21 @@ pub fn choose(
     // Each candidate's simulation member on a light budget (its fit decides; the envelope is
     // the after-model's, identified with the spec's own budget).
     dspec.method.member = crate::spec::MemberSpec::LIGHT;
+    // The stage options of the table (the after-model's member on the spec's own budget).
+    let mut method = dspec.method.clone();
+    method.member = member_budget;
     let spec = &dspec;
+    let start = std::time::Instant::now();
     let (mut base_train, first) = try_model(spec, &base, training);
+    log::info!(target: "smid::diagnose", "the model as declared: {:.2} s", start.elapsed().as_secs_f64());
+    // A model as declared that the training data falsify is the table's before column at its
+    // smallest consistent bound whatever the rounds add: that search (training records only)
+    // runs beside the rounds, on the cores the candidates leave idle.
+    let before_spec = (!spec.noise.estimated() && !base_train.admissible()).then(|| {
+        let mut s = with_model(spec, &before);
+        s.method = method.clone();
+        s
+    });
     let mut base_set = first.map(|id| id.model);
     let mut rounds = Vec::new();
     let mut added = Vec::new();
@@ -684,115 +702,130 @@ pub fn choose(
         TrainVerdict::Consistent { bound, .. } => *bound,
         _ => f64::INFINITY,
     };
-    while (estimated || !base_train.admissible()) && added.len() < opts.max_effects {
-        let mut cands = candidates(&base, &scale, opts, training.steady.as_ref());
-        let mut sets = try_candidates(spec, &mut cands, training, progress);
-        // Admissible candidates whose centre members simulate the training records within
-        // FIT_SLACK points of the best one; among them the fewest added parameters, then the
-        // best fit. (Fewest parameters alone let a wide, uninformative set win: a lag whose
-        // pole spans [0, 0.9] admits an input dead zone's data but simulates them at 65 %.)
-        let best_fit = cands
-            .iter()
-            .filter(|(_, e)| e.train.admissible())
-            .map(|(_, e)| fit_of(&e.train))
-            .fold(f64::NEG_INFINITY, f64::max);
-        let best_admissible = cands
-            .iter()
-            .enumerate()
-            .filter(|(_, (_, e))| e.train.admissible() && fit_of(&e.train) >= best_fit - FIT_SLACK)
-            .min_by(|(_, (_, a)), (_, (_, b))| {
-                a.added_parameters.cmp(&b.added_parameters).then(
-                    fit_of(&b.train)
-                        .partial_cmp(&fit_of(&a.train))
-                        .unwrap_or(std::cmp::Ordering::Equal),
-                )
-            })
-            .map(|(i, _)| i);
-        let best_admissible = if estimated {
-            let base_bound = bound_of(&base_train);
-            cands
-                .iter()
-                .enumerate()
-                .filter(|(_, (_, e))| {
-                    bound_of(&e.train)
-                        <= base_bound * PER_PARAMETER.powi(e.added_parameters.max(1) as i32)
-                        && fit_of(&e.train) >= fit_of(&base_train) - FIT_SLACK
-                })
-                .min_by(|(_, (_, a)), (_, (_, b))| {
-                    bound_of(&a.train)
-                        .total_cmp(&bound_of(&b.train))
-                        .then(a.added_parameters.cmp(&b.added_parameters))
-                })
-                .map(|(i, _)| i)
-        } else {
-            best_admissible
-        };
-        let pick = best_admissible.or_else(|| {
-            cands
-                .iter()
-                .enumerate()
-                .filter(|(_, (_, e))| e.train.reach() > base_train.reach())
-                .max_by_key(|(_, (_, e))| (e.train.reach(), std::cmp::Reverse(e.added_parameters)))
-                .map(|(i, _)| i)
-        });
-        let mut round = Round {
-            base: label_of(&base),
-            base_train: base_train.clone(),
-            candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
-        };
-        mark_equivalences(
-            &mut round.candidates,
-            &sets,
-            base_set.as_ref().filter(|_| base_train.admissible()),
-        );
-        match pick {
-            Some(i) => {
-                equivalent_models = round.candidates[i]
-                    .equivalent_to
+    let (rounds_done, before_identified) = rayon::join(
+        || -> Result<_> {
+            while (estimated || !base_train.admissible()) && added.len() < opts.max_effects {
+                let mut cands = candidates(&base, &scale, opts, training.steady.as_ref());
+                let mut sets = try_candidates(spec, &mut cands, training, progress);
+                // Admissible candidates whose centre members simulate the training records within
+                // FIT_SLACK points of the best one; among them the fewest added parameters, then the
+                // best fit. (Fewest parameters alone let a wide, uninformative set win: a lag whose
+                // pole spans [0, 0.9] admits an input dead zone's data but simulates them at 65 %.)
+                let best_fit = cands
                     .iter()
-                    .filter_map(|l| {
-                        let j = round.candidates.iter().position(|e| &e.label == l)?;
+                    .filter(|(_, e)| e.train.admissible())
+                    .map(|(_, e)| fit_of(&e.train))
+                    .fold(f64::NEG_INFINITY, f64::max);
+                let best_admissible = cands
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, (_, e))| {
+                        e.train.admissible() && fit_of(&e.train) >= best_fit - FIT_SLACK
+                    })
+                    .min_by(|(_, (_, a)), (_, (_, b))| {
+                        a.added_parameters.cmp(&b.added_parameters).then(
+                            fit_of(&b.train)
+                                .partial_cmp(&fit_of(&a.train))
+                                .unwrap_or(std::cmp::Ordering::Equal),
+                        )
+                    })
+                    .map(|(i, _)| i);
+                let best_admissible = if estimated {
+                    let base_bound = bound_of(&base_train);
+                    cands
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, (_, e))| {
+                            bound_of(&e.train)
+                                <= base_bound * PER_PARAMETER.powi(e.added_parameters.max(1) as i32)
+                                && fit_of(&e.train) >= fit_of(&base_train) - FIT_SLACK
+                        })
+                        .min_by(|(_, (_, a)), (_, (_, b))| {
+                            bound_of(&a.train)
+                                .total_cmp(&bound_of(&b.train))
+                                .then(a.added_parameters.cmp(&b.added_parameters))
+                        })
+                        .map(|(i, _)| i)
+                } else {
+                    best_admissible
+                };
+                let pick = best_admissible.or_else(|| {
+                    cands
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, (_, e))| e.train.reach() > base_train.reach())
+                        .max_by_key(|(_, (_, e))| {
+                            (e.train.reach(), std::cmp::Reverse(e.added_parameters))
+                        })
+                        .map(|(i, _)| i)
+                });
+                let mut round = Round {
+                    base: label_of(&base),
+                    base_train: base_train.clone(),
+                    candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
+                };
+                mark_equivalences(
+                    &mut round.candidates,
+                    &sets,
+                    base_set.as_ref().filter(|_| base_train.admissible()),
+                );
+                match pick {
+                    Some(i) => {
+                        equivalent_models = round.candidates[i]
+                            .equivalent_to
+                            .iter()
+                            .filter_map(|l| {
+                                let j = round.candidates.iter().position(|e| &e.label == l)?;
+                                let set = sets[j].as_ref()?.duplicate();
+                                Some((l.clone(), cands[j].0.duplicate(), set))
+                            })
+                            .collect();
+                        round.candidates[i].chosen = true;
+                        added.push(round.candidates[i].label.clone());
+                        base_train = round.candidates[i].train.clone();
+                        base = cands.swap_remove(i).0;
+                        base_set = sets.swap_remove(i);
+                        rounds.push(round);
+                    }
+                    None => {
+                        rounds.push(round);
+                        break;
+                    }
+                }
+            }
+            if !estimated && added.is_empty() && base_train.admissible() {
+                // The model as declared is consistent: one round tells which candidates the training
+                // records cannot tell apart from it (an output offset on a backlash is a shift of its
+                // plays); none is added.
+                let mut cands = candidates(&base, &scale, opts, training.steady.as_ref());
+                let sets = try_candidates(spec, &mut cands, training, progress);
+                let mut round = Round {
+                    base: label_of(&base),
+                    base_train: base_train.clone(),
+                    candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
+                };
+                mark_equivalences(&mut round.candidates, &sets, base_set.as_ref());
+                equivalent_models = round
+                    .candidates
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, e)| e.equivalent_to.iter().any(|l| l == AS_DECLARED))
+                    .filter_map(|(j, e)| {
                         let set = sets[j].as_ref()?.duplicate();
-                        Some((l.clone(), cands[j].0.duplicate(), set))
+                        Some((e.label.clone(), cands[j].0.duplicate(), set))
                     })
                     .collect();
-                round.candidates[i].chosen = true;
-                added.push(round.candidates[i].label.clone());
-                base_train = round.candidates[i].train.clone();
-                base = cands.swap_remove(i).0;
-                base_set = sets.swap_remove(i);
                 rounds.push(round);
             }
-            None => {
-                rounds.push(round);
-                break;
-            }
-        }
-    }
-    if !estimated && added.is_empty() && base_train.admissible() {
-        // The model as declared is consistent: one round tells which candidates the training
-        // records cannot tell apart from it (an output offset on a backlash is a shift of its
-        // plays); none is added.
-        let mut cands = candidates(&base, &scale, opts, training.steady.as_ref());
-        let sets = try_candidates(spec, &mut cands, training, progress);
-        let mut round = Round {
-            base: label_of(&base),
-            base_train: base_train.clone(),
-            candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
-        };
-        mark_equivalences(&mut round.candidates, &sets, base_set.as_ref());
-        equivalent_models = round
-            .candidates
-            .iter()
-            .enumerate()
-            .filter(|(_, e)| e.equivalent_to.iter().any(|l| l == AS_DECLARED))
-            .filter_map(|(j, e)| {
-                let set = sets[j].as_ref()?.duplicate();
-                Some((e.label.clone(), cands[j].0.duplicate(), set))
-            })
-            .collect();
-        rounds.push(round);
-    }
+            Ok(())
+        },
+        || {
+            before_spec
+                .as_ref()
+                .map(|s| identify_consistent(s, training))
+        },
+    );
+    rounds_done?;
     let after_admissible = base_train.admissible();
     if !after_admissible {
         // Nothing made the data consistent: keep the model as declared.
@@ -801,12 +834,12 @@ pub fn choose(
         equivalent_models.clear();
     }
     // The after-model's simulation member and envelope on the spec's own budget.
-    let mut method = dspec.method.clone();
-    method.member = member_budget;
     let after_set = match (after_admissible, base_set) {
         (true, Some(mut set)) => {
             set.method.member = member_budget;
+            let start = std::time::Instant::now();
             set.simulation_member = crate::members::simulation_member(&set, &member_budget)?;
+            log::info!(target: "smid::diagnose", "the after-model's simulation member: {:.2} s", start.elapsed().as_secs_f64());
             Some(set)
         }
         _ => None,
@@ -821,6 +854,7 @@ pub fn choose(
         after_set,
         method,
         equivalent_models,
+        before_identified,
     })
 }
 
@@ -937,19 +971,25 @@ fn identify_consistent_at(
 pub fn assess(
     spec: &Spec,
     training: &ExperimentData,
-    choice: &Choice,
+    choice: &mut Choice,
     holdout: &[Record],
     k: usize,
 ) -> Result<(Column, Column)> {
     let mut dspec = with_model(spec, &spec.model);
     dspec.method = choice.method.clone();
     let spec = &dspec;
-    let column = |model: &ModelSpec, known: Option<&ModelSet>| -> Result<Column> {
+    let column = |model: &ModelSpec,
+                  known: Option<&ModelSet>,
+                  searched: Option<Result<Outcome<(Identification, bool)>>>|
+     -> Result<Column> {
         let (m, inflated) = match known {
             Some(m) => (m.duplicate(), false),
             None => {
-                let s = with_model(spec, model);
-                let stopped = match identify_consistent(&s, training) {
+                let found = match searched {
+                    Some(found) => found,
+                    None => identify_consistent(&with_model(spec, model), training),
+                };
+                let stopped = match found {
                     Ok(Outcome::Consistent((id, inflated))) => Ok((id.model, inflated)),
                     // A model the training data falsify at every bound tried, or that no
                     // bound makes finite: a row that says where the search stopped.
@@ -1003,20 +1043,17 @@ pub fn assess(
         })
     };
     let unchanged = choice.added.is_empty();
+    // The before column's bound search, when the choice ran it beside its rounds.
+    let searched = choice.before_identified.take();
+    let choice = &*choice;
     // The two columns are independent (the before column's bound search is the longer part):
     // computed side by side.
     let (before, after) = rayon::join(
         || {
-            column(
-                &choice.before,
-                if unchanged {
-                    choice.after_set.as_ref()
-                } else {
-                    None
-                },
-            )
+            let known = choice.after_set.as_ref().filter(|_| unchanged);
+            column(&choice.before, known, searched)
         },
-        || column(&choice.after, choice.after_set.as_ref()),
+        || column(&choice.after, choice.after_set.as_ref(), None),
     );
     Ok((before?, after?))
 }

@@ -226,10 +226,10 @@ fn diagnose(
     let (choice, before, after) = py
         .detach(|| -> smid::core::Result<_> {
             let training = smid::closeloop::training_data(&mut src)?;
-            let choice = smid::core::diagnose::choose(&src.spec, &training, &opts, &|_, _| {})?;
+            let mut choice = smid::core::diagnose::choose(&src.spec, &training, &opts, &|_, _| {})?;
             // Only now are the held-out records read.
             let (before, after) =
-                smid::core::diagnose::assess(&src.spec, &training, &choice, &held, opts.k)?;
+                smid::core::diagnose::assess(&src.spec, &training, &mut choice, &held, opts.k)?;
             Ok((choice, before, after))
         })
         .map_err(to_py)?;
