@@ -831,3 +831,42 @@ fn realised_input(
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A bowl whose minimum is `floor`, at (1, -2).
+    fn bowl(floor: f64) -> impl Fn(&[f64]) -> f64 {
+        move |z: &[f64]| floor + (z[0] - 1.0).powi(2) + (z[1] + 2.0).powi(2)
+    }
+
+    #[test]
+    fn a_run_that_stays_above_the_level_gives_up_and_one_that_falls_below_does_not() {
+        let z0 = [0.0, 0.0];
+        // The bowl's floor lies above the level: abandoned after the given evaluations.
+        let far = bowl(1.0);
+        assert!(nelder_mead_or_give_up(&far, &z0, 0.1, 150, -1.0, Some((30, 0.5))).is_none());
+        // Without a give-up the same run ends near its floor.
+        let (_, v) = nelder_mead(&far, &z0, 0.1, 150, -1.0).expect("the run ends");
+        assert!((v - 1.0).abs() < 1e-3, "{v}");
+        // A run whose best lies below the level is never abandoned, however long it takes.
+        let near = bowl(-0.5);
+        let count = Cell::new(0usize);
+        let counted = |z: &[f64]| {
+            count.set(count.get() + 1);
+            near(z)
+        };
+        let (_, v) = nelder_mead_or_give_up(
+            &counted,
+            &[0.37, -1.23],
+            0.1,
+            150,
+            -0.5 + 1e-12,
+            Some((30, 0.5)),
+        )
+        .expect("not given up");
+        assert!(count.get() > 30, "the run took {} evaluations", count.get());
+        assert!(v < -0.499, "{v}");
+    }
+}
