@@ -648,6 +648,164 @@ fn design_prior_for(
     ))
 }
 
+/// What the rounds of a choice reach: the model extended so far, its training verdict and
+/// set, the rounds, the effects added and the chosen candidate's equivalents.
+struct Reached {
+    base: ModelSpec,
+    base_train: TrainVerdict,
+    base_set: Option<ModelSet>,
+    rounds: Vec<Round>,
+    added: Vec<String>,
+    equivalent_models: Vec<(String, ModelSpec, ModelSet)>,
+}
+
+/// The rounds of [`choose`] from `base` (its training verdict and set): each identifies every
+/// candidate on the training records and extends the model by the one the rule picks, until
+/// the model is admissible (or, with an estimated bound, nothing is picked) or
+/// `opts.max_effects` are added; a model admissible as declared gets one round that only marks
+/// its equivalents.
+#[allow(clippy::too_many_arguments)]
+fn rounds(
+    spec: &Spec,
+    training: &ExperimentData,
+    opts: &Options,
+    progress: &(dyn Fn(usize, usize) + Sync),
+    scale: &DataScale,
+    mut base: ModelSpec,
+    mut base_train: TrainVerdict,
+    mut base_set: Option<ModelSet>,
+) -> Reached {
+    let estimated = spec.noise.estimated();
+    let mut rounds = Vec::new();
+    let mut added = Vec::new();
+    let mut equivalent_models = Vec::new();
+    let fit_of = |t: &TrainVerdict| match t {
+        TrainVerdict::Consistent { fit_percent, .. } => *fit_percent,
+        _ => f64::NEG_INFINITY,
+    };
+    let bound_of = |t: &TrainVerdict| match t {
+        TrainVerdict::Consistent { bound, .. } => *bound,
+        _ => f64::INFINITY,
+    };
+    while (estimated || !base_train.admissible()) && added.len() < opts.max_effects {
+        let mut cands = candidates(&base, scale, opts, training.steady.as_ref());
+        let mut sets = try_candidates(spec, &mut cands, training, progress);
+        // Admissible candidates whose centre members simulate the training records within
+        // FIT_SLACK points of the best one; among them the fewest added parameters, then the
+        // best fit. (Fewest parameters alone let a wide, uninformative set win: a lag whose
+        // pole spans [0, 0.9] admits an input dead zone's data but simulates them at 65 %.)
+        let best_fit = cands
+            .iter()
+            .filter(|(_, e)| e.train.admissible())
+            .map(|(_, e)| fit_of(&e.train))
+            .fold(f64::NEG_INFINITY, f64::max);
+        let best_admissible = cands
+            .iter()
+            .enumerate()
+            .filter(|(_, (_, e))| e.train.admissible() && fit_of(&e.train) >= best_fit - FIT_SLACK)
+            .min_by(|(_, (_, a)), (_, (_, b))| {
+                a.added_parameters.cmp(&b.added_parameters).then(
+                    fit_of(&b.train)
+                        .partial_cmp(&fit_of(&a.train))
+                        .unwrap_or(std::cmp::Ordering::Equal),
+                )
+            })
+            .map(|(i, _)| i);
+        let best_admissible = if estimated {
+            let base_bound = bound_of(&base_train);
+            cands
+                .iter()
+                .enumerate()
+                .filter(|(_, (_, e))| {
+                    bound_of(&e.train)
+                        <= base_bound * PER_PARAMETER.powi(e.added_parameters.max(1) as i32)
+                        && fit_of(&e.train) >= fit_of(&base_train) - FIT_SLACK
+                })
+                .min_by(|(_, (_, a)), (_, (_, b))| {
+                    bound_of(&a.train)
+                        .total_cmp(&bound_of(&b.train))
+                        .then(a.added_parameters.cmp(&b.added_parameters))
+                })
+                .map(|(i, _)| i)
+        } else {
+            best_admissible
+        };
+        let pick = best_admissible.or_else(|| {
+            cands
+                .iter()
+                .enumerate()
+                .filter(|(_, (_, e))| e.train.reach() > base_train.reach())
+                .max_by_key(|(_, (_, e))| (e.train.reach(), std::cmp::Reverse(e.added_parameters)))
+                .map(|(i, _)| i)
+        });
+        let mut round = Round {
+            base: label_of(&base),
+            base_train: base_train.clone(),
+            candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
+        };
+        mark_equivalences(
+            &mut round.candidates,
+            &sets,
+            base_set.as_ref().filter(|_| base_train.admissible()),
+        );
+        match pick {
+            Some(i) => {
+                equivalent_models = round.candidates[i]
+                    .equivalent_to
+                    .iter()
+                    .filter_map(|l| {
+                        let j = round.candidates.iter().position(|e| &e.label == l)?;
+                        let set = sets[j].as_ref()?.duplicate();
+                        Some((l.clone(), cands[j].0.duplicate(), set))
+                    })
+                    .collect();
+                round.candidates[i].chosen = true;
+                added.push(round.candidates[i].label.clone());
+                base_train = round.candidates[i].train.clone();
+                base = cands.swap_remove(i).0;
+                base_set = sets.swap_remove(i);
+                rounds.push(round);
+            }
+            None => {
+                rounds.push(round);
+                break;
+            }
+        }
+    }
+    if !estimated && added.is_empty() && base_train.admissible() {
+        // The model as declared is consistent: one round tells which candidates the training
+        // records cannot tell apart from it (an output offset on a backlash is a shift of its
+        // plays); none is added.
+        let mut cands = candidates(&base, scale, opts, training.steady.as_ref());
+        let sets = try_candidates(spec, &mut cands, training, progress);
+        let mut round = Round {
+            base: label_of(&base),
+            base_train: base_train.clone(),
+            candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
+        };
+        mark_equivalences(&mut round.candidates, &sets, base_set.as_ref());
+        equivalent_models = round
+            .candidates
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| e.equivalent_to.iter().any(|l| l == AS_DECLARED))
+            .filter_map(|(j, e)| {
+                let set = sets[j].as_ref()?.duplicate();
+                Some((e.label.clone(), cands[j].0.duplicate(), set))
+            })
+            .collect();
+        rounds.push(round);
+    }
+    Reached {
+        base,
+        base_train,
+        base_set,
+        rounds,
+        added,
+        equivalent_models,
+    }
+}
+
 /// Choose what to add, from the training data alone. `progress(done, total)` after each
 /// candidate.
 pub fn choose(
@@ -658,7 +816,7 @@ pub fn choose(
 ) -> Result<Choice> {
     let scale = data_scale(training);
     let before = spec.model.duplicate();
-    let mut base = spec.model.duplicate();
+    let base = spec.model.duplicate();
     // Candidates that bisect a nonlinearity's parameters get a diagnosis budget (coarser cells);
     // the augmented spec keeps it, so its results reproduce.
     let member_budget = spec.method.member;
@@ -674,7 +832,7 @@ pub fn choose(
     method.member = member_budget;
     let spec = &dspec;
     let start = std::time::Instant::now();
-    let (mut base_train, first) = try_model(spec, &base, training);
+    let (base_train, first) = try_model(spec, &base, training);
     log::info!(target: "smid::diagnose", "the model as declared: {:.2} s", start.elapsed().as_secs_f64());
     // A model as declared that the training data falsify is the table's before column at its
     // smallest consistent bound whatever the rounds add: that search (training records only)
@@ -684,140 +842,24 @@ pub fn choose(
         s.method = method.clone();
         s
     });
-    let mut base_set = first.map(|id| id.model);
-    let mut rounds = Vec::new();
-    let mut added = Vec::new();
-    let mut equivalent_models = Vec::new();
     let estimated = spec.noise.estimated();
     let rule = if estimated {
         format!("the noise bound is estimated per model (the smallest bound consistent with the training records, × margin), so every model is admissible: a candidate is kept when its bound falls below {PER_PARAMETER} × the base model's bound per added parameter (an information criterion on the training data, in the ℓ∞ sense) and its free-run fit on the training records is no worse than the base model's (by more than {FIT_SLACK} points: a candidate that explains samples away, as a saturation that swallows the worst ones, does not simulate better), the lowest bound first")
     } else {
         format!("admissible (training data consistent with the declared noise bound) and simulating the training records within {FIT_SLACK} point(s) of the best admissible candidate's free-run fit, the fewest added parameters, then the best fit; when none is admissible, the one whose first contradiction comes latest is extended in a further round")
     };
-    let fit_of = |t: &TrainVerdict| match t {
-        TrainVerdict::Consistent { fit_percent, .. } => *fit_percent,
-        _ => f64::NEG_INFINITY,
-    };
-    let bound_of = |t: &TrainVerdict| match t {
-        TrainVerdict::Consistent { bound, .. } => *bound,
-        _ => f64::INFINITY,
-    };
-    let (rounds_done, before_identified) = rayon::join(
-        || -> Result<_> {
-            while (estimated || !base_train.admissible()) && added.len() < opts.max_effects {
-                let mut cands = candidates(&base, &scale, opts, training.steady.as_ref());
-                let mut sets = try_candidates(spec, &mut cands, training, progress);
-                // Admissible candidates whose centre members simulate the training records within
-                // FIT_SLACK points of the best one; among them the fewest added parameters, then the
-                // best fit. (Fewest parameters alone let a wide, uninformative set win: a lag whose
-                // pole spans [0, 0.9] admits an input dead zone's data but simulates them at 65 %.)
-                let best_fit = cands
-                    .iter()
-                    .filter(|(_, e)| e.train.admissible())
-                    .map(|(_, e)| fit_of(&e.train))
-                    .fold(f64::NEG_INFINITY, f64::max);
-                let best_admissible = cands
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, (_, e))| {
-                        e.train.admissible() && fit_of(&e.train) >= best_fit - FIT_SLACK
-                    })
-                    .min_by(|(_, (_, a)), (_, (_, b))| {
-                        a.added_parameters.cmp(&b.added_parameters).then(
-                            fit_of(&b.train)
-                                .partial_cmp(&fit_of(&a.train))
-                                .unwrap_or(std::cmp::Ordering::Equal),
-                        )
-                    })
-                    .map(|(i, _)| i);
-                let best_admissible = if estimated {
-                    let base_bound = bound_of(&base_train);
-                    cands
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, (_, e))| {
-                            bound_of(&e.train)
-                                <= base_bound * PER_PARAMETER.powi(e.added_parameters.max(1) as i32)
-                                && fit_of(&e.train) >= fit_of(&base_train) - FIT_SLACK
-                        })
-                        .min_by(|(_, (_, a)), (_, (_, b))| {
-                            bound_of(&a.train)
-                                .total_cmp(&bound_of(&b.train))
-                                .then(a.added_parameters.cmp(&b.added_parameters))
-                        })
-                        .map(|(i, _)| i)
-                } else {
-                    best_admissible
-                };
-                let pick = best_admissible.or_else(|| {
-                    cands
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, (_, e))| e.train.reach() > base_train.reach())
-                        .max_by_key(|(_, (_, e))| {
-                            (e.train.reach(), std::cmp::Reverse(e.added_parameters))
-                        })
-                        .map(|(i, _)| i)
-                });
-                let mut round = Round {
-                    base: label_of(&base),
-                    base_train: base_train.clone(),
-                    candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
-                };
-                mark_equivalences(
-                    &mut round.candidates,
-                    &sets,
-                    base_set.as_ref().filter(|_| base_train.admissible()),
-                );
-                match pick {
-                    Some(i) => {
-                        equivalent_models = round.candidates[i]
-                            .equivalent_to
-                            .iter()
-                            .filter_map(|l| {
-                                let j = round.candidates.iter().position(|e| &e.label == l)?;
-                                let set = sets[j].as_ref()?.duplicate();
-                                Some((l.clone(), cands[j].0.duplicate(), set))
-                            })
-                            .collect();
-                        round.candidates[i].chosen = true;
-                        added.push(round.candidates[i].label.clone());
-                        base_train = round.candidates[i].train.clone();
-                        base = cands.swap_remove(i).0;
-                        base_set = sets.swap_remove(i);
-                        rounds.push(round);
-                    }
-                    None => {
-                        rounds.push(round);
-                        break;
-                    }
-                }
-            }
-            if !estimated && added.is_empty() && base_train.admissible() {
-                // The model as declared is consistent: one round tells which candidates the training
-                // records cannot tell apart from it (an output offset on a backlash is a shift of its
-                // plays); none is added.
-                let mut cands = candidates(&base, &scale, opts, training.steady.as_ref());
-                let sets = try_candidates(spec, &mut cands, training, progress);
-                let mut round = Round {
-                    base: label_of(&base),
-                    base_train: base_train.clone(),
-                    candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
-                };
-                mark_equivalences(&mut round.candidates, &sets, base_set.as_ref());
-                equivalent_models = round
-                    .candidates
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, e)| e.equivalent_to.iter().any(|l| l == AS_DECLARED))
-                    .filter_map(|(j, e)| {
-                        let set = sets[j].as_ref()?.duplicate();
-                        Some((e.label.clone(), cands[j].0.duplicate(), set))
-                    })
-                    .collect();
-                rounds.push(round);
-            }
-            Ok(())
+    let (reached, before_identified) = rayon::join(
+        || {
+            rounds(
+                spec,
+                training,
+                opts,
+                progress,
+                &scale,
+                base,
+                base_train,
+                first.map(|id| id.model),
+            )
         },
         || {
             before_spec
@@ -825,7 +867,14 @@ pub fn choose(
                 .map(|s| identify_consistent(s, training))
         },
     );
-    rounds_done?;
+    let Reached {
+        mut base,
+        base_train,
+        base_set,
+        rounds,
+        mut added,
+        mut equivalent_models,
+    } = reached;
     let after_admissible = base_train.admissible();
     if !after_admissible {
         // Nothing made the data consistent: keep the model as declared.

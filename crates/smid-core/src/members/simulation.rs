@@ -20,7 +20,7 @@ use crate::stage3::exact_grid::{best_at_a, consistency_at, extreme_at_a, CERTIFI
 use argmin::core::{CostFunction, Error as ArgminError, Executor, State};
 use argmin::solver::neldermead::NelderMead;
 use std::cell::Cell;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering::Relaxed};
+use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 
 /// How hard the search tries: the spec's `method.member` ([`crate::spec::MemberSpec`]).
 pub use crate::spec::MemberSpec as Options;
@@ -166,8 +166,6 @@ struct Search<'s> {
     x_warm: Vec<Vec<f64>>,
     spread: f64,
     evaluations: AtomicUsize,
-    /// The phase-1 measure the last cell's search ended with.
-    last_measure: AtomicU64,
 }
 
 /// One cell's search space: a point of the cell (nonlinearity parameters, then bisected
@@ -380,11 +378,25 @@ impl<'s> Search<'s> {
         }
     }
 
-    /// The best certified member of one cell: `(squared error, member)`.
+    /// The best certified member of one cell: `(squared error, member)`, and the phase-1
+    /// measure its last run ended with (`+inf` when it was given up).
     ///
-    /// In a ranking search ([`Options::gives_up_early`]) phase 1 gives up after a run whose
-    /// measure stays above [`FAR`].
-    fn search(&self, sp: &CellSpace, opts: &Options) -> Option<(f64, SimulationMember)> {
+    /// In a ranking search ([`Options::gives_up_early`]) phase 1 gives up on a first run still
+    /// above [`HOPELESS`] after [`HOPELESS_AFTER`] evaluations, and after a run whose measure
+    /// stays above [`FAR`].
+    fn search(&self, sp: &CellSpace, opts: &Options) -> (Option<(f64, SimulationMember)>, f64) {
+        let last = Cell::new(f64::INFINITY);
+        let found = self.search_cell(sp, opts, &last);
+        (found, last.get())
+    }
+
+    /// [`Self::search`]'s work; `last_measure` takes the phase-1 measure of the last run.
+    fn search_cell(
+        &self,
+        sp: &CellSpace,
+        opts: &Options,
+        last_measure: &Cell<f64>,
+    ) -> Option<(f64, SimulationMember)> {
         let split = sp.moved.len();
         // Phase 1: a certified point, restarting from the best point so far (Nelder-Mead
         // stalls on kinked measures).
@@ -402,7 +414,7 @@ impl<'s> Search<'s> {
                 give_up,
             ) else {
                 log::debug!(target: "smid::members", "cell {}: phase 1 given up after {HOPELESS_AFTER} evaluations above {HOPELESS}", sp.k);
-                self.last_measure.store(f64::INFINITY.to_bits(), Relaxed);
+                last_measure.set(f64::INFINITY);
                 return None;
             };
             z1 = z;
@@ -411,7 +423,7 @@ impl<'s> Search<'s> {
             // with the boxes more than FAR short: stop (a search that stalls this way has not
             // reached a certified point in any case seen; the ones that do gain 40-90 % a run,
             // and end their first run below 0.013, the failing ones above 0.72).
-            self.last_measure.store(m.to_bits(), Relaxed);
+            last_measure.set(m);
             if m <= 2.0 * CERTIFIED
                 || (opts.gives_up_early() && m > FAR)
                 || (last.is_finite() && last - m < 0.1 * last.abs())
@@ -670,7 +682,6 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
             .sum(),
         layout,
         evaluations: AtomicUsize::new(0),
-        last_measure: AtomicU64::new(f64::INFINITY.to_bits()),
     };
     let centre_fit = search.fit(search.sse(&centre_values));
 
@@ -687,49 +698,44 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
     }
     spaces.sort_by(|a, b| a.0.total_cmp(&b.0));
     log::debug!(target: "smid::members", "probed {} cell(s): {} evaluations", spaces.len(), search.evaluations.load(Relaxed));
-    let mut best: Option<(f64, SimulationMember)> = None;
-    let searched = spaces.iter().take(opts.cells.max(1));
-    // A full search's cells are independent: searched side by side, kept in rank order (the
-    // member does not depend on the thread timing). A ranking search goes one by one, as it
-    // may stop after the first.
+    let searched: Vec<&CellSpace> = spaces
+        .iter()
+        .take(opts.cells.max(1))
+        .map(|(_, sp)| sp)
+        .collect();
     let found: Vec<Option<(f64, SimulationMember)>> = if opts.gives_up_early() {
-        Vec::new()
+        // A ranking search (no spread: the diagnosis's candidates) goes one cell at a time:
+        // when its best-ranked cell ended far from a certified point (measure above FAR) it
+        // does not search the lower-ranked ones (in the 12-bit diagnoses none of 9 such
+        // searches certified a later cell, and each cost as much as the first: 0.5-3.6 s).
+        let mut out = Vec::new();
+        for sp in &searched {
+            let (f, last) = search.search(sp, opts);
+            let stop = f.is_none() && out.iter().all(Option::is_none) && last > FAR;
+            out.push(f);
+            if stop {
+                break;
+            }
+        }
+        out
     } else {
+        // A full search goes on (on examples/hammerstein-wiener.yaml the best-ranked cell's
+        // first run ends at 2.1 and never certifies, and the next cell does); its cells are
+        // independent, so searched side by side, kept in rank order (the member does not
+        // depend on the thread timing).
         use rayon::prelude::*;
         searched
-            .clone()
-            .collect::<Vec<_>>()
             .par_iter()
-            .map(|(_, sp)| search.search(sp, opts))
+            .map(|sp| search.search(sp, opts).0)
             .collect()
     };
-    let mut found = found.into_iter();
-    for (_, sp) in searched {
-        let found = if opts.gives_up_early() {
-            search.search(sp, opts)
-        } else {
-            found.next().flatten()
-        };
-        log::debug!(target: "smid::members", "cell {}: {} after {} evaluations", sp.k, if found.is_some() { "certified member" } else { "nothing certified" }, search.evaluations.load(Relaxed));
-        match found {
-            Some((e2, m)) => {
-                if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
-                    best = Some((e2, m));
-                }
+    let mut best: Option<(f64, SimulationMember)> = None;
+    for (sp, f) in searched.iter().zip(found) {
+        log::debug!(target: "smid::members", "cell {}: {}", sp.k, if f.is_some() { "certified member" } else { "nothing certified" });
+        if let Some((e2, m)) = f {
+            if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
+                best = Some((e2, m));
             }
-            // A ranking search (no spread: the diagnosis's candidates) whose best-ranked cell
-            // ended far from a certified point (measure above FAR) does not search the
-            // lower-ranked ones (in the 12-bit diagnoses none of 9 such searches certified a
-            // later cell, and each cost as much as the first: 0.5-3.6 s). A full search goes on:
-            // on examples/hammerstein-wiener.yaml the best-ranked cell's first run ends at 2.1
-            // and never certifies, and the next cell does.
-            None if best.is_none()
-                && opts.gives_up_early()
-                && f64::from_bits(search.last_measure.load(Relaxed)) > FAR =>
-            {
-                break
-            }
-            None => {}
         }
     }
     if best.is_none() {
