@@ -461,6 +461,9 @@ fn verdict_text(t: &diagnose::TrainVerdict) -> String {
         diagnose::TrainVerdict::Falsified { stage, sample, .. } => {
             format!("falsified at sample {sample} ({stage})")
         }
+        diagnose::TrainVerdict::AboveBar { bar, test, .. } => format!(
+            "inconsistent at the bar {bar:.3e} ({test}): its bound would be above it, not bracketed further"
+        ),
         diagnose::TrainVerdict::Failed { message } => format!("failed: {message}"),
     }
 }

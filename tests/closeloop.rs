@@ -495,3 +495,82 @@ method:
         v.member
     );
 }
+
+/// A candidate asked whether it clears a bar (`pipeline::identify_below`, how an estimated
+/// diagnosis skips bracketing candidates that cannot be kept): on records of a linear plant
+/// with bounded noise of random sizes, every bar the data falsify lies below the bound the
+/// plain identification estimates, and every bar they do not falsify gives that
+/// identification, to the digit.
+#[test]
+fn a_bar_the_data_falsify_lies_below_the_estimated_bound_and_otherwise_changes_nothing() {
+    use smid::core::outcome::Outcome;
+    let mut rng = 0x2545_f491_4f6c_dd1du64;
+    let mut uniform = move || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for case in 0..2 {
+        let noise = 0.01 + 0.05 * uniform();
+        let n = 80 + (60.0 * uniform()) as usize;
+        let levels: Vec<f64> = (0..5).map(|_| 2.0 * uniform() - 1.0).collect();
+        let hold = 3 + (6.0 * uniform()) as usize;
+        let u: Vec<f64> = (0..n).map(|t| levels[(t / hold) % 5]).collect();
+        let mut x = vec![0.0; n];
+        for t in 2..n {
+            x[t] = 0.6 * x[t - 1] - 0.25 * x[t - 2] + 0.4 * u[t - 1] + 0.25 * u[t - 2];
+        }
+        let mut csv = String::from("u,y\n");
+        for (a, b) in u.iter().zip(&x) {
+            csv.push_str(&format!("{a},{}\n", b + noise * (2.0 * uniform() - 1.0)));
+        }
+        let dir = std::env::temp_dir().join(format!("smid-bar-{}-{case}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("rec.csv"), csv).unwrap();
+        let text = "name: bar\n\
+plant:\n  data:\n    dynamic: { file: rec.csv, u: u, y: y }\n\
+noise: { estimate: 1.1 }\n\
+model:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 2\n  nb: 2\n  fixed: { b0: 0.0 }\n  unit_gain: false\n  stable: true\n";
+        let spec = smid::parse_spec(text, Path::new("bar.yaml")).unwrap();
+        let data = pipeline::load_data(&spec, &dir).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        let plain = match pipeline::identify(&spec, data.clone(), &[]).unwrap() {
+            Outcome::Consistent(id) => id,
+            Outcome::Falsified(f) => panic!("case {case}: {f}"),
+        };
+        let d = plain.model.delta;
+        for k in 0..4 {
+            let bar = d * (0.3 + 1.2 * uniform()) * if k == 3 { 3.0 } else { 1.0 };
+            match pipeline::identify_below(&spec, data.clone(), bar).unwrap() {
+                pipeline::BelowBar::Above {
+                    bar: b,
+                    falsification,
+                    ..
+                } => {
+                    assert_eq!(b, bar);
+                    assert!(bar < d, "case {case}: inconsistent at the bar {bar} above the estimate {d}: {falsification}");
+                }
+                pipeline::BelowBar::Identified(Outcome::Consistent(id)) => {
+                    assert_eq!(id.model.delta, d, "case {case}, bar {bar}");
+                    for (a, b) in id.parameters().iter().zip(plain.parameters()) {
+                        assert_eq!(
+                            (a.lower, a.upper),
+                            (b.lower, b.upper),
+                            "case {case}: {}",
+                            a.name
+                        );
+                    }
+                }
+                pipeline::BelowBar::Identified(Outcome::Falsified(f)) => {
+                    panic!("case {case}: the plain identification was consistent, this one: {f}")
+                }
+            }
+        }
+        // Far below the smallest bound any stage accepts: always falsified at the bar.
+        assert!(matches!(
+            pipeline::identify_below(&spec, data, d * 1e-3).unwrap(),
+            pipeline::BelowBar::Above { .. }
+        ));
+    }
+}

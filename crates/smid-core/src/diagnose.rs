@@ -33,7 +33,7 @@ use crate::error::{Result, SmidError, Stage};
 use crate::model::ModelSet;
 use crate::nonlinearity::SteadyStateData;
 use crate::outcome::{Falsification, Outcome};
-use crate::pipeline::{data_scale, identify, ExperimentData, Identification, Record};
+use crate::pipeline::{data_scale, identify, BelowBar, ExperimentData, Identification, Record};
 use crate::spec::{ModelSpec, Spec};
 use crate::validate::{self, Validation};
 use serde::Serialize;
@@ -84,6 +84,14 @@ pub enum TrainVerdict {
         sample: usize,
         detail: String,
     },
+    /// With an estimated bound: the training data are inconsistent at the largest bound the
+    /// candidate may have to be kept (the bar), proven by `test`, so its own bound was not
+    /// bracketed ([`crate::pipeline::identify_below`]).
+    AboveBar {
+        bar: f64,
+        test: String,
+        detail: String,
+    },
     /// Identification failed otherwise (unbounded parameters, solver trouble...).
     Failed { message: String },
 }
@@ -104,6 +112,7 @@ impl TrainVerdict {
                 },
                 *sample,
             ),
+            TrainVerdict::AboveBar { .. } => (3, 0),
             TrainVerdict::Failed { .. } => (0, 0),
         }
     }
@@ -357,9 +366,31 @@ fn try_model(
     spec: &Spec,
     model: &ModelSpec,
     data: &ExperimentData,
+    bar: Option<f64>,
 ) -> (TrainVerdict, Option<Identification>) {
     let s = with_model(spec, model);
-    match identify(&s, data.clone(), &[]) {
+    let outcome = match bar {
+        Some(bar) => match crate::pipeline::identify_below(&s, data.clone(), bar) {
+            Ok(BelowBar::Above {
+                bar,
+                test,
+                falsification,
+            }) => {
+                return (
+                    TrainVerdict::AboveBar {
+                        bar,
+                        test,
+                        detail: falsification.to_string(),
+                    },
+                    None,
+                )
+            }
+            Ok(BelowBar::Identified(o)) => Ok(o),
+            Err(e) => Err(e),
+        },
+        None => identify(&s, data.clone(), &[]),
+    };
+    match outcome {
         // Consistent, but cells left without a finite θ bound: no model to offer.
         Ok(Outcome::Consistent(id)) if !id.model.search.unbounded.is_empty() => (
             TrainVerdict::Failed {
@@ -405,12 +436,21 @@ fn try_model(
     }
 }
 
+/// The largest estimated bound a candidate adding `added` parameters may have to be kept,
+/// against a base model estimated at `base_bound`.
+fn bar(base_bound: f64, added: usize) -> f64 {
+    base_bound * PER_PARAMETER.powi(added.max(1) as i32)
+}
+
 /// Identify each candidate on the training records: its verdict into its evidence, its set
-/// (when admissible) returned in the same order.
+/// (when admissible) returned in the same order. With `base_bound` (an estimated bound), a
+/// candidate the training data falsify at its [`bar`] is not bracketed further: its verdict
+/// is that falsification ([`crate::pipeline::identify_below`]), the rule's answer unchanged.
 fn try_candidates(
     spec: &Spec,
     cands: &mut [(ModelSpec, Evidence)],
     training: &ExperimentData,
+    base_bound: Option<f64>,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Vec<Option<ModelSet>> {
     use rayon::prelude::*;
@@ -423,7 +463,12 @@ fn try_candidates(
         .par_iter_mut()
         .map(|(m, ev)| {
             let start = std::time::Instant::now();
-            let (t, id) = try_model(spec, m, training);
+            let (t, id) = try_model(
+                spec,
+                m,
+                training,
+                base_bound.map(|b| bar(b, ev.added_parameters)),
+            );
             log::info!(target: "smid::diagnose", "{}: {:.2} s", ev.label, start.elapsed().as_secs_f64());
             ev.train = t;
             progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
@@ -689,7 +734,13 @@ fn rounds(
     };
     while (estimated || !base_train.admissible()) && added.len() < opts.max_effects {
         let mut cands = candidates(&base, scale, opts, training.steady.as_ref());
-        let mut sets = try_candidates(spec, &mut cands, training, progress);
+        let mut sets = try_candidates(
+            spec,
+            &mut cands,
+            training,
+            estimated.then(|| bound_of(&base_train)),
+            progress,
+        );
         // Admissible candidates whose centre members simulate the training records within
         // FIT_SLACK points of the best one; among them the fewest added parameters, then the
         // best fit. (Fewest parameters alone let a wide, uninformative set win: a lag whose
@@ -717,8 +768,7 @@ fn rounds(
                 .iter()
                 .enumerate()
                 .filter(|(_, (_, e))| {
-                    bound_of(&e.train)
-                        <= base_bound * PER_PARAMETER.powi(e.added_parameters.max(1) as i32)
+                    bound_of(&e.train) <= bar(base_bound, e.added_parameters)
                         && fit_of(&e.train) >= fit_of(&base_train) - FIT_SLACK
                 })
                 .min_by(|(_, (_, a)), (_, (_, b))| {
@@ -777,7 +827,7 @@ fn rounds(
         // records cannot tell apart from it (an output offset on a backlash is a shift of its
         // plays); none is added.
         let mut cands = candidates(&base, scale, opts, training.steady.as_ref());
-        let sets = try_candidates(spec, &mut cands, training, progress);
+        let sets = try_candidates(spec, &mut cands, training, None, progress);
         let mut round = Round {
             base: label_of(&base),
             base_train: base_train.clone(),
@@ -832,7 +882,7 @@ pub fn choose(
     method.member = member_budget;
     let spec = &dspec;
     let start = std::time::Instant::now();
-    let (base_train, first) = try_model(spec, &base, training);
+    let (base_train, first) = try_model(spec, &base, training, None);
     log::info!(target: "smid::diagnose", "the model as declared: {:.2} s", start.elapsed().as_secs_f64());
     // A model as declared that the training data falsify is the table's before column at its
     // smallest consistent bound whatever the rounds add: that search (training records only)
@@ -844,7 +894,7 @@ pub fn choose(
     });
     let estimated = spec.noise.estimated();
     let rule = if estimated {
-        format!("the noise bound is estimated per model (the smallest bound consistent with the training records, × margin), so every model is admissible: a candidate is kept when its bound falls below {PER_PARAMETER} × the base model's bound per added parameter (an information criterion on the training data, in the ℓ∞ sense) and its free-run fit on the training records is no worse than the base model's (by more than {FIT_SLACK} points: a candidate that explains samples away, as a saturation that swallows the worst ones, does not simulate better), the lowest bound first")
+        format!("the noise bound is estimated per model (the smallest bound consistent with the training records, × margin), so every model is admissible: a candidate is kept when its bound falls below {PER_PARAMETER} × the base model's bound per added parameter (an information criterion on the training data, in the ℓ∞ sense) and its free-run fit on the training records is no worse than the base model's (by more than {FIT_SLACK} points: a candidate that explains samples away, as a saturation that swallows the worst ones, does not simulate better), the lowest bound first; a candidate the training data falsify at that bar is not bracketed further (\"inconsistent at the bar\")")
     } else {
         format!("admissible (training data consistent with the declared noise bound) and simulating the training records within {FIT_SLACK} point(s) of the best admissible candidate's free-run fit, the fewest added parameters, then the best fit; when none is admissible, the one whose first contradiction comes latest is extended in a further round")
     };

@@ -103,6 +103,36 @@ pub fn identify(
     identify_with(spec, data, truth, &|_| {})
 }
 
+/// [`identify`] of a model whose noise bound is estimated (`noise.estimate`), asked only
+/// whether it clears `bar`: the bound it would be identified with must not exceed `bar`. Before
+/// its bracket, the estimate tests `bar` itself, by the cheap classical test and then by the
+/// stage-3 method's verdict; when either proves the data inconsistent there, the answer is
+/// [`BelowBar::Above`] (the bound an estimate reports is one the method accepts, and a
+/// relaxation that rejects a bound rejects every smaller one) and the bracket is not run: for a
+/// candidate that cannot be kept, one verdict instead of the bracket's five to ten. Otherwise
+/// the identification is [`identify`]'s, to the digit (the bar's verdict is one more, asked
+/// first). A spec with a declared bound ignores `bar`.
+pub fn identify_below(spec: &Spec, data: ExperimentData, bar: f64) -> Result<BelowBar> {
+    if spec.noise.estimated() && spec.noise.delta.is_none() && bar.is_finite() && bar > 0.0 {
+        return identify_estimated(spec, &data, &[], &|_| {}, Some(bar));
+    }
+    identify(spec, data, &[]).map(BelowBar::Identified)
+}
+
+/// What [`identify_below`] found.
+#[derive(Debug)]
+pub enum BelowBar {
+    /// The training data are inconsistent at `bar`, proven by `test` (the classical test or
+    /// the stage-3 method): the model's estimated bound would exceed the bar.
+    Above {
+        bar: f64,
+        test: String,
+        falsification: Falsification,
+    },
+    /// Not falsified at the bar: [`identify`]'s answer.
+    Identified(Outcome<Identification>),
+}
+
 /// Identification at an estimated noise bound (`noise.estimate`). The first try is at the
 /// margin times the smallest bound the cheap classical test finds consistent
 /// ([`estimate_bound`]). A tighter stage-3 method can prove the data inconsistent there: the
@@ -118,13 +148,14 @@ fn identify_estimated(
     data: &ExperimentData,
     truth: &[(String, f64)],
     progress: &(dyn Fn(&cells::Progress) + Sync),
-) -> Result<Outcome<Identification>> {
+    bar: Option<f64>,
+) -> Result<BelowBar> {
     let margin = spec.noise.estimate.unwrap_or(1.1).max(1.01);
     // The bracket identifies without the member search; the member is searched once, for the
     // bound kept.
     let first = match estimate_bound(spec, data)? {
         Outcome::Consistent(d) => d,
-        Outcome::Falsified(f) => return Ok(Outcome::Falsified(f)),
+        Outcome::Falsified(f) => return Ok(BelowBar::Identified(Outcome::Falsified(f))),
     };
     let mut quiet = with_bound(spec, first);
     quiet.method.member.search = false;
@@ -156,6 +187,29 @@ fn identify_estimated(
         }, t0.elapsed().as_secs_f64());
         r
     };
+    // A bar first: when the data are inconsistent at it (classical test, then the method), the
+    // bound the bracket would reach lies above it; the bracket is then not run.
+    if let Some(b) = bar {
+        if !consistent_at(spec, data, b)? {
+            log::info!(target: "smid::estimate", "noise bound {b:.4e} (the bar): falsified by the classical test");
+            return Ok(BelowBar::Above {
+                bar: b,
+                test: "the classical test".into(),
+                falsification: Falsification::new(
+                    crate::error::Stage::Linear,
+                    0,
+                    "no θ fits the equations of any cell (classical outer sets empty)",
+                ),
+            });
+        }
+        if let Ok(Outcome::Falsified(f)) = verdict(b) {
+            return Ok(BelowBar::Above {
+                bar: b,
+                test: format!("the stage-3 method `{}`", spec.method.eiv.name()),
+                falsification: f,
+            });
+        }
+    }
     let mut lo = first;
     let mut hi = first;
     let mut found = false;
@@ -172,10 +226,10 @@ fn identify_estimated(
         }
     }
     if !found {
-        return Ok(Outcome::Falsified(Falsification::new(crate::error::Stage::Linear, 0, format!(
+        return Ok(BelowBar::Identified(Outcome::Falsified(Falsification::new(crate::error::Stage::Linear, 0, format!(
                 "the stage-3 method `{}` finds the training data inconsistent up to a noise bound of {hi:.3e}",
                 spec.method.eiv.name()
-            ))));
+            )))));
     }
     if hi > first {
         // Narrow [lo, hi] (inconsistent at lo, an answer at hi) to 5 %, then identify at the
@@ -196,7 +250,7 @@ fn identify_estimated(
         id.model.simulation_member =
             crate::members::simulation_member(&id.model, &spec.method.member)?;
     }
-    best.map_err(|e| match e {
+    best.map(BelowBar::Identified).map_err(|e| match e {
         SmidError::Unbounded { parameter, message } if !spec.model.stable => SmidError::Unbounded {
             parameter,
             message: format!(
@@ -219,7 +273,13 @@ pub fn identify_with(
     if spec.noise.estimated() && spec.noise.delta.is_none() {
         // Measured data without a known sensor bound: estimate it, then identify with it
         // (growing it by the margin while the stage-3 method still finds the data inconsistent).
-        return identify_estimated(spec, &data, truth, progress);
+        return Ok(
+            match identify_estimated(spec, &data, truth, progress, None)? {
+                BelowBar::Identified(outcome) => outcome,
+                // Without a bar there is none to be above; kept as what it proves.
+                BelowBar::Above { falsification, .. } => Outcome::Falsified(falsification),
+            },
+        );
     }
     let (layout, training, search) = match searched(spec, &mut data, progress, false)? {
         Outcome::Consistent(x) => x,
