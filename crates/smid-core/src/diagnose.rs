@@ -369,26 +369,12 @@ fn try_model(
     bar: Option<f64>,
 ) -> (TrainVerdict, Option<Identification>) {
     let s = with_model(spec, model);
-    let outcome = match bar {
-        Some(bar) => match crate::pipeline::identify_below(&s, data.clone(), bar) {
-            Ok(BelowBar::Above {
-                bar,
-                test,
-                falsification,
-            }) => {
-                return (
-                    TrainVerdict::AboveBar {
-                        bar,
-                        test,
-                        detail: falsification.to_string(),
-                    },
-                    None,
-                )
-            }
-            Ok(BelowBar::Identified(o)) => Ok(o),
-            Err(e) => Err(e),
-        },
-        None => identify(&s, data.clone(), &[]),
+    let outcome = match crate::pipeline::identify_below(&s, data.clone(), bar) {
+        Ok(BelowBar::Above { bar, test, detail }) => {
+            return (TrainVerdict::AboveBar { bar, test, detail }, None)
+        }
+        Ok(BelowBar::Identified(o)) => Ok(o),
+        Err(e) => Err(e),
     };
     match outcome {
         // Consistent, but cells left without a finite θ bound: no model to offer.
@@ -445,7 +431,8 @@ fn bar(base_bound: f64, added: usize) -> f64 {
 /// Identify each candidate on the training records: its verdict into its evidence, its set
 /// (when admissible) returned in the same order. With `base_bound` (an estimated bound), a
 /// candidate the training data falsify at its [`bar`] is not bracketed further: its verdict
-/// is that falsification ([`crate::pipeline::identify_below`]), the rule's answer unchanged.
+/// is [`TrainVerdict::AboveBar`] ([`crate::pipeline::identify_below`]), the rule's answer
+/// unchanged.
 fn try_candidates(
     spec: &Spec,
     cands: &mut [(ModelSpec, Evidence)],

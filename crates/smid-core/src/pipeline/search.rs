@@ -111,23 +111,27 @@ pub fn identify(
 /// relaxation that rejects a bound rejects every smaller one) and the bracket is not run: for a
 /// candidate that cannot be kept, one verdict instead of the bracket's five to ten. Otherwise
 /// the identification is [`identify`]'s, to the digit (the bar's verdict is one more, asked
-/// first). A spec with a declared bound ignores `bar`.
-pub fn identify_below(spec: &Spec, data: ExperimentData, bar: f64) -> Result<BelowBar> {
-    if spec.noise.estimated() && spec.noise.delta.is_none() && bar.is_finite() && bar > 0.0 {
-        return identify_estimated(spec, &data, &[], &|_| {}, Some(bar));
+/// first). Without a bar (or a bar that is not a positive number), and for a spec with a
+/// declared bound, it is [`identify`].
+pub fn identify_below(spec: &Spec, data: ExperimentData, bar: Option<f64>) -> Result<BelowBar> {
+    match bar.filter(|b| b.is_finite() && *b > 0.0) {
+        Some(b) if spec.noise.estimated() && spec.noise.delta.is_none() => {
+            identify_estimated(spec, &data, &[], &|_| {}, Some(b))
+        }
+        _ => identify(spec, data, &[]).map(BelowBar::Identified),
     }
-    identify(spec, data, &[]).map(BelowBar::Identified)
 }
 
 /// What [`identify_below`] found.
 #[derive(Debug)]
 pub enum BelowBar {
     /// The training data are inconsistent at `bar`, proven by `test` (the classical test or
-    /// the stage-3 method): the model's estimated bound would exceed the bar.
+    /// the stage-3 method; `detail`: what it proved, with the first offending sample where the
+    /// method names one): the model's estimated bound would exceed the bar.
     Above {
         bar: f64,
         test: String,
-        falsification: Falsification,
+        detail: String,
     },
     /// Not falsified at the bar: [`identify`]'s answer.
     Identified(Outcome<Identification>),
@@ -195,18 +199,16 @@ fn identify_estimated(
             return Ok(BelowBar::Above {
                 bar: b,
                 test: "the classical test".into(),
-                falsification: Falsification::new(
-                    crate::error::Stage::Linear,
-                    0,
-                    "no θ fits the equations of any cell (classical outer sets empty)",
-                ),
+                detail: "no θ fits the equations of any cell (classical outer sets empty)".into(),
             });
         }
+        // A verdict that failed (solver trouble) proves nothing: the bracket goes on as it
+        // would without a bar, and reports such trouble itself.
         if let Ok(Outcome::Falsified(f)) = verdict(b) {
             return Ok(BelowBar::Above {
                 bar: b,
                 test: format!("the stage-3 method `{}`", spec.method.eiv.name()),
-                falsification: f,
+                detail: f.to_string(),
             });
         }
     }
@@ -277,7 +279,9 @@ pub fn identify_with(
             match identify_estimated(spec, &data, truth, progress, None)? {
                 BelowBar::Identified(outcome) => outcome,
                 // Without a bar there is none to be above; kept as what it proves.
-                BelowBar::Above { falsification, .. } => Outcome::Falsified(falsification),
+                BelowBar::Above { detail, .. } => {
+                    Outcome::Falsified(Falsification::new(crate::error::Stage::Linear, 0, detail))
+                }
             },
         );
     }
