@@ -14,6 +14,31 @@ pub struct LinearModel {
     pub b: Vec<f64>,
 }
 
+/// Largest modulus of the roots of `z^n + a_1 z^(n-1) + ... + a_n` (the poles of `1/A`, for
+/// `a = [a_1, ..., a_n]`); infinite when the eigenvalue iteration does not converge (a
+/// non-finite coefficient; at most 10 000 QR steps, so no input can make it spin).
+pub fn spectral_radius(a: &[f64]) -> f64 {
+    let n = a.len();
+    if n == 0 {
+        return 0.0;
+    }
+    let mut c = nalgebra::DMatrix::<f64>::zeros(n, n);
+    for j in 0..n {
+        c[(0, j)] = -a[j];
+    }
+    for i in 1..n {
+        c[(i, i - 1)] = 1.0;
+    }
+    let Some(schur) = nalgebra::Schur::try_new(c, f64::EPSILON, 10_000) else {
+        return f64::INFINITY;
+    };
+    schur
+        .complex_eigenvalues()
+        .iter()
+        .map(|z| z.norm())
+        .fold(0.0, f64::max)
+}
+
 impl LinearModel {
     /// Steady-state gain `sum b / (1 + sum a)` (eq 8).
     pub fn gain(&self) -> f64 {
@@ -24,25 +49,7 @@ impl LinearModel {
     /// eigenvalue iteration does not converge (a non-finite coefficient; at most 10 000 QR
     /// steps, so no input can make it spin).
     pub fn spectral_radius(&self) -> f64 {
-        let n = self.a.len();
-        if n == 0 {
-            return 0.0;
-        }
-        let mut c = nalgebra::DMatrix::<f64>::zeros(n, n);
-        for j in 0..n {
-            c[(0, j)] = -self.a[j];
-        }
-        for i in 1..n {
-            c[(i, i - 1)] = 1.0;
-        }
-        let Some(schur) = nalgebra::Schur::try_new(c, f64::EPSILON, 10_000) else {
-            return f64::INFINITY;
-        };
-        schur
-            .complex_eigenvalues()
-            .iter()
-            .map(|z| z.norm())
-            .fold(0.0, f64::max)
+        spectral_radius(&self.a)
     }
 
     /// Check finiteness, asymptotic stability and a non-zero gain (Section 2, (i)-(ii)).

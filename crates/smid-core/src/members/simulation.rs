@@ -313,6 +313,23 @@ impl<'s> Search<'s> {
         crate::pipeline::eiv_problem(&self.set.model, self.layout, &self.set.method, sig, None)
     }
 
+    /// The largest root modulus of the linear block's `A` at phase-1 coordinates `z` (the
+    /// free `a`'s from `z`, the fixed ones as declared).
+    fn root_radius(&self, sp: &CellSpace, z: &[f64]) -> f64 {
+        let split = sp.moved.len();
+        let mut free = z[split..].iter();
+        let a: Vec<f64> = (0..self.layout.orders.na)
+            .map(|i| match self.layout.fixed[i] {
+                Some(v) => v,
+                None => {
+                    let zi = free.next().copied().unwrap_or(0.0);
+                    sp.theta0[i] + sp.theta_scale(i, &sp.theta0) * zi
+                }
+            })
+            .collect();
+        crate::linear::spectral_radius(&a)
+    }
+
     fn a_free(&self) -> Vec<usize> {
         (0..self.layout.orders.na)
             .filter(|&i| self.layout.fixed[i].is_none())
@@ -433,11 +450,47 @@ impl<'s> Search<'s> {
             last = m;
             step *= 0.5;
         }
-        let g1 = sp.at(&sp.base, &z1[..split]);
+        let mut g1 = sp.at(&sp.base, &z1[..split]);
         let mut theta1 = self.measure_at_a(sp, &z1).1?;
         self.fix_gain(&mut theta1);
         if self.certify(sp, &g1, &theta1) > CERTIFIED {
             return None;
+        }
+        // A certified point whose linear block is unstable runs away in every free run, and
+        // phase 2's small steps from it stay among runaways (the output backlash on the tanks:
+        // a certified member at -2e114 % training fit). Phase 1 again from there, with the
+        // root radius's excess over 1 counted as distance from a certificate: a stable
+        // certified start when the cell holds one near. Else the certified point as before,
+        // unless the model is declared stable (`model.stable`): an unstable point is then no
+        // member of the declared class, and the cell has no certified member.
+        let stable_only = self.set.model.stable;
+        if self.root_radius(sp, &z1) >= 1.0 {
+            let stable_measure = |z: &[f64]| {
+                let m = self.measure_at_a(sp, z).0;
+                let excess = self.root_radius(sp, z) - 1.0;
+                if excess >= 0.0 {
+                    m.max(2.0 * CERTIFIED) + excess + f64::EPSILON
+                } else {
+                    m
+                }
+            };
+            let stable = nelder_mead(&stable_measure, &z1, 0.1, opts.iterations, 2.0 * CERTIFIED)
+                .filter(|(_, m)| *m <= 2.0 * CERTIFIED)
+                .and_then(|(z, _)| {
+                    let g = sp.at(&sp.base, &z[..split]);
+                    let mut th = self.measure_at_a(sp, &z).1?;
+                    self.fix_gain(&mut th);
+                    (self.certify(sp, &g, &th) <= CERTIFIED).then_some((g, th))
+                });
+            log::debug!(target: "smid::members", "cell {}: certified point unstable; a stable one {}", sp.k, if stable.is_some() { "found" } else { "not found" });
+            match stable {
+                Some((g, th)) => {
+                    g1 = g;
+                    theta1 = th;
+                }
+                None if stable_only => return None,
+                None => {}
+            }
         }
         // Phase 2: the best free run among certified points, from the certified one.
         let gain = self.gain_slot();
@@ -454,8 +507,12 @@ impl<'s> Search<'s> {
             self.fix_gain(&mut th);
             (g, th)
         };
+        let na = self.layout.orders.na;
         let cost = |z: &[f64]| -> f64 {
             let (g, th) = point_of(z);
+            if stable_only && crate::linear::spectral_radius(&th[..na]) >= 1.0 {
+                return f64::INFINITY;
+            }
             if self.certify(sp, &g, &th) > CERTIFIED {
                 return f64::INFINITY;
             }
