@@ -323,37 +323,6 @@ impl Choice {
     }
 }
 
-fn label_of(m: &ModelSpec) -> String {
-    let mut s = format!(
-        "{} {} (na = {}, nb = {}, nk = {})",
-        match m.structure {
-            crate::nonlinearity::Structure::Wiener => "Wiener",
-            crate::nonlinearity::Structure::Hammerstein => "Hammerstein",
-        },
-        m.nonlinearity_tag(),
-        m.na,
-        m.nb,
-        m.nk
-    );
-    let tags = |v: &[Box<dyn crate::nonlinearity::NonlinearityModel>]| {
-        v.iter()
-            .map(|b| crate::nonlinearity::tag_of_model(b.as_ref()))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    if !m.input.is_empty() {
-        s = format!("[{}] -> {s}", tags(&m.input));
-    }
-    if !m.output.is_empty() {
-        s = format!("{s} -> [{}]", tags(&m.output));
-    }
-    for e in &m.effects {
-        s.push_str(" + ");
-        s.push_str(&e.label());
-    }
-    s
-}
-
 /// A spec whose model is `model` (the rest as `spec`).
 pub fn with_model(spec: &Spec, model: &ModelSpec) -> Spec {
     let mut v = serde_json::to_value(spec).expect("specs serialise");
@@ -776,7 +745,7 @@ fn rounds(
                 .map(|(i, _)| i)
         });
         let mut round = Round {
-            base: label_of(&base),
+            base: base.label(),
             base_train: base_train.clone(),
             candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
         };
@@ -816,7 +785,7 @@ fn rounds(
         let mut cands = candidates(&base, scale, opts, training.steady.as_ref());
         let sets = try_candidates(spec, &mut cands, training, None, progress);
         let mut round = Round {
-            base: label_of(&base),
+            base: base.label(),
             base_train: base_train.clone(),
             candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
         };
@@ -977,7 +946,7 @@ pub fn identify_consistent(
 ) -> Result<Outcome<(Identification, bool)>> {
     let start = std::time::Instant::now();
     let r = identify_consistent_at(spec, data);
-    log::info!(target: "smid::diagnose", "smallest consistent bound of {}: {:.2} s", label_of(&spec.model), start.elapsed().as_secs_f64());
+    log::info!(target: "smid::diagnose", "smallest consistent bound of {}: {:.2} s", spec.model.label(), start.elapsed().as_secs_f64());
     r
 }
 
@@ -1091,7 +1060,7 @@ pub fn assess(
                     Ok(m) => m,
                     Err(stopped) => {
                         return Ok(Column {
-                            label: label_of(model),
+                            label: model.label(),
                             bound: f64::NAN,
                             inflated: true,
                             parameters: 0,
@@ -1118,7 +1087,7 @@ pub fn assess(
             .filter(|r| r.is_finite())
             .collect();
         Ok(Column {
-            label: label_of(model),
+            label: model.label(),
             bound: m.delta,
             inflated,
             parameters: free.len(),

@@ -274,6 +274,40 @@ impl ModelSpec {
         tag_of_model(self.nonlinearity.as_ref())
     }
 
+    /// The chain in words: structure, plugin, orders, blocks on each side and the effects'
+    /// labels (what a diagnosis report and its log lines name a model by).
+    pub fn label(&self) -> String {
+        let m = self;
+        let mut s = format!(
+            "{} {} (na = {}, nb = {}, nk = {})",
+            match m.structure {
+                crate::nonlinearity::Structure::Wiener => "Wiener",
+                crate::nonlinearity::Structure::Hammerstein => "Hammerstein",
+            },
+            m.nonlinearity_tag(),
+            m.na,
+            m.nb,
+            m.nk
+        );
+        let tags = |v: &[Box<dyn crate::nonlinearity::NonlinearityModel>]| {
+            v.iter()
+                .map(|b| tag_of_model(b.as_ref()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        if !m.input.is_empty() {
+            s = format!("[{}] -> {s}", tags(&m.input));
+        }
+        if !m.output.is_empty() {
+            s = format!("{s} -> [{}]", tags(&m.output));
+        }
+        for e in &m.effects {
+            s.push_str(" + ");
+            s.push_str(&e.label());
+        }
+        s
+    }
+
     /// Whether the chain has blocks besides the nonlinearity.
     pub fn has_blocks(&self) -> bool {
         !(self.input.is_empty() && self.output.is_empty())

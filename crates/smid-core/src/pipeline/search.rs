@@ -161,6 +161,8 @@ fn identify_estimated(
         Outcome::Consistent(d) => d,
         Outcome::Falsified(f) => return Ok(BelowBar::Identified(Outcome::Falsified(f))),
     };
+    // Log lines name their model: a diagnosis brackets its candidates side by side.
+    let label = spec.model.label();
     let mut quiet = with_bound(spec, first);
     quiet.method.member.search = false;
     // The bracket's steps ask only whether the method finds the data consistent at `d`: the
@@ -169,7 +171,7 @@ fn identify_estimated(
     let verdict = |d: f64| {
         let t0 = std::time::Instant::now();
         let r = consistent_by_method(&with_bound(&quiet, d), data_with_bound(data, d));
-        log::info!(target: "smid::estimate", "noise bound {d:.4e}: {} ({:.2} s)", match &r {
+        log::info!(target: "smid::estimate", "{label}: noise bound {d:.4e}: {} ({:.2} s)", match &r {
             Ok(Outcome::Consistent(_)) => "consistent".to_string(),
             Ok(Outcome::Falsified(f)) => format!("falsified: {f}").chars().take(60).collect(),
             Err(e) => e.to_string().chars().take(60).collect(),
@@ -184,7 +186,7 @@ fn identify_estimated(
             truth,
             progress,
         );
-        log::info!(target: "smid::estimate", "noise bound {d:.4e}: {} ({:.2} s)", match &r {
+        log::info!(target: "smid::estimate", "{label}: noise bound {d:.4e}: {} ({:.2} s)", match &r {
             Ok(Outcome::Consistent(_)) => "an answer".to_string(),
             Ok(Outcome::Falsified(f)) => format!("falsified: {f}").chars().take(60).collect(),
             Err(e) => e.to_string().chars().take(60).collect(),
@@ -195,7 +197,7 @@ fn identify_estimated(
     // bound the bracket would reach lies above it; the bracket is then not run.
     if let Some(b) = bar {
         if !consistent_at(spec, data, b)? {
-            log::info!(target: "smid::estimate", "noise bound {b:.4e} (the bar): falsified by the classical test");
+            log::info!(target: "smid::estimate", "{label}: noise bound {b:.4e} (the bar): falsified by the classical test");
             return Ok(BelowBar::Above {
                 bar: b,
                 test: "the classical test".into(),
