@@ -634,3 +634,107 @@ model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 2\n  nb: 
     eprintln!("{certified} certified stable members; {unstable_undeclared} unstable ones without the declaration");
     assert!(certified >= 3 && unstable_undeclared >= 1);
 }
+
+/// `members::theta_reproducing` recovers a member's `θ` from its own linear-block output: on
+/// records of random linear plants (orders, delay, poles, an equation term or none, record
+/// length and levels drawn per case), the representative member of the identified set, its
+/// `θ` forgotten, is fitted back from its free run's inner signal to rounding, with an equation
+/// error of rounding size; a `θ` of the wrong sign in the values given is ignored (`θ` is
+/// fitted, the rest is taken).
+#[test]
+fn theta_is_recovered_from_a_members_own_linear_block_output() {
+    use smid::core::outcome::Outcome;
+    use smid::core::rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(25_003);
+    for case in 0..6 {
+        let na = rng.gen_range(1..=3usize);
+        let nb = rng.gen_range(0..=2usize);
+        let nk = rng.gen_range(1..=2usize);
+        let constant = rng.gen_bool(0.5);
+        let poles: Vec<f64> = (0..na).map(|_| rng.gen_range(-0.6..0.8)).collect();
+        let mut a = vec![1.0];
+        for p in &poles {
+            let mut next = vec![0.0; a.len() + 1];
+            for (i, c) in a.iter().enumerate() {
+                next[i] += c;
+                next[i + 1] -= p * c;
+            }
+            a = next;
+        }
+        let b: Vec<f64> = (0..=nb).map(|_| rng.gen_range(0.1..1.0)).collect();
+        let n = rng.gen_range(80..150);
+        let levels: Vec<f64> = (0..5).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let hold = rng.gen_range(3..9);
+        let u: Vec<f64> = (0..n).map(|t| levels[(t / hold) % 5]).collect();
+        let mut x = vec![0.0; n];
+        for t in 0..n {
+            let mut v = if constant { 0.05 } else { 0.0 };
+            for (j, bj) in b.iter().enumerate() {
+                if t >= nk + j {
+                    v += bj * u[t - nk - j];
+                }
+            }
+            for i in 1..=na {
+                if t >= i {
+                    v -= a[i] * x[t - i];
+                }
+            }
+            x[t] = v;
+        }
+        let e = smid::core::noise::uniform(n, 0.01, &mut rng);
+        let mut csv = String::from("u,y\n");
+        for ((p, q), e) in u.iter().zip(&x).zip(&e) {
+            csv.push_str(&format!("{p},{}\n", q + e));
+        }
+        let dir = std::env::temp_dir().join(format!("smid-refit-{}-{case}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("rec.csv"), csv).unwrap();
+        let effects = if constant {
+            "  effects: [ { type: constant } ]\n"
+        } else {
+            ""
+        };
+        let text = format!("name: refit\n\
+plant:\n  data:\n    dynamic: {{ file: rec.csv, u: u, y: y }}\n\
+noise: {{ delta: 0.0105 }}\n\
+method: {{ eiv: classical }}\n\
+model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: {na}\n  nb: {nb}\n  nk: {nk}\n  unit_gain: false\n{effects}");
+        let spec = smid::parse_spec(&text, Path::new("refit.yaml")).unwrap();
+        let data = pipeline::load_data(&spec, &dir).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        let set = match pipeline::identify(&spec, data, &[]).unwrap() {
+            Outcome::Consistent(id) => id.model,
+            Outcome::Falsified(f) => panic!("case {case}: {f}"),
+        };
+        let values = smid::core::members::representative_values(&set).unwrap();
+        let member = smid::core::members::point(&set, &values).unwrap();
+        let inner: Vec<Vec<f64>> = set
+            .training
+            .records
+            .iter()
+            .map(|r| member.simulate(&r.u, r.dt).x)
+            .collect();
+        let theta = set.layout().unwrap().theta_names.clone();
+        // θ given wrong (negated): only the other parameters are taken.
+        let given: Vec<(String, f64)> = values
+            .iter()
+            .map(|(k, v)| (k.clone(), if theta.contains(k) { -v } else { *v }))
+            .collect();
+        let (fitted, err) = smid::core::members::theta_reproducing(&set, &given, &inner)
+            .unwrap()
+            .expect("enough equations");
+        let scale: f64 = inner.iter().flatten().map(|v| v * v).sum();
+        assert!(
+            err <= 1e-18 * scale.max(1.0),
+            "case {case}: equation error {err} (scale {scale})"
+        );
+        for (k, v) in &fitted {
+            let want = values.iter().find(|(n, _)| n == k).unwrap().1;
+            assert!(
+                (v - want).abs() <= 1e-6 * (1.0 + want.abs()),
+                "case {case} (na {na}, nb {nb}, nk {nk}, constant {constant}): {k} = {v}, member has {want}"
+            );
+        }
+        assert_eq!(fitted.len(), theta.len());
+    }
+}

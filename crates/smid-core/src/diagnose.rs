@@ -30,6 +30,7 @@
 use crate::chain::{qualified, Side};
 use crate::effect::{self, DataScale, Effect};
 use crate::error::{Result, SmidError, Stage};
+use crate::interval::Interval;
 use crate::model::ModelSet;
 use crate::nonlinearity::SteadyStateData;
 use crate::outcome::{Falsification, Outcome};
@@ -170,21 +171,103 @@ fn indistinguishable(a: &[Vec<f64>], b: &[Vec<f64>], tol: f64, skip: usize) -> b
         })
 }
 
-/// Free runs on `to`'s training records of `to`'s model at the representative member's values
-/// of `from`, when both models have exactly the same parameter names (a dead zone and a play at
-/// the same place, say): whether `to`'s model class holds a point that simulates as `from`'s
-/// member does.
+/// Free runs on `to`'s training records of a point of `to`'s model class that reproduces the
+/// representative member of `from`: whether `to`'s class holds a point that simulates as
+/// `from`'s member does. With exactly the same parameter names (a dead zone and a play at the
+/// same place, say) the point is `from`'s values. Otherwise `to`'s parameters that `from` also
+/// has are copied by name, its `θ` is fitted by equation-error least squares to the linear
+/// block's output of `from`'s member ([`crate::members::theta_reproducing`]), and its other
+/// parameters (a bisected block's, at most [`FITTED_DIMS`]) are searched inside `to`'s bounds
+/// by Nelder-Mead on that fit's error: a unit-gain lag before the linear block and one more
+/// pole of the linear block, say, whose classes coincide wherever the larger model's extra
+/// pole is real and inside the lag's prior. The caller compares the runs, so a fit that
+/// misses only fails to report an equivalence.
 fn transplanted_runs(from: &ModelSet, to: &ModelSet) -> Option<Vec<Vec<f64>>> {
     let values = crate::members::representative_values(from).ok()?;
     let mut a: Vec<&str> = from.parameters.iter().map(|p| p.name.as_str()).collect();
     let mut b: Vec<&str> = to.parameters.iter().map(|p| p.name.as_str()).collect();
     a.sort_unstable();
     b.sort_unstable();
-    if a != b || !b.iter().all(|n| values.iter().any(|(k, _)| k == n)) {
+    if a == b {
+        if !b.iter().all(|n| values.iter().any(|(k, _)| k == n)) {
+            return None;
+        }
+        return training_runs(&crate::members::point(to, &values).ok()?, to);
+    }
+    let source = crate::members::point(from, &values).ok()?;
+    let x: Vec<Vec<f64>> = to
+        .training
+        .records
+        .iter()
+        .map(|r| source.simulate(&r.u, r.dt).x)
+        .collect();
+    if !x.iter().flatten().all(|v| v.is_finite()) {
         return None;
     }
-    training_runs(&crate::members::point(to, &values).ok()?, to)
+    let layout = to.layout().ok()?;
+    let others: Vec<&crate::model::ParamResult> = to
+        .parameters
+        .iter()
+        .filter(|p| !layout.theta_names.contains(&p.name))
+        .collect();
+    let copied: Vec<(String, f64)> = others
+        .iter()
+        .filter_map(|p| {
+            values
+                .iter()
+                .find(|(k, _)| *k == p.name)
+                .map(|(k, v)| (k.clone(), *v))
+        })
+        .collect();
+    let searched: Vec<(String, Interval)> = others
+        .iter()
+        .filter(|p| !copied.iter().any(|(k, _)| *k == p.name))
+        .map(|p| (p.name.clone(), p.interval()))
+        .collect();
+    if searched.len() > FITTED_DIMS || searched.iter().any(|(_, i)| !i.is_finite()) {
+        return None;
+    }
+    let at = |z: &[f64]| -> Vec<(String, f64)> {
+        let mut v = copied.clone();
+        v.extend(
+            searched
+                .iter()
+                .zip(z)
+                .map(|((n, i), zi)| (n.clone(), i.lo + (i.hi - i.lo) * zi.clamp(0.0, 1.0))),
+        );
+        v
+    };
+    let error = |z: &[f64]| -> f64 {
+        match crate::members::theta_reproducing(to, &at(z), &x) {
+            Ok(Some((_, e))) => e,
+            _ => f64::INFINITY,
+        }
+    };
+    // From a few starts across the bounds (the error need not be convex in them).
+    let mut best: Option<(Vec<f64>, f64)> = None;
+    for start in [0.5, 0.15, 0.85] {
+        let z0 = vec![start; searched.len()];
+        if let Some((z, e)) =
+            crate::members::simulation::nelder_mead(&error, &z0, 0.2, 200, f64::NEG_INFINITY)
+        {
+            if best.as_ref().is_none_or(|(_, b)| e < *b) {
+                best = Some((z, e));
+            }
+        }
+        if searched.is_empty() {
+            break;
+        }
+    }
+    let (z, _) = best?;
+    let mut v = at(&z);
+    v.extend(crate::members::theta_reproducing(to, &v, &x).ok()??.0);
+    training_runs(&crate::members::point(to, &v).ok()?, to)
 }
+
+/// At most this many parameters of the other model's class are searched when a member is put
+/// into it ([`transplanted_runs`]): beyond, Nelder-Mead on the fit's error is not worth its
+/// cost in a report.
+const FITTED_DIMS: usize = 3;
 
 /// Mark every pair of admissible candidates (and the admissible base model) whose training
 /// behaviour the data cannot tell apart: their members simulate within twice the noise bound

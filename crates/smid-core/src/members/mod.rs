@@ -199,6 +199,110 @@ fn constrained_ls(
     Some((0..p).map(|i| sol[i]).collect())
 }
 
+/// The `θ` of `set`'s model class that best reproduces given linear-block outputs: with every
+/// other parameter at `values` (by name; the chain's input side and, for Hammerstein, the
+/// nonlinearity at those values), `x[r]` the linear block's output on training record `r`,
+/// equation-error least squares over `θ` (eq 1 with the equation terms' columns read at
+/// `x`), subject to the fixed coefficients and the unit gain. The values by name and the
+/// squared equation error; zero (to rounding) exactly when the class holds a point whose
+/// input side and linear block produce `x` from the records' inputs. `None` when too few
+/// equations are usable or the system is singular.
+pub fn theta_reproducing(
+    set: &ModelSet,
+    values: &[(String, f64)],
+    x: &[Vec<f64>],
+) -> Result<Option<(Vec<(String, f64)>, f64)>> {
+    let layout = set.layout()?;
+    let o = layout.orders;
+    let p = layout.theta_names.len();
+    let pt = point(set, values)?;
+    let mut rows: Vec<(Vec<f64>, f64)> = Vec::new();
+    for (r, xr) in set.training.records.iter().zip(x) {
+        let n = r.u.len();
+        if xr.len() != n {
+            return Ok(None);
+        }
+        let mut v = r.u.clone();
+        for b in &pt.input {
+            v = b.simulate(&v);
+        }
+        if pt.structure == Structure::Hammerstein {
+            v = pt.nonlinearity.simulate(&v);
+        }
+        let v: Vec<f64> = (0..n)
+            .map(|t| if t >= o.nk { v[t - o.nk] } else { 0.0 })
+            .collect();
+        let x_iv: Vec<Interval> = xr.iter().map(|&a| Interval::new(a, a)).collect();
+        let cols: Vec<Vec<f64>> = pt
+            .effects
+            .iter()
+            .flat_map(|e| {
+                e.regressors(&Signals {
+                    u: &r.u,
+                    dt: r.dt,
+                    x: Some(&x_iv),
+                })
+            })
+            .map(|c| {
+                c.values
+                    .iter()
+                    .map(|i| if i.is_finite() { i.center() } else { f64::NAN })
+                    .collect()
+            })
+            .collect();
+        for t in o.na.max(o.nb + o.nk)..n {
+            let mut phi = Vec::with_capacity(p);
+            phi.extend((1..=o.na).map(|i| -xr[t - i]));
+            phi.extend((0..=o.nb).map(|j| v[t - j]));
+            phi.extend(cols.iter().map(|c| c.get(t).copied().unwrap_or(f64::NAN)));
+            if phi.len() == p && phi.iter().chain([&xr[t]]).all(|a| a.is_finite()) {
+                rows.push((phi, xr[t]));
+            }
+        }
+    }
+    if rows.len() < p {
+        return Ok(None);
+    }
+    let mut eq: Vec<(Vec<f64>, f64)> = Vec::new();
+    for (i, f) in layout.fixed.iter().enumerate() {
+        if let Some(v) = f {
+            let mut g = vec![0.0; p];
+            g[i] = 1.0;
+            eq.push((g, *v));
+        }
+    }
+    if set.model.unit_gain {
+        let mut g = vec![0.0; p];
+        g[..o.na].iter_mut().for_each(|v| *v = -1.0);
+        g[o.na..=o.na + o.nb].iter_mut().for_each(|v| *v = 1.0);
+        eq.push((g, 1.0));
+    }
+    let mut gram = nalgebra::DMatrix::<f64>::zeros(p, p);
+    let mut rhs = nalgebra::DVector::<f64>::zeros(p);
+    for (phi, y) in &rows {
+        for i in 0..p {
+            rhs[i] += phi[i] * y;
+            for j in 0..p {
+                gram[(i, j)] += phi[i] * phi[j];
+            }
+        }
+    }
+    let Some(th) = constrained_ls(&gram, &rhs, &eq, &vec![None; p]) else {
+        return Ok(None);
+    };
+    let sse: f64 = rows
+        .iter()
+        .map(|(phi, y)| {
+            let e = y - phi.iter().zip(&th).map(|(a, b)| a * b).sum::<f64>();
+            e * e
+        })
+        .sum();
+    Ok(th
+        .iter()
+        .all(|v| v.is_finite())
+        .then(|| (layout.theta_names.iter().cloned().zip(th).collect(), sse)))
+}
+
 /// The central member's values, by name: the central cell's nonlinearity parameters and
 /// bisected parameters at their centres, `θ` by least squares on its stage-2 centres (the
 /// centres of its `θ` bounds when that fails).

@@ -52,7 +52,7 @@ impl CostFunction for Cost<'_> {
 }
 
 /// Nelder-Mead from `z0` with steps `step` along each axis: the best point and its cost.
-fn nelder_mead(
+pub(crate) fn nelder_mead(
     f: &dyn Fn(&[f64]) -> f64,
     z0: &[f64],
     step: f64,
