@@ -368,17 +368,24 @@ fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
 /// *Measured data*), and the test keeps them within 3 points of it.
 #[test]
 fn measured_examples_validate_on_their_held_out_rows() {
+    // The least free-run fit against the ARX+constant baseline's: the tanks' declared model is
+    // the baseline's class (within 3 points); EMPS declares the Coulomb friction the baseline
+    // lacks, and its stand-in, fitted from least squares with the friction's sign read at the
+    // measured motion, beats the baseline by more than 3 points (94.6 % against 88.5 %; from
+    // the centre alone it scored 87.7 %).
     let cases = [
         (
             "examples/tanks.yaml",
             "../shared/data/cascaded-tanks/tanks_estimation.csv@683..1024",
+            -3.0,
         ),
         (
             "examples/emps.yaml",
             "../shared/data/emps/emps_train.csv@15000..24841",
+            3.0,
         ),
     ];
-    for (spec_path, held_out) in cases {
+    for (spec_path, held_out, margin) in cases {
         let data = root().join(held_out.split('@').next().unwrap());
         if !data.exists() {
             eprintln!("skipping {spec_path}: {} is absent", data.display());
@@ -399,7 +406,7 @@ fn measured_examples_validate_on_their_held_out_rows() {
             v.free_run.fit_percent, v.member, base.fit_percent
         );
         assert!(
-            v.free_run.fit_percent > base.fit_percent - 3.0,
+            v.free_run.fit_percent > base.fit_percent + margin,
             "{spec_path}: free run {:?} vs ARX {:?}",
             v.free_run,
             base

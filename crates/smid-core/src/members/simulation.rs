@@ -550,11 +550,36 @@ impl<'s> Search<'s> {
         opts: &Options,
         centre: &[(String, f64)],
     ) -> Option<(f64, SimulationMember)> {
+        // From the central member's θ, and from θ refitted by least squares with the regressors
+        // read at the inner-signal estimates themselves (`theta_reproducing`: an output
+        // velocity's sign where the centre's interval column says "may not have moved", as on
+        // EMPS), each clamped into this cell's bounds; the better run stands in.
+        let (_, from_centre) = split_values(self, sp, centre);
+        let refit: Option<Vec<f64>> = super::theta_reproducing(
+            self.set,
+            &self.values_of(sp, &sp.base, &from_centre),
+            &self.x_warm,
+        )
+        .ok()
+        .flatten()
+        .map(|(v, _)| v.into_iter().map(|(_, x)| x).collect());
+        [Some(from_centre), refit]
+            .into_iter()
+            .flatten()
+            .filter_map(|start| self.uncertified_from(sp, opts, &start))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
+    /// [`Self::best_uncertified`] from one start `θ`.
+    fn uncertified_from(
+        &self,
+        sp: &CellSpace,
+        opts: &Options,
+        start: &[f64],
+    ) -> Option<(f64, SimulationMember)> {
         let split = sp.moved.len();
         let gain = self.gain_slot();
-        // From the central member's θ, clamped into this cell's bounds.
-        let (_, from_centre) = split_values(self, sp, centre);
-        let mut theta0: Vec<f64> = from_centre
+        let mut theta0: Vec<f64> = start
             .iter()
             .zip(&sp.cell.theta)
             .map(|(v, b)| {
@@ -588,15 +613,8 @@ impl<'s> Search<'s> {
         // A declared stable block keeps its stand-in stable (a pole outside the unit circle
         // fits the training records and drifts on fresh ones).
         let na = self.layout.orders.na;
-        let unstable = |th: &[f64]| {
-            self.set.model.stable
-                && crate::linear::LinearModel {
-                    a: th[..na].to_vec(),
-                    b: vec![1.0],
-                }
-                .spectral_radius()
-                    > 1.0
-        };
+        let unstable =
+            |th: &[f64]| self.set.model.stable && crate::linear::spectral_radius(&th[..na]) > 1.0;
         let cost = |z: &[f64]| -> f64 {
             match point_of(z) {
                 Some((_, th)) if unstable(&th) => f64::INFINITY,
