@@ -48,18 +48,13 @@ fn an_undeclared_sensor_lag_is_found_and_the_after_model_holds() {
     assert!(!after_col.inflated);
 }
 
-/// Input-side blocks against the designed experiment, generated from the registry: every
-/// plugin the diagnosis offers before the linear block whose set over its prior breaks the
-/// design (a dead zone, a play, a saturation: the polygons do not pass it) is one case of
-/// `smid diagnose-check`. The candidate bisects the backlash in a box from the points (an
-/// assumption, reported) and the points prune its cells with any history. Whenever a trial
-/// names the case, the after-model passes on held-out records and holds the truth; and the
-/// mechanism is not vacuous: at least one such case is named (the dead zone, on this seed).
-#[test]
-fn input_side_blocks_that_break_the_design_are_diagnosed_from_the_designed_experiment() {
-    use smid::diagnose_check::{cases, trial, CaseKind, PlantKind};
+/// The `smid diagnose-check` cases of input-side blocks, generated from the registry, whose set
+/// over the diagnosis's prior keeps the designed experiment (`keeps == true`: a unit-gain lag)
+/// or breaks it (a dead zone, a play, a saturation).
+fn input_side_cases(keeps: bool) -> Vec<smid::diagnose_check::Case> {
+    use smid::diagnose_check::{cases, CaseKind};
     use smid_core::chain::Side;
-    let breaking: Vec<_> = cases()
+    cases()
         .into_iter()
         .filter(|c| match &c.kind {
             CaseKind::Block(tag, Side::Input) => {
@@ -71,11 +66,24 @@ fn input_side_blocks_that_break_the_design_are_diagnosed_from_the_designed_exper
                 let s = smid_core::nonlinearity::Structure::Hammerstein;
                 ex.default_prior(s, (-3.0, 3.0))
                     .and_then(|p| ex.set_from_box(&p).ok())
-                    .is_some_and(|set| !set.keeps_steady_design())
+                    .is_some_and(|set| set.keeps_steady_design() == keeps)
             }
             _ => false,
         })
-        .collect();
+        .collect()
+}
+
+/// Input-side blocks against the designed experiment, generated from the registry: every
+/// plugin the diagnosis offers before the linear block whose set over its prior breaks the
+/// design (a dead zone, a play, a saturation: the polygons do not pass it) is one case of
+/// `smid diagnose-check`. The candidate bisects the backlash in a box from the points (an
+/// assumption, reported) and the points prune its cells with any history. Whenever a trial
+/// names the case, the after-model passes on held-out records and holds the truth; and the
+/// mechanism is not vacuous: at least one such case is named (the dead zone, on this seed).
+#[test]
+fn input_side_blocks_that_break_the_design_are_diagnosed_from_the_designed_experiment() {
+    use smid::diagnose_check::{trial, PlantKind};
+    let breaking = input_side_cases(false);
     assert!(
         breaking.iter().any(|c| c.name == "dead_zone@input"),
         "{:?}",
@@ -162,25 +170,8 @@ fn a_play_and_a_dead_zone_on_a_binary_record_are_reported_indistinguishable() {
 /// at least two name it.
 #[test]
 fn a_linear_block_before_the_linear_block_is_reported_as_one_more_pole() {
-    use smid::diagnose_check::{cases, trial, CaseKind, PlantKind};
-    use smid_core::chain::Side;
-    let linear_blocks: Vec<_> = cases()
-        .into_iter()
-        .filter(|c| match &c.kind {
-            CaseKind::Block(tag, Side::Input) => {
-                let m = smid_core::registry::models()
-                    .into_iter()
-                    .find(|m| m.tag == *tag)
-                    .unwrap();
-                let ex = (m.example)();
-                let s = smid_core::nonlinearity::Structure::Hammerstein;
-                ex.default_prior(s, (-3.0, 3.0))
-                    .and_then(|p| ex.set_from_box(&p).ok())
-                    .is_some_and(|set| set.keeps_steady_design())
-            }
-            _ => false,
-        })
-        .collect();
+    use smid::diagnose_check::{trial, PlantKind};
+    let linear_blocks = input_side_cases(true);
     assert!(
         linear_blocks.iter().any(|c| c.name == "lag@input"),
         "{:?}",

@@ -90,43 +90,9 @@ pub(super) fn least_squares_theta(set: &ModelSet, k: usize) -> Result<Option<Vec
     if rows.len() < p {
         return Ok(None);
     }
-    // Equality constraints: fixed entries, and Σb − Σa = 1.
-    let mut eq: Vec<(Vec<f64>, f64)> = Vec::new();
-    for (i, f) in layout.fixed.iter().enumerate() {
-        if let Some(v) = f {
-            let mut g = vec![0.0; p];
-            g[i] = 1.0;
-            eq.push((g, *v));
-        }
-    }
-    if set.model.unit_gain {
-        let mut g = vec![0.0; p];
-        for v in g.iter_mut().take(o.na) {
-            *v = -1.0;
-        }
-        for v in g.iter_mut().skip(o.na).take(o.nb + 1) {
-            *v = 1.0;
-        }
-        eq.push((g, 1.0));
-    }
-    let mut gram = nalgebra::DMatrix::<f64>::zeros(p, p);
-    let mut rhs = nalgebra::DVector::<f64>::zeros(p);
-    for (phi, y) in &rows {
-        for i in 0..p {
-            rhs[i] += phi[i] * y;
-            for j in 0..p {
-                gram[(i, j)] += phi[i] * phi[j];
-            }
-        }
-    }
-    let cost = |th: &[f64]| -> f64 {
-        rows.iter()
-            .map(|(phi, y)| {
-                let e = y - phi.iter().zip(th).map(|(a, b)| a * b).sum::<f64>();
-                e * e
-            })
-            .sum()
-    };
+    let eq = theta_equalities(set, &layout);
+    let (gram, rhs) = normal_equations(&rows, p);
+    let cost = |th: &[f64]| squared_error(&rows, th);
     // Least squares inside the cell's bounds: an active set that clamps the worst violator
     // and releases a clamped coefficient when that lowers the cost and stays inside.
     let mut clamped: Vec<Option<f64>> = vec![None; p];
@@ -164,6 +130,56 @@ pub(super) fn least_squares_theta(set: &ModelSet, k: usize) -> Result<Option<Vec
         }
     }
     Ok(best.filter(|t| t.iter().all(|v| v.is_finite())))
+}
+
+/// The equalities every `θ` of the class satisfies: the fixed entries, and `Σb − Σa = 1` under
+/// the unit gain (eq 8).
+fn theta_equalities(set: &ModelSet, layout: &crate::model::Layout) -> Vec<(Vec<f64>, f64)> {
+    let o = layout.orders;
+    let p = layout.theta_names.len();
+    let mut eq: Vec<(Vec<f64>, f64)> = Vec::new();
+    for (i, f) in layout.fixed.iter().enumerate() {
+        if let Some(v) = f {
+            let mut g = vec![0.0; p];
+            g[i] = 1.0;
+            eq.push((g, *v));
+        }
+    }
+    if set.model.unit_gain {
+        let mut g = vec![0.0; p];
+        g[..o.na].iter_mut().for_each(|v| *v = -1.0);
+        g[o.na..=o.na + o.nb].iter_mut().for_each(|v| *v = 1.0);
+        eq.push((g, 1.0));
+    }
+    eq
+}
+
+/// `ΦᵀΦ` and `Φᵀy` of least-squares rows `(φ, y)` with `p` regressors.
+fn normal_equations(
+    rows: &[(Vec<f64>, f64)],
+    p: usize,
+) -> (nalgebra::DMatrix<f64>, nalgebra::DVector<f64>) {
+    let mut gram = nalgebra::DMatrix::<f64>::zeros(p, p);
+    let mut rhs = nalgebra::DVector::<f64>::zeros(p);
+    for (phi, y) in rows {
+        for i in 0..p {
+            rhs[i] += phi[i] * y;
+            for j in 0..p {
+                gram[(i, j)] += phi[i] * phi[j];
+            }
+        }
+    }
+    (gram, rhs)
+}
+
+/// `Σ (y − φ·θ)²` over the rows.
+fn squared_error(rows: &[(Vec<f64>, f64)], th: &[f64]) -> f64 {
+    rows.iter()
+        .map(|(phi, y)| {
+            let e = y - phi.iter().zip(th).map(|(a, b)| a * b).sum::<f64>();
+            e * e
+        })
+        .sum()
 }
 
 /// `argmin |y - Φθ|²` from the normal equations subject to the equalities `eq` and the clamped
@@ -263,40 +279,12 @@ pub fn theta_reproducing(
     if rows.len() < p {
         return Ok(None);
     }
-    let mut eq: Vec<(Vec<f64>, f64)> = Vec::new();
-    for (i, f) in layout.fixed.iter().enumerate() {
-        if let Some(v) = f {
-            let mut g = vec![0.0; p];
-            g[i] = 1.0;
-            eq.push((g, *v));
-        }
-    }
-    if set.model.unit_gain {
-        let mut g = vec![0.0; p];
-        g[..o.na].iter_mut().for_each(|v| *v = -1.0);
-        g[o.na..=o.na + o.nb].iter_mut().for_each(|v| *v = 1.0);
-        eq.push((g, 1.0));
-    }
-    let mut gram = nalgebra::DMatrix::<f64>::zeros(p, p);
-    let mut rhs = nalgebra::DVector::<f64>::zeros(p);
-    for (phi, y) in &rows {
-        for i in 0..p {
-            rhs[i] += phi[i] * y;
-            for j in 0..p {
-                gram[(i, j)] += phi[i] * phi[j];
-            }
-        }
-    }
+    let eq = theta_equalities(set, &layout);
+    let (gram, rhs) = normal_equations(&rows, p);
     let Some(th) = constrained_ls(&gram, &rhs, &eq, &vec![None; p]) else {
         return Ok(None);
     };
-    let sse: f64 = rows
-        .iter()
-        .map(|(phi, y)| {
-            let e = y - phi.iter().zip(&th).map(|(a, b)| a * b).sum::<f64>();
-            e * e
-        })
-        .sum();
+    let sse = squared_error(&rows, &th);
     Ok(th
         .iter()
         .all(|v| v.is_finite())
