@@ -227,6 +227,12 @@ fn transplanted_runs(from: &ModelSet, to: &ModelSet) -> Option<Vec<Vec<f64>>> {
     if searched.len() > FITTED_DIMS || searched.iter().any(|(_, i)| !i.is_finite()) {
         return None;
     }
+    // A copied value outside `to`'s bounds is no point of its class as identified (a box of
+    // the nonlinearity from the steady-state points in one candidate, from stage 1 in another).
+    let inside = |name: &str, v: f64| to.parameter(name).is_some_and(|p| p.interval().contains(v));
+    if !copied.iter().all(|(k, v)| inside(k, *v)) {
+        return None;
+    }
     let at = |z: &[f64]| -> Vec<(String, f64)> {
         let mut v = copied.clone();
         v.extend(
@@ -260,7 +266,20 @@ fn transplanted_runs(from: &ModelSet, to: &ModelSet) -> Option<Vec<Vec<f64>>> {
     }
     let (z, _) = best?;
     let mut v = at(&z);
-    v.extend(crate::members::theta_reproducing(to, &v, &x).ok()??.0);
+    let theta = crate::members::theta_reproducing(to, &v, &x).ok()??.0;
+    // The fitted θ must be a point of `to`'s class too: inside its θ prior box, and stable
+    // when the model is declared so (an unstable θ can stay close over a finite record).
+    let na = layout.orders.na;
+    let values: Vec<f64> = theta.iter().map(|(_, t)| *t).collect();
+    if to.model.stable && crate::linear::spectral_radius(&values[..na]) >= 1.0 {
+        return None;
+    }
+    if let Some(prior) = &layout.theta_prior {
+        if !prior.iter().zip(&values).all(|(b, t)| b.contains(*t)) {
+            return None;
+        }
+    }
+    v.extend(theta);
     training_runs(&crate::members::point(to, &v).ok()?, to)
 }
 
@@ -271,8 +290,8 @@ const FITTED_DIMS: usize = 3;
 
 /// Mark every pair of admissible candidates (and the admissible base model) whose training
 /// behaviour the data cannot tell apart: their members simulate within twice the noise bound
-/// of each other, or one's member, put into the other's model class (the same parameter
-/// names), simulates within that of itself.
+/// of each other, or one's member, put into the other's model class ([`transplanted_runs`]),
+/// simulates within that of itself.
 fn mark_equivalences(
     evidence: &mut [Evidence],
     sets: &[Option<ModelSet>],

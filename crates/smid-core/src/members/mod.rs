@@ -221,8 +221,8 @@ fn constrained_ls(
 /// equation-error least squares over `θ` (eq 1 with the equation terms' columns read at
 /// `x`), subject to the fixed coefficients and the unit gain. The values by name and the
 /// squared equation error; zero (to rounding) exactly when the class holds a point whose
-/// input side and linear block produce `x` from the records' inputs. `None` when too few
-/// equations are usable or the system is singular.
+/// input side and linear block produce `x` from the records' inputs (a singular system gives
+/// the least-norm solution). `None` when too few equations are usable.
 pub fn theta_reproducing(
     set: &ModelSet,
     values: &[(String, f64)],
