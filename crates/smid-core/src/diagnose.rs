@@ -305,7 +305,28 @@ fn mark_equivalences(
         .collect();
     let base_runs = base.and_then(centre_runs);
     let skip = 20;
-    for i in 0..evidence.len() {
+    // The relation is symmetric: each pair is compared once (both transplants), then every
+    // candidate's list is filled in candidate order.
+    let n = evidence.len();
+    let mut same = vec![vec![false; n]; n];
+    for i in 0..n {
+        for j in i + 1..n {
+            if let (Some(ri), Some(si), Some(rj), Some(sj)) =
+                (&runs[i], &sets[i], &runs[j], &sets[j])
+            {
+                let t = tol(si, sj);
+                let swapped = |from: &ModelSet, to: &ModelSet, own: &[Vec<f64>]| {
+                    transplanted_runs(from, to).is_some_and(|r| indistinguishable(own, &r, t, skip))
+                };
+                let e = indistinguishable(ri, rj, t, skip)
+                    || swapped(si, sj, ri)
+                    || swapped(sj, si, rj);
+                same[i][j] = e;
+                same[j][i] = e;
+            }
+        }
+    }
+    for i in 0..n {
         let (Some(ri), Some(si)) = (&runs[i], &sets[i]) else {
             continue;
         };
@@ -314,21 +335,9 @@ fn mark_equivalences(
                 evidence[i].equivalent_to.push(AS_DECLARED.into());
             }
         }
-        for j in 0..evidence.len() {
-            if i == j {
-                continue;
-            }
-            if let (Some(rj), Some(sj)) = (&runs[j], &sets[j]) {
-                let t = tol(si, sj);
-                let swapped = |from: &ModelSet, to: &ModelSet, own: &[Vec<f64>]| {
-                    transplanted_runs(from, to).is_some_and(|r| indistinguishable(own, &r, t, skip))
-                };
-                if indistinguishable(ri, rj, t, skip) || swapped(si, sj, ri) || swapped(sj, si, rj)
-                {
-                    let l = evidence[j].label.clone();
-                    evidence[i].equivalent_to.push(l);
-                }
-            }
+        for j in (0..n).filter(|&j| same[i][j]) {
+            let l = evidence[j].label.clone();
+            evidence[i].equivalent_to.push(l);
         }
     }
 }

@@ -238,16 +238,7 @@ pub fn theta_reproducing(
         if xr.len() != n {
             return Ok(None);
         }
-        let mut v = r.u.clone();
-        for b in &pt.input {
-            v = b.simulate(&v);
-        }
-        if pt.structure == Structure::Hammerstein {
-            v = pt.nonlinearity.simulate(&v);
-        }
-        let v: Vec<f64> = (0..n)
-            .map(|t| if t >= o.nk { v[t - o.nk] } else { 0.0 })
-            .collect();
+        let v = pt.linear_input(&r.u);
         let x_iv: Vec<Interval> = xr.iter().map(|&a| Interval::new(a, a)).collect();
         let cols: Vec<Vec<f64>> = pt
             .effects
@@ -669,6 +660,21 @@ impl ModelPoint {
         self.linear.spectral_radius() < 1.0
     }
 
+    /// The linear block's input on `u`: the input-side blocks, the nonlinearity when
+    /// Hammerstein, then the delay `nk` (zeros before it).
+    pub fn linear_input(&self, u: &[f64]) -> Vec<f64> {
+        let mut v = u.to_vec();
+        for b in &self.input {
+            v = b.simulate(&v);
+        }
+        if self.structure == Structure::Hammerstein {
+            v = self.nonlinearity.simulate(&v);
+        }
+        (0..u.len())
+            .map(|t| if t >= self.nk { v[t - self.nk] } else { 0.0 })
+            .collect()
+    }
+
     /// Free-run simulation from rest on the input alone.
     pub fn simulate(&self, u: &[f64], dt: f64) -> Simulation {
         self.predict(u, None, dt, usize::MAX, 0)
@@ -694,16 +700,7 @@ impl ModelPoint {
         warm: usize,
     ) -> Simulation {
         let n = u.len();
-        let mut v = u.to_vec();
-        for b in &self.input {
-            v = b.simulate(&v);
-        }
-        if self.structure == Structure::Hammerstein {
-            v = self.nonlinearity.simulate(&v);
-        }
-        let v: Vec<f64> = (0..n)
-            .map(|t| if t >= self.nk { v[t - self.nk] } else { 0.0 })
-            .collect();
+        let v = self.linear_input(u);
         let xd = x_data.filter(|d| d.len() == n);
         let online = self.effects.iter().any(|e| e.uses_output());
         let na = self.linear.a.len();
