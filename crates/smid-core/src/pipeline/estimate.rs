@@ -12,6 +12,22 @@ use crate::spec::Spec;
 /// branch and bound's cheap test alone (classical outer sets, no bounds computed): `false`
 /// proves them inconsistent; `true` proves nothing.
 pub fn consistent_at(spec: &Spec, data: &ExperimentData, d: f64) -> Result<bool> {
+    consistent_at_halvings(
+        spec,
+        data,
+        d,
+        spec.method.cells.nonlinearity_halvings.saturating_sub(2),
+    )
+}
+
+/// [`consistent_at`] with the test's cells of a bisected parameter halved down to
+/// `prior width / 2^halvings`.
+fn consistent_at_halvings(
+    spec: &Spec,
+    data: &ExperimentData,
+    d: f64,
+    halvings: u32,
+) -> Result<bool> {
     let spec = with_bound(spec, d);
     let data = data_with_bound(data, d);
     let layout = spec.model.layout()?;
@@ -23,13 +39,7 @@ pub fn consistent_at(spec: &Spec, data: &ExperimentData, d: f64) -> Result<bool>
     let scale = data_scale(&data);
     // Coarser than the identification's cells: a test that cannot discard a coarse cell only
     // lowers the estimate, which the identification then raises by the margin if needed.
-    let resolution = resolution(
-        &spec.model,
-        &layout,
-        spec.method.cells.nonlinearity_halvings.saturating_sub(2),
-        d,
-        &scale,
-    );
+    let resolution = resolution(&spec.model, &layout, halvings, d, &scale);
     let test = |c: &[Interval]| test_cell(&spec.model, &layout, &spec.method, &training, c);
     match cells::search(
         &prior,
@@ -65,12 +75,43 @@ pub const NO_BOUND_BELOW: f64 = 1e-9;
 /// When no bound down to [`NO_BOUND_BELOW`] of the largest output is proven inconsistent, the
 /// answer is `Unbounded` (the data do not bound the noise here), never a vanishing bound.
 pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<Outcome<f64>> {
+    // The test's cells start two halvings coarser than the identification's. A test that
+    // falsifies no bound at all (a bisected prior wide against the noise: the damper's play
+    // under a diagnosis budget) is asked again with cells refined by two halvings at a time,
+    // up to two finer than the identification's; only then is the estimate refused.
+    let h = spec.method.cells.nonlinearity_halvings;
+    let mut undecided = None;
+    for halvings in [h.saturating_sub(2), h, h + 2] {
+        match estimate_at_halvings(spec, data, halvings) {
+            Err(e @ SmidError::Unbounded { .. }) => {
+                log::info!(target: "smid::estimate", "{}: no bound falsified with cells halved {halvings} times; refined", spec.model.label());
+                undecided = Some(e)
+            }
+            r => return r,
+        }
+        // A model with no bisected parameter: finer cells change nothing.
+        if spec
+            .model
+            .layout()?
+            .dims
+            .iter()
+            .all(|d| d.prior.radius() == 0.0)
+        {
+            break;
+        }
+    }
+    Err(undecided.expect("at least one refinement was tried"))
+}
+
+/// [`estimate_bound`] with the consistency test's cells at `halvings`.
+fn estimate_at_halvings(spec: &Spec, data: &ExperimentData, halvings: u32) -> Result<Outcome<f64>> {
+    let consistent_at = |d: f64| consistent_at_halvings(spec, data, d, halvings);
     let margin = spec.noise.estimate.unwrap_or(1.1);
     let scale = data_scale(data).y_max;
     let mut hi = 1e-3 * scale;
     let mut lo = 0.0;
     let mut n = 0;
-    while !consistent_at(spec, data, hi)? {
+    while !consistent_at(hi)? {
         n += 1;
         if n > 40 {
             return Ok(Outcome::Falsified(Falsification::new(
@@ -93,7 +134,7 @@ pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<Outcome<f64>
             });
         }
         let mid = 0.5 * (lo + hi);
-        if consistent_at(spec, data, mid)? {
+        if consistent_at(mid)? {
             hi = mid;
         } else {
             lo = mid;
