@@ -35,7 +35,7 @@ use crate::model::ModelSet;
 use crate::nonlinearity::SteadyStateData;
 use crate::outcome::{Falsification, Outcome};
 use crate::pipeline::{data_scale, identify, BelowBar, ExperimentData, Identification, Record};
-use crate::spec::{ModelSpec, Spec};
+use crate::spec::{CellSpec, ModelSpec, Spec};
 use crate::validate::{self, Validation};
 use serde::Serialize;
 
@@ -291,14 +291,21 @@ const FITTED_DIMS: usize = 3;
 /// Mark every pair of admissible candidates (and the admissible base model) whose training
 /// behaviour the data cannot tell apart: their members simulate within twice the noise bound
 /// of each other, or one's member, put into the other's model class ([`transplanted_runs`]),
-/// simulates within that of itself.
+/// simulates within that of itself. With `estimated` bounds, two models whose smallest
+/// consistent bounds differ by more than the rule's step ([`PER_PARAMETER`]) are told apart by
+/// the data themselves (at the smaller bound the other model is falsified), whatever their runs.
 fn mark_equivalences(
     evidence: &mut [Evidence],
     sets: &[Option<ModelSet>],
     base: Option<&ModelSet>,
+    estimated: bool,
 ) {
-    // Each model's own bound (estimated bounds differ per model): the looser of the two.
-    let tol = |a: &ModelSet, b: &ModelSet| 2.0 * a.delta.max(b.delta);
+    // Each model's own bound (estimated bounds differ per model): the looser of the two, when
+    // the data do not already tell them apart by their bounds.
+    let tol = |a: &ModelSet, b: &ModelSet| {
+        let (lo, hi) = (a.delta.min(b.delta), a.delta.max(b.delta));
+        (!estimated || lo >= PER_PARAMETER * hi).then_some(2.0 * hi)
+    };
     let runs: Vec<Option<Vec<Vec<f64>>>> = sets
         .iter()
         .map(|s| s.as_ref().and_then(centre_runs))
@@ -314,7 +321,9 @@ fn mark_equivalences(
             if let (Some(ri), Some(si), Some(rj), Some(sj)) =
                 (&runs[i], &sets[i], &runs[j], &sets[j])
             {
-                let t = tol(si, sj);
+                let Some(t) = tol(si, sj) else {
+                    continue;
+                };
                 let swapped = |from: &ModelSet, to: &ModelSet, own: &[Vec<f64>]| {
                     transplanted_runs(from, to).is_some_and(|r| indistinguishable(own, &r, t, skip))
                 };
@@ -331,7 +340,7 @@ fn mark_equivalences(
             continue;
         };
         if let (Some(rb), Some(b)) = (&base_runs, base) {
-            if indistinguishable(ri, rb, tol(si, b), skip) {
+            if tol(si, b).is_some_and(|t| indistinguishable(ri, rb, t, skip)) {
                 evidence[i].equivalent_to.push(AS_DECLARED.into());
             }
         }
@@ -441,8 +450,46 @@ pub fn with_model(spec: &Spec, model: &ModelSpec) -> Spec {
     serde_json::from_value(v).expect("a serialised spec deserialises")
 }
 
-/// Identify `model` on the training data and say what the data said.
+/// Identify `model` on the training data and say what the data said. `spec` carries the
+/// diagnosis's coarse cell budget; a model it leaves with cells whose θ is not bounded (the
+/// few leaves the coarse budget keeps are merged into cells too wide to bound θ: the damper's
+/// play near zero beside a dead zone) is identified again with the spec's own budget `full`,
+/// and its set carries that budget.
 fn try_model(
+    spec: &Spec,
+    full: &CellSpec,
+    model: &ModelSpec,
+    data: &ExperimentData,
+    bar: Option<f64>,
+) -> (TrainVerdict, Option<Identification>) {
+    let first = try_model_with(spec, model, data, bar);
+    let left_unbounded = matches!(
+        &first,
+        (TrainVerdict::Failed { .. }, Some(id)) if !id.model.search.unbounded.is_empty()
+    );
+    if left_unbounded && spec.method.cells != *full {
+        let mut finer = with_model(spec, &spec.model);
+        finer.method.cells = full.clone();
+        log::info!(target: "smid::diagnose", "{}: cells left unbounded with the diagnosis budget; again with the spec's", model.label());
+        let second = try_model_with(&finer, model, data, bar);
+        return finish(second);
+    }
+    finish(first)
+}
+
+/// A verdict with cells left unbounded offers no model.
+fn finish(
+    (t, id): (TrainVerdict, Option<Identification>),
+) -> (TrainVerdict, Option<Identification>) {
+    match t {
+        TrainVerdict::Failed { .. } => (t, None),
+        t => (t, id),
+    }
+}
+
+/// [`try_model`] with one budget: the verdict, and the identification (also when it left
+/// cells unbounded, so that the caller can tell).
+fn try_model_with(
     spec: &Spec,
     model: &ModelSpec,
     data: &ExperimentData,
@@ -467,7 +514,7 @@ fn try_model(
                     id.model.search.unbounded[0].detail
                 ),
             },
-            None,
+            Some(id),
         ),
         Ok(Outcome::Consistent(id)) => {
             let fit = training_fit(&id.model).unwrap_or(f64::NEG_INFINITY);
@@ -515,6 +562,7 @@ fn bar(base_bound: f64, added: usize) -> f64 {
 /// unchanged.
 fn try_candidates(
     spec: &Spec,
+    full: &CellSpec,
     cands: &mut [(ModelSpec, Evidence)],
     training: &ExperimentData,
     base_bound: Option<f64>,
@@ -532,6 +580,7 @@ fn try_candidates(
             let start = std::time::Instant::now();
             let (t, id) = try_model(
                 spec,
+                full,
                 m,
                 training,
                 base_bound.map(|b| bar(b, ev.added_parameters)),
@@ -779,6 +828,7 @@ struct Reached {
 #[allow(clippy::too_many_arguments)]
 fn rounds(
     spec: &Spec,
+    full: &CellSpec,
     training: &ExperimentData,
     opts: &Options,
     progress: &(dyn Fn(usize, usize) + Sync),
@@ -803,6 +853,7 @@ fn rounds(
         let mut cands = candidates(&base, scale, opts, training.steady.as_ref());
         let mut sets = try_candidates(
             spec,
+            full,
             &mut cands,
             training,
             estimated.then(|| bound_of(&base_train)),
@@ -864,6 +915,7 @@ fn rounds(
             &mut round.candidates,
             &sets,
             base_set.as_ref().filter(|_| base_train.admissible()),
+            estimated,
         );
         match pick {
             Some(i) => {
@@ -894,13 +946,13 @@ fn rounds(
         // records cannot tell apart from it (an output offset on a backlash is a shift of its
         // plays); none is added.
         let mut cands = candidates(&base, scale, opts, training.steady.as_ref());
-        let sets = try_candidates(spec, &mut cands, training, None, progress);
+        let sets = try_candidates(spec, full, &mut cands, training, None, progress);
         let mut round = Round {
             base: base.label(),
             base_train: base_train.clone(),
             candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
         };
-        mark_equivalences(&mut round.candidates, &sets, base_set.as_ref());
+        mark_equivalences(&mut round.candidates, &sets, base_set.as_ref(), estimated);
         equivalent_models = round
             .candidates
             .iter()
@@ -937,6 +989,7 @@ pub fn choose(
     // Candidates that bisect a nonlinearity's parameters get a diagnosis budget (coarser cells);
     // the augmented spec keeps it, so its results reproduce.
     let member_budget = spec.method.member;
+    let full = spec.method.cells.clone();
     let mut dspec = with_model(spec, &spec.model);
     dspec.method.cells.nonlinearity_halvings = dspec.method.cells.nonlinearity_halvings.min(4);
     dspec.method.cells.max_cells = dspec.method.cells.max_cells.min(2000);
@@ -949,7 +1002,7 @@ pub fn choose(
     method.member = member_budget;
     let spec = &dspec;
     let start = std::time::Instant::now();
-    let (base_train, first) = try_model(spec, &base, training, None);
+    let (base_train, first) = try_model(spec, &full, &base, training, None);
     log::info!(target: "smid::diagnose", "the model as declared: {:.2} s", start.elapsed().as_secs_f64());
     // A model as declared that the training data falsify is the table's before column at its
     // smallest consistent bound whatever the rounds add: that search (training records only)
@@ -969,6 +1022,7 @@ pub fn choose(
         || {
             rounds(
                 spec,
+                &full,
                 training,
                 opts,
                 progress,
@@ -1010,6 +1064,12 @@ pub fn choose(
         }
         _ => None,
     };
+    // The augmented spec reproduces the after-model: its budget is the one it was identified
+    // with (the spec's own when the diagnosis budget left cells unbounded, see `try_model`).
+    let mut method = method;
+    if let Some(set) = &after_set {
+        method.cells = set.method.cells.clone();
+    }
     Ok(Choice {
         rule,
         rounds,

@@ -534,7 +534,7 @@ fn d_max_cells() -> usize {
 /// bound: `Δη/2` for an offset) or `depth` times, and at most `max_cells` cells are evaluated;
 /// past the budget the hull of the cells kept so far is reported (still guaranteed, looser) and
 /// the report says the budget stopped it.
-#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CellSpec {
     #[serde(default = "d_depth")]

@@ -78,10 +78,11 @@ pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<Outcome<f64>
     // The test's cells start two halvings coarser than the identification's. A test that
     // falsifies no bound at all (a bisected prior wide against the noise: the damper's play
     // under a diagnosis budget) is asked again with cells refined by two halvings at a time,
-    // up to two finer than the identification's; only then is the estimate refused.
+    // up to four finer than the identification's (a steep model needs cells whose interval
+    // simulation is narrower than the noise); only then is the estimate refused.
     let h = spec.method.cells.nonlinearity_halvings;
     let mut undecided = None;
-    for halvings in [h.saturating_sub(2), h, h + 2] {
+    for halvings in [h.saturating_sub(2), h, h + 2, h + 4] {
         match estimate_at_halvings(spec, data, halvings) {
             Err(e @ SmidError::Unbounded { .. }) => {
                 log::info!(target: "smid::estimate", "{}: no bound falsified with cells halved {halvings} times; refined", spec.model.label());
