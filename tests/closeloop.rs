@@ -3,6 +3,8 @@
 //! and the free run fits it; a record with an effect the model lacks falsifies it at a named
 //! sample; `result.json` carries the whole model set; the diagnosis names a missing effect from
 //! the training data alone and reads the held-out records only for the final table.
+mod common;
+
 use smid::closeloop;
 use smid::core::diagnose::{self, Options};
 use smid::core::pipeline;
@@ -524,20 +526,14 @@ fn a_bar_the_data_falsify_lies_below_the_estimated_bound_and_otherwise_changes_n
             x[t] = 0.6 * x[t - 1] - 0.25 * x[t - 2] + 0.4 * u[t - 1] + 0.25 * u[t - 2];
         }
         let e = smid::core::noise::uniform(n, noise, &mut rng);
-        let mut csv = String::from("u,y\n");
-        for ((a, b), e) in u.iter().zip(&x).zip(&e) {
-            csv.push_str(&format!("{a},{}\n", b + e));
-        }
-        let dir = std::env::temp_dir().join(format!("smid-bar-{}-{case}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("rec.csv"), csv).unwrap();
-        let text = "name: bar\n\
-plant:\n  data:\n    dynamic: { file: rec.csv, u: u, y: y }\n\
-noise: { estimate: 1.1 }\n\
-model:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 2\n  nb: 2\n  fixed: { b0: 0.0 }\n  unit_gain: false\n  stable: true\n";
-        let spec = smid::parse_spec(text, Path::new("bar.yaml")).unwrap();
-        let data = pipeline::load_data(&spec, &dir).unwrap();
-        let _ = std::fs::remove_dir_all(&dir);
+        let y: Vec<f64> = x.iter().zip(&e).map(|(b, e)| b + e).collect();
+        let (spec, data) = common::measured(
+            "bar",
+            &u,
+            &y,
+            "noise: { estimate: 1.1 }\n\
+model:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 2\n  nb: 2\n  fixed: { b0: 0.0 }\n  unit_gain: false\n  stable: true\n",
+        );
         let plain = match pipeline::identify(&spec, data.clone(), &[]).unwrap() {
             Outcome::Consistent(id) => id,
             Outcome::Falsified(f) => panic!("case {case}: {f}"),
@@ -600,21 +596,16 @@ fn a_certified_member_of_a_model_declared_stable_is_stable() {
             x[t] = -a1 * x[t - 1] - a2 * x[t - 2] + 0.2 * u[t - 1];
         }
         let e = smid::core::noise::uniform(n, noise, &mut rng);
-        let mut csv = String::from("u,y\n");
-        for ((a, b), e) in u.iter().zip(&x).zip(&e) {
-            csv.push_str(&format!("{a},{}\n", b + e));
-        }
-        let dir = std::env::temp_dir().join(format!("smid-stable-{}-{case}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("rec.csv"), csv).unwrap();
+        let y: Vec<f64> = x.iter().zip(&e).map(|(b, e)| b + e).collect();
         for stable in [true, false] {
-            let text = format!("name: stable\n\
-plant:\n  data:\n    dynamic: {{ file: rec.csv, u: u, y: y }}\n\
-noise: {{ delta: {} }}\n\
+            let (spec, data) = common::measured(
+                "stable",
+                &u,
+                &y,
+                &format!("noise: {{ delta: {} }}\n\
 method: {{ eiv: classical }}\n\
-model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 2\n  nb: 1\n  unit_gain: false\n  stable: {stable}\n", 1.05 * noise);
-            let spec = smid::parse_spec(&text, Path::new("stable.yaml")).unwrap();
-            let data = pipeline::load_data(&spec, &dir).unwrap();
+model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 2\n  nb: 1\n  unit_gain: false\n  stable: {stable}\n", 1.05 * noise),
+            );
             let id = match pipeline::identify(&spec, data, &[]).unwrap() {
                 Outcome::Consistent(id) => id,
                 Outcome::Falsified(_) => continue,
@@ -634,7 +625,6 @@ model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 2\n  nb: 
                 unstable_undeclared += 1;
             }
         }
-        let _ = std::fs::remove_dir_all(&dir);
     }
     // Not vacuous: declared-stable members were certified, and without the declaration the
     // same kind of record gives certified members that run away.
@@ -689,26 +679,20 @@ fn theta_is_recovered_from_a_members_own_linear_block_output() {
             x[t] = v;
         }
         let e = smid::core::noise::uniform(n, 0.01, &mut rng);
-        let mut csv = String::from("u,y\n");
-        for ((p, q), e) in u.iter().zip(&x).zip(&e) {
-            csv.push_str(&format!("{p},{}\n", q + e));
-        }
-        let dir = std::env::temp_dir().join(format!("smid-refit-{}-{case}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("rec.csv"), csv).unwrap();
+        let y: Vec<f64> = x.iter().zip(&e).map(|(q, e)| q + e).collect();
         let effects = if constant {
             "  effects: [ { type: constant } ]\n"
         } else {
             ""
         };
-        let text = format!("name: refit\n\
-plant:\n  data:\n    dynamic: {{ file: rec.csv, u: u, y: y }}\n\
-noise: {{ delta: 0.0105 }}\n\
+        let (spec, data) = common::measured(
+            "refit",
+            &u,
+            &y,
+            &format!("noise: {{ delta: 0.0105 }}\n\
 method: {{ eiv: classical }}\n\
-model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: {na}\n  nb: {nb}\n  nk: {nk}\n  unit_gain: false\n{effects}");
-        let spec = smid::parse_spec(&text, Path::new("refit.yaml")).unwrap();
-        let data = pipeline::load_data(&spec, &dir).unwrap();
-        let _ = std::fs::remove_dir_all(&dir);
+model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: {na}\n  nb: {nb}\n  nk: {nk}\n  unit_gain: false\n{effects}"),
+        );
         let set = match pipeline::identify(&spec, data, &[]).unwrap() {
             Outcome::Consistent(id) => id.model,
             Outcome::Falsified(f) => panic!("case {case}: {f}"),
@@ -782,22 +766,16 @@ fn an_estimate_the_coarse_test_cannot_decide_is_refined_not_refused() {
             x[t] = -0.5 * x[t - 1] - 0.7 * x[t - 2] + 1.4 * v[t - 1] + 0.8 * v[t - 2];
         }
         let e = smid::core::noise::uniform(n, noise, &mut rng);
-        let mut csv = String::from("u,y\n");
-        for ((a, b), e) in u.iter().zip(&x).zip(&e) {
-            csv.push_str(&format!("{a},{}\n", b + e));
-        }
-        let dir = std::env::temp_dir().join(format!("smid-refine-{}-{case}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("rec.csv"), csv).unwrap();
-        let text = "name: refine\n\
-plant:\n  data:\n    dynamic: { file: rec.csv, u: u, y: y }\n\
-noise: { estimate: 1.1 }\n\
+        let y: Vec<f64> = x.iter().zip(&e).map(|(b, e)| b + e).collect();
+        let (spec, data) = common::measured(
+            "refine",
+            &u,
+            &y,
+            "noise: { estimate: 1.1 }\n\
 model:\n  structure: hammerstein\n  nonlinearity: { type: input_backlash, at_rest: false }\n  na: 2\n  nb: 2\n  fixed: { b0: 0.0 }\n  unit_gain: true\n  \
 prior: { m_l: [0.2, 0.3], c_l: [0.0, 0.15], m_r: [0.2, 0.3], c_r: [0.0, 0.15] }\n\
-method:\n  eiv: classical\n  cells: { nonlinearity_halvings: 2 }\n";
-        let spec = smid::parse_spec(text, Path::new("refine.yaml")).unwrap();
-        let data = pipeline::load_data(&spec, &dir).unwrap();
-        let _ = std::fs::remove_dir_all(&dir);
+method:\n  eiv: classical\n  cells: { nonlinearity_halvings: 2 }\n",
+        );
         // At the coarse cells, a bound far below the noise is not falsified: the coarse test
         // decides nothing on this record.
         if pipeline::consistent_at(&spec, &data, 1e-6 * noise).unwrap() {

@@ -2,6 +2,8 @@
 //! test becomes a candidate: `tests/plugin_in_test.rs`): a sensor lag after the paper's backlash (`examples/diagnose/paper-lag.yaml`) is found on the training
 //! records alone, the after-model consistent with the declared bound on held-out records and
 //! its bounds holding the truth.
+mod common;
+
 use smid::core::diagnose::{self, Options};
 use smid::core::pipeline;
 use std::path::Path;
@@ -222,9 +224,9 @@ fn a_dead_zone_after_an_elastic_stop_behind_a_play_is_found_under_an_estimated_b
         let offset = rng.gen_range(-0.2..0.2);
         let noise = rng.gen_range(0.2..0.3);
         let e = smid::core::noise::uniform(n, noise, &mut rng);
-        let mut csv = String::from("x,f\n");
+        let (mut u, mut y) = (Vec::with_capacity(n), Vec::with_capacity(n));
         let mut p = 0.0f64;
-        for t in 0..n {
+        for (t, e) in e.iter().enumerate() {
             let x = (2.0 * std::f64::consts::PI * t as f64 / period).sin()
                 * (0.3 + 0.7 * t as f64 / n as f64);
             p = p.clamp(x - play, x + play);
@@ -236,20 +238,18 @@ fn a_dead_zone_after_an_elastic_stop_behind_a_play_is_found_under_an_estimated_b
             } else {
                 0.0
             };
-            csv.push_str(&format!("{x},{}\n", f + e[t]));
+            u.push(x);
+            y.push(f + e);
         }
-        let dir = std::env::temp_dir().join(format!("smid-damper-{}-{case}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("rec.csv"), csv).unwrap();
-        let text = "name: stop\n\
-plant:\n  data:\n    dynamic: { file: rec.csv, u: x, y: f }\n\
-noise: { estimate: 1.1 }\n\
+        let (spec, data) = common::measured(
+            "stop",
+            &u,
+            &y,
+            "noise: { estimate: 1.1 }\n\
 model:\n  structure: hammerstein\n  nonlinearity: { type: input_backlash }\n  na: 0\n  nb: 0\n  \
 unit_gain: false\n  effects: [ { type: parallel_input }, { type: constant } ]\n  \
-prior: { m_l: [1.0, 1.0], c_l: [0.0, 0.5], m_r: [1.0, 1.0], c_r: [0.0, 0.5] }\n";
-        let spec = smid::parse_spec(text, Path::new("stop.yaml")).unwrap();
-        let data = pipeline::load_data(&spec, &dir).unwrap();
-        let _ = std::fs::remove_dir_all(&dir);
+prior: { m_l: [1.0, 1.0], c_l: [0.0, 0.5], m_r: [1.0, 1.0], c_r: [0.0, 0.5] }\n",
+        );
         let choice = diagnose::choose(
             &spec,
             &data,

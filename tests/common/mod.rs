@@ -1,0 +1,32 @@
+//! Helpers shared by the integration tests.
+use smid::core::pipeline::{self, ExperimentData};
+use smid::core::spec::Spec;
+use std::path::Path;
+
+/// A record given as measured data: `u` and `y` written to `rec.csv` (columns `u`, `y`) in a
+/// fresh temporary directory, read by a spec `name: tag` whose `plant.data` names that file and
+/// whose remaining sections are `rest` (YAML: `noise`, `model`, `method`), then loaded. The
+/// directory is removed again.
+#[allow(dead_code)] // not every test file uses every helper
+pub fn measured(tag: &str, u: &[f64], y: &[f64], rest: &str) -> (Spec, ExperimentData) {
+    let mut csv = String::from("u,y\n");
+    for (a, b) in u.iter().zip(y) {
+        csv.push_str(&format!("{a},{b}\n"));
+    }
+    let dir = std::env::temp_dir().join(format!(
+        "smid-{tag}-{}-{}",
+        std::process::id(),
+        COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("rec.csv"), csv).unwrap();
+    let text = format!(
+        "name: {tag}\nplant:\n  data:\n    dynamic: {{ file: rec.csv, u: u, y: y }}\n{rest}"
+    );
+    let spec = smid::parse_spec(&text, Path::new(&format!("{tag}.yaml"))).unwrap();
+    let data = pipeline::load_data(&spec, &dir).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    (spec, data)
+}
+
+static COUNTER: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
