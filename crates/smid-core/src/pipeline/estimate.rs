@@ -81,31 +81,40 @@ pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<Outcome<f64>
     // up to four finer than the identification's (a steep model needs cells whose interval
     // simulation is narrower than the noise); only then is the estimate refused.
     let h = spec.method.cells.nonlinearity_halvings;
-    let mut undecided = None;
-    for halvings in [h.saturating_sub(2), h, h + 2, h + 4] {
-        match estimate_at_halvings(spec, data, halvings) {
-            Err(e @ SmidError::Unbounded { .. }) => {
-                log::info!(target: "smid::estimate", "{}: no bound falsified with cells halved {halvings} times; refined", spec.model.label());
-                undecided = Some(e)
-            }
-            r => return r,
+    // A model with no bisected parameter: finer cells change nothing.
+    let bisected = spec
+        .model
+        .layout()?
+        .dims
+        .iter()
+        .any(|d| d.prior.radius() > 0.0);
+    let levels: &[u32] = if bisected {
+        &[h.saturating_sub(2), h, h + 2, h + 4]
+    } else {
+        &[h.saturating_sub(2)]
+    };
+    for &halvings in levels {
+        if let Some(outcome) = estimate_at_halvings(spec, data, halvings)? {
+            return Ok(outcome);
         }
-        // A model with no bisected parameter: finer cells change nothing.
-        if spec
-            .model
-            .layout()?
-            .dims
-            .iter()
-            .all(|d| d.prior.radius() == 0.0)
-        {
-            break;
-        }
+        log::info!(target: "smid::estimate", "{}: no bound falsified with cells halved {halvings} times", spec.model.label());
     }
-    Err(undecided.expect("at least one refinement was tried"))
+    let floor = NO_BOUND_BELOW * data_scale(data).y_max;
+    Err(SmidError::Unbounded {
+        parameter: "the noise bound (noise.estimate)".into(),
+        message: format!(
+            "no bound down to {floor:.3e} ({NO_BOUND_BELOW:e} of the largest output) was proven inconsistent with the model: the consistency test decides nothing here (a bisected prior too wide for the cell budget, or noise-free data); give `noise.delta`, narrower `model.prior` boxes or a larger `method.cells.max_cells`"
+        ),
+    })
 }
 
-/// [`estimate_bound`] with the consistency test's cells at `halvings`.
-fn estimate_at_halvings(spec: &Spec, data: &ExperimentData, halvings: u32) -> Result<Outcome<f64>> {
+/// [`estimate_bound`] with the consistency test's cells at `halvings`; `None` when the test
+/// falsifies no bound down to [`NO_BOUND_BELOW`] of the largest output (it decides nothing).
+fn estimate_at_halvings(
+    spec: &Spec,
+    data: &ExperimentData,
+    halvings: u32,
+) -> Result<Option<Outcome<f64>>> {
     let consistent_at = |d: f64| consistent_at_halvings(spec, data, d, halvings);
     let margin = spec.noise.estimate.unwrap_or(1.1);
     let scale = data_scale(data).y_max;
@@ -115,11 +124,11 @@ fn estimate_at_halvings(spec: &Spec, data: &ExperimentData, halvings: u32) -> Re
     while !consistent_at(hi)? {
         n += 1;
         if n > 40 {
-            return Ok(Outcome::Falsified(Falsification::new(
+            return Ok(Some(Outcome::Falsified(Falsification::new(
                 crate::error::Stage::Linear,
                 0,
                 format!("no noise bound up to {hi:.3e} makes the training data consistent"),
-            )));
+            ))));
         }
         lo = hi;
         hi *= 2.0;
@@ -127,12 +136,7 @@ fn estimate_at_halvings(spec: &Spec, data: &ExperimentData, halvings: u32) -> Re
     while hi - lo > 0.02 * hi && n < 60 {
         if lo == 0.0 && hi < NO_BOUND_BELOW * scale {
             // Never falsified, down to noise no sensor has: the test decides nothing here.
-            return Err(SmidError::Unbounded {
-                parameter: "the noise bound (noise.estimate)".into(),
-                message: format!(
-                    "no bound down to {hi:.3e} ({NO_BOUND_BELOW:e} of the largest output) was proven inconsistent with the model: the consistency test decides nothing here (a bisected prior too wide for the cell budget, or noise-free data); give `noise.delta`, narrower `model.prior` boxes or a larger `method.cells.max_cells`"
-                ),
-            });
+            return Ok(None);
         }
         let mid = 0.5 * (lo + hi);
         if consistent_at(mid)? {
@@ -142,5 +146,5 @@ fn estimate_at_halvings(spec: &Spec, data: &ExperimentData, halvings: u32) -> Re
         }
         n += 1;
     }
-    Ok(Outcome::Consistent(margin * hi))
+    Ok(Some(Outcome::Consistent(margin * hi)))
 }
