@@ -472,13 +472,14 @@ fn try_model(
         finer.method.cells = full.clone();
         log::info!(target: "smid::diagnose", "{}: cells left unbounded with the diagnosis budget; again with the spec's", model.label());
         let second = try_model_with(&finer, model, data, bar);
-        return finish(second);
+        return offered(second);
     }
-    finish(first)
+    offered(first)
 }
 
-/// A verdict with cells left unbounded offers no model.
-fn finish(
+/// The model a verdict offers: none for a failed one (also when `try_model_with` kept the
+/// identification of cells left unbounded, to tell the caller so).
+fn offered(
     (t, id): (TrainVerdict, Option<Identification>),
 ) -> (TrainVerdict, Option<Identification>) {
     match t {
