@@ -170,6 +170,14 @@ fn measured_data_identify_and_bad_cells_are_named() {
     let e = smid::run_spec_file(&path).unwrap_err().to_string();
     assert!(e.contains("too short"), "{e}");
 
+    // A file with its header and no rows says so (not a complaint about `decimate`).
+    let (_d, path) = data_spec(&steady, "u,y\n", 1e-4);
+    let e = smid::run_spec_file(&path).unwrap_err().to_string();
+    assert!(e.contains("dynamic.csv") && e.contains("no data rows"), "{e}");
+    let (_d, path) = data_spec("u,y\n", &dynamic, 1e-4);
+    let e = smid::run_spec_file(&path).unwrap_err().to_string();
+    assert!(e.contains("steady.csv") && e.contains("no data rows"), "{e}");
+
     let (_d, path) = data_spec(&steady.replace("u,y", "input,y"), &dynamic, 1e-4);
     let e = smid::run_spec_file(&path).unwrap_err().to_string();
     assert!(e.contains("no column `u`") && e.contains("input"), "{e}");

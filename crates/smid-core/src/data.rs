@@ -75,6 +75,15 @@ pub fn read_table(file: &Path, names: &[&str], part: Option<&str>) -> Result<Vec
             o.push(num(i, name)?);
         }
     }
+    if out.first().is_some_and(|c| c.is_empty()) {
+        return Err(data_err(
+            "rows".into(),
+            match part {
+                Some(p) => format!("no data rows with `part` = `{p}` after the header"),
+                None => "no data rows after the header".into(),
+            },
+        ));
+    }
     Ok(out)
 }
 
