@@ -50,6 +50,11 @@ fn misspelled_plugin_parameter_lists_the_valid_names() {
 fn wrong_type_names_the_field() {
     let e = err(&PAPER.replace("na: 2", "na: two"));
     assert!(e.contains("model.na"), "{e}");
+    // An order out of range names its own field and line.
+    let e = err(&PAPER.replace("nb: 2", "nb: 500"));
+    assert!(e.contains("model.nb") && !e.contains("model.na"), "{e}");
+    let line = PAPER.lines().position(|l| l.contains("nb: 2")).unwrap() + 1;
+    assert!(e.contains(&format!(":{line}:")), "{e}");
 }
 
 #[test]

@@ -93,6 +93,13 @@ impl ModelSpec {
         // zero, so the sum cannot overflow) before anything is sized by them.
         let limits = |o: Orders, field: &str| -> Result<()> {
             if o.na > 8 || o.nb > 8 || o.nk > 1000 {
+                // The model's own orders: the field that is out of range.
+                let field = match field {
+                    "model" if o.na > 8 => "model.na".to_string(),
+                    "model" if o.nb > 8 => "model.nb".to_string(),
+                    "model" => "model.nk".to_string(),
+                    f => f.to_string(),
+                };
                 return Err(SmidError::invalid(
                     field,
                     format!(
@@ -103,7 +110,7 @@ impl ModelSpec {
             }
             Ok(())
         };
-        limits(self.base_orders(), "model.na")?;
+        limits(self.base_orders(), "model")?;
         for (i, e) in self.effects.iter().enumerate() {
             let mut o = Orders {
                 na: 0,

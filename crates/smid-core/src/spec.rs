@@ -578,21 +578,33 @@ impl MethodSpec {
     }
 }
 
-/// 1-based line of the first `key:` in `text` (a best effort when the parser gave none).
+/// 1-based line of `key` (a dotted path such as `model.prior.m_l`) in `text`: its last
+/// component at or after the lines of its parents, each found in turn (a best effort when the
+/// parser gave none; a parent not found is passed over).
 fn line_of(text: &str, key: &str) -> Option<usize> {
-    let key = key.trim_start_matches('.');
-    let last = key.rsplit('.').next()?.split('[').next()?;
-    if last.is_empty() {
-        return None;
+    let parts: Vec<&str> = key
+        .trim_start_matches('.')
+        .split('.')
+        .filter_map(|p| p.split('[').next())
+        .filter(|p| !p.is_empty())
+        .collect();
+    let (last, parents) = parts.split_last()?;
+    let lines: Vec<&str> = text.lines().collect();
+    let has = |l: &str, k: &str| {
+        let t = l.trim_start().trim_start_matches("- ");
+        t.starts_with(&format!("{k}:")) || t.contains(&format!(" {k}:")) || t.contains(&format!("{{{k}:"))
+    };
+    let mut from = 0;
+    for p in parents {
+        if let Some(i) = lines[from..].iter().position(|l| has(l, p)) {
+            from += i;
+        }
     }
-    text.lines()
-        .position(|l| {
-            let t = l.trim_start().trim_start_matches("- ");
-            t.starts_with(&format!("{last}:"))
-                || t.contains(&format!(" {last}:"))
-                || t.contains(&format!("{{{last}:"))
-        })
-        .map(|i| i + 1)
+    lines[from..]
+        .iter()
+        .position(|l| has(l, last))
+        .map(|i| from + i + 1)
+        .or_else(|| lines.iter().position(|l| has(l, last)).map(|i| i + 1))
 }
 
 impl Spec {
@@ -880,5 +892,9 @@ mod tests {
         let t = "a:\n  b: 1\n  fixed: {b0: 0}\n";
         assert_eq!(line_of(t, "a.b"), Some(2));
         assert_eq!(line_of(t, "model.fixed.b0"), Some(3));
+        // A key that also names a field earlier in the file is found under its parents.
+        let t = "plant:\n  nl: { m_l: 0.2 }\nmodel:\n  prior: { m_l: [1, 0] }\n";
+        assert_eq!(line_of(t, "model.prior.m_l"), Some(4));
+        assert_eq!(line_of(t, "plant.nl.m_l"), Some(2));
     }
 }
