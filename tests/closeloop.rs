@@ -45,6 +45,35 @@ fn the_paper_model_validates_on_a_fresh_record_and_beats_the_arx_baseline() {
 }
 
 #[test]
+fn a_fresh_record_too_short_for_one_equation_pair_is_refused_by_name() {
+    let path = root().join("examples/paper.yaml");
+    let id = smid::run_spec_file(&path).unwrap().unwrap();
+    let spec = smid::load_spec(&path).unwrap();
+    let fresh =
+        closeloop::fresh_records(&spec, &root().join("examples"), &[], 1001, 200, 1).unwrap();
+    // na = 2, nb = 2: three samples hold one equation, four hold two.
+    for (n, refused) in [(1, true), (3, true), (4, false)] {
+        let mut r = fresh[0].clone();
+        r.u.truncate(n);
+        r.y.truncate(n);
+        r.dy.truncate(n);
+        for v in [&mut r.w, &mut r.x, &mut r.noise].into_iter().flatten() {
+            v.truncate(n);
+        }
+        r.name = format!("short-{n}");
+        let v = validate::validate(&id.model, &[r], &validate::Options::default());
+        match v {
+            Err(e) if refused => {
+                let e = e.to_string();
+                assert!(e.contains(&format!("short-{n}")) && e.contains("too short"), "{e}");
+            }
+            Ok(_) if !refused => {}
+            other => panic!("{n} samples: {:?}", other.map(|v| v.consistency)),
+        }
+    }
+}
+
+#[test]
 fn a_record_with_an_undeclared_delay_falsifies_the_model_at_a_sample() {
     let path = root().join("examples/paper.yaml");
     let id = smid::run_spec_file(&path).unwrap().unwrap();

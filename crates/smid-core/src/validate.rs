@@ -462,8 +462,24 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     if fresh.is_empty() {
         return Err(SmidError::invalid("validation", "no fresh record given"));
     }
+    let layout = model.layout()?;
+    let o = layout.orders;
+    // A record with fewer than two equations would be "consistent" for want of any test.
+    let need = o.na.max(o.nb + o.nk) + 2;
     for r in fresh {
         r.validate()?;
+        if r.u.len() < need {
+            return Err(SmidError::invalid(
+                format!("fresh record `{}`", r.name),
+                format!(
+                    "too short: {} samples, need at least {need} (two equations of na = {}, nb = {}, nk = {})",
+                    r.u.len(),
+                    o.na,
+                    o.nb,
+                    o.nk
+                ),
+            ));
+        }
     }
     let fresh: Vec<Record> = fresh.iter().map(|r| r.with_bound(model.delta)).collect();
     let consistency = consistency(model, &fresh)?;
@@ -472,8 +488,6 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
 
     let centre = members::representative(model)?;
     let (members, envelope) = members::envelope_members(model);
-    let layout = model.layout()?;
-    let o = layout.orders;
     let arx = Arx::fit(&model.training.records, o.na, o.nb, o.nk).ok();
     let mut warnings = Vec::new();
     if !centre.stable() {
