@@ -516,6 +516,15 @@ fn real_main() -> Result<()> {
                 only,
                 ..Default::default()
             };
+            // The held-out files are parsed and checked now (a bad path or row fails in
+            // seconds, not after the search); their values reach only the table below.
+            let seed = src.spec.experiment.seed + 1000;
+            let length = src.spec.experiment.dynamic.length;
+            let held =
+                smid::closeloop::fresh_records(&src.spec, &src.base, &holdout, seed, length, 2)
+                    .context("reading the held-out records")?;
+            smid::core::validate::check_fresh(src.spec.model.layout()?.orders, &held)
+                .context("checking the held-out records")?;
             let pb = progress(1, "candidates (training data)");
             let t0 = std::time::Instant::now();
             let mut choice = smid::core::diagnose::choose(&src.spec, &training, &opts, &|d, t| {
@@ -526,12 +535,7 @@ fn real_main() -> Result<()> {
             pb.finish_and_clear();
             log::info!(target: "smid::diagnose", "training data and choice: {:.2} s", t0.elapsed().as_secs_f64());
             print!("{}", smid::closeloop::format_choice(&choice));
-            // Only now are the held-out records read.
-            let seed = src.spec.experiment.seed + 1000;
-            let length = src.spec.experiment.dynamic.length;
-            let held =
-                smid::closeloop::fresh_records(&src.spec, &src.base, &holdout, seed, length, 2)
-                    .context("reading the held-out records")?;
+            // Only now do the held-out records enter anything.
             let (before, after) =
                 smid::core::diagnose::assess(&src.spec, &training, &mut choice, &held, opts.k)
                     .context("the before/after table")?;

@@ -168,6 +168,12 @@ fn the_diagnosis_names_an_undeclared_delay_and_adds_nothing_when_nothing_is_miss
     let c = diagnose::choose(&spec, &data, &only(&["delay", "actuator_lag"]), &|_, _| {}).unwrap();
     assert!(c.added.is_empty() && c.after_admissible, "{}", c.summary());
     assert!(c.summary().starts_with("no missing effect found"));
+    // A misspelt tag is refused by name (it would leave no candidate to try).
+    let e = diagnose::choose(&spec, &data, &only(&["delay", "dleay"]), &|_, _| {})
+        .err()
+        .expect("an unknown tag is refused")
+        .to_string();
+    assert!(e.contains("`dleay`") && e.contains("delay") && e.contains("output_backlash"), "{e}");
     // One round tells the equivalent explanations apart from the model as declared; it adds
     // nothing, and whatever it lists as equivalent was identified and admitted.
     assert_eq!(c.rounds.len(), 1);

@@ -976,6 +976,27 @@ fn rounds(
     }
 }
 
+/// Every tag of `only` names a registered effect or plugin (an unknown one would leave the
+/// diagnosis without candidates, silently).
+fn check_only(only: &[String]) -> Result<()> {
+    let effects: Vec<&str> = effect::effects().iter().map(|e| e.tag).collect();
+    let plugins: Vec<&str> = crate::registry::models().iter().map(|e| e.tag).collect();
+    match only
+        .iter()
+        .find(|t| !effects.contains(&t.as_str()) && !plugins.contains(&t.as_str()))
+    {
+        Some(t) => Err(SmidError::invalid(
+            "only",
+            format!(
+                "no registered effect or plugin `{t}`; effects: {}; plugins: {}",
+                effects.join(", "),
+                plugins.join(", ")
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Choose what to add, from the training data alone. `progress(done, total)` after each
 /// candidate.
 pub fn choose(
@@ -984,6 +1005,7 @@ pub fn choose(
     opts: &Options,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Choice> {
+    check_only(&opts.only)?;
     let scale = data_scale(training);
     let before = spec.model.duplicate();
     let base = spec.model.duplicate();

@@ -457,14 +457,10 @@ fn member_fit(model: &ModelSet, centre: &members::ModelPoint, records: &[Record]
     Ok(Fit::of(&pairs))
 }
 
-/// Validate `model` on fresh records.
-pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Validation> {
-    if fresh.is_empty() {
-        return Err(SmidError::invalid("validation", "no fresh record given"));
-    }
-    let layout = model.layout()?;
-    let o = layout.orders;
-    // A record with fewer than two equations would be "consistent" for want of any test.
+/// Fresh records a model of orders `o` can be validated on: well formed, and each with at
+/// least two equations (a shorter one would be "consistent" for want of any test). Errors
+/// name the record.
+pub fn check_fresh(o: crate::effect::Orders, fresh: &[Record]) -> Result<()> {
     let need = o.na.max(o.nb + o.nk) + 2;
     for r in fresh {
         r.validate()?;
@@ -481,6 +477,17 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
             ));
         }
     }
+    Ok(())
+}
+
+/// Validate `model` on fresh records.
+pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Validation> {
+    if fresh.is_empty() {
+        return Err(SmidError::invalid("validation", "no fresh record given"));
+    }
+    let layout = model.layout()?;
+    let o = layout.orders;
+    check_fresh(o, fresh)?;
     let fresh: Vec<Record> = fresh.iter().map(|r| r.with_bound(model.delta)).collect();
     let consistency = consistency(model, &fresh)?;
     let smallest = smallest_bound(model, &fresh, opts.bound_resolution)?;
