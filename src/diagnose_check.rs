@@ -440,7 +440,7 @@ fn run_trial(
             .first()
             .is_none_or(|a| *a != w && tag_of_label(a) != w)
     });
-    let (before, after) = diagnose::assess(&spec, &training, &mut choice, &holdout, 5)
+    let (before, after) = diagnose::assess(spec, &training, &mut choice, &holdout, 5)
         .map_err(at("before/after table"))?;
     let fit = |c: &diagnose::Column| {
         c.validation
@@ -484,7 +484,7 @@ fn run_trial(
     out.truth_inside = truth.iter().all(|(n, v)| {
         model
             .parameter(n)
-            .map_or(true, |p| p.lower <= *v && *v <= p.upper)
+            .is_none_or(|p| p.lower <= *v && *v <= p.upper)
     }) && model
         .parameters
         .iter()
@@ -505,7 +505,7 @@ pub fn run(
     let all = cases();
     let cases: Vec<&Case> = all
         .iter()
-        .filter(|c| only.is_empty() || only.iter().any(|o| *o == c.name))
+        .filter(|c| only.is_empty() || only.contains(&c.name))
         .filter(|c| plant == PlantKind::Simulator || fmu_case(&c.name).is_some())
         .collect();
     if cases.is_empty() {
@@ -546,7 +546,7 @@ pub fn run(
 pub fn case_count(only: &[String]) -> usize {
     cases()
         .iter()
-        .filter(|c| only.is_empty() || only.iter().any(|o| *o == c.name))
+        .filter(|c| only.is_empty() || only.contains(&c.name))
         .count()
 }
 

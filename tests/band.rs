@@ -100,7 +100,7 @@ fn draw(
         let amplitude = spec.experiment.dynamic.amplitude;
         return (
             spec,
-            Box::new(t.backlash.clone()),
+            Box::new(t.backlash),
             t.linear.clone(),
             Structure::Wiener,
             amplitude,

@@ -170,8 +170,7 @@ fn the_diagnosis_names_an_undeclared_delay_and_adds_nothing_when_nothing_is_miss
     assert!(c.summary().starts_with("no missing effect found"));
     // A misspelt tag is refused by name (it would leave no candidate to try).
     let e = diagnose::choose(&spec, &data, &only(&["delay", "dleay"]), &|_, _| {})
-        .err()
-        .expect("an unknown tag is refused")
+        .expect_err("an unknown tag is refused")
         .to_string();
     assert!(e.contains("`dleay`") && e.contains("delay") && e.contains("output_backlash"), "{e}");
     // One round tells the equivalent explanations apart from the model as declared; it adds
@@ -437,7 +436,7 @@ fn measured_examples_validate_on_their_held_out_rows() {
         let csv = root().join(held_out);
         let fresh = closeloop::fresh_records(&src.spec, &src.base, &[csv], 0, 0, 1).unwrap();
         let v = validate_on(src.model.as_ref().unwrap(), &fresh);
-        let base = v.baseline.clone().expect("an ARX baseline");
+        let base = v.baseline.expect("an ARX baseline");
         eprintln!(
             "{spec_path}: free run {:.2} % ({}), ARX+constant {:.2} %",
             v.free_run.fit_percent, v.member, base.fit_percent

@@ -177,7 +177,7 @@ fn cheap(spec: &Spec) -> bool {
         && e.steady_state.amplitudes <= 200
         && e.steady_state.half_period.unwrap_or(0) <= 5000
         && e.filter.settle <= 5000
-        && e.filter.pole.map_or(true, |p| p <= 0.999)
+        && e.filter.pole.is_none_or(|p| p <= 0.999)
         && spec.method.cells.max_cells <= 5000
         && spec
             .method

@@ -1089,7 +1089,6 @@ pub fn choose(
     };
     // The augmented spec reproduces the after-model: its budget is the one it was identified
     // with (the spec's own when the diagnosis budget left cells unbounded, see `try_model`).
-    let mut method = method;
     if let Some(set) = &after_set {
         method.cells = set.method.cells.clone();
     }

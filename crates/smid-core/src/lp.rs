@@ -272,7 +272,7 @@ impl Polytope {
                 let tol = 1e-12 * (1.0 + hi.abs() + norms[i] * xmax);
                 if viol > tol {
                     let s = viol / norms[i];
-                    if best.map_or(true, |b| s > b.1) {
+                    if best.is_none_or(|b| s > b.1) {
                         best = Some((Row::Data(i), s));
                     }
                 }
@@ -280,7 +280,7 @@ impl Polytope {
             for (k, &xk) in x.iter().enumerate() {
                 if xk.abs() > THETA_MAX * (1.0 + 1e-9) {
                     let s = xk.abs() - THETA_MAX;
-                    if best.map_or(true, |b| s > b.1) {
+                    if best.is_none_or(|b| s > b.1) {
                         best = Some((Row::Box(k, xk < 0.0), s));
                     }
                 }

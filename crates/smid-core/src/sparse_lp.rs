@@ -318,7 +318,7 @@ mod tests {
         let Optimum::Value(lo) = s.minimise(0).unwrap() else {
             panic!("feasible")
         };
-        assert!(hi >= 0.6 && hi < 0.6 + 1e-6, "{hi}");
+        assert!((0.6..0.6 + 1e-6).contains(&hi), "{hi}");
         assert!(lo <= 0.2 && lo > 0.2 - 1e-6, "{lo}");
         lp.le(vec![(0, 1.0)], 0.1);
         let mut s = lp.solver().unwrap();

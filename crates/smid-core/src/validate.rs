@@ -262,12 +262,12 @@ fn check_cell(model: &ModelSet, k: usize, records: &[Record]) -> Result<Option<F
     let found = (|| {
         let sig = stage2(
             &model.model,
-            &layout,
+            layout,
             c.nonlinearity.as_ref(),
             &c.cell,
             records,
         )?;
-        match stage3(&model.model, &layout, &model.method, &sig, None) {
+        match stage3(&model.model, layout, &model.method, &sig, None) {
             // Unbounded is not a contradiction.
             Ok(_) | Err(SmidError::Unbounded { .. }) => Ok(()),
             Err(e) => Err(relabel(e, &sig)),
@@ -338,7 +338,7 @@ pub fn consistency(model: &ModelSet, fresh: &[Record]) -> Result<Consistency> {
             Some(f) => {
                 if worst
                     .as_ref()
-                    .map_or(true, |w| (f.record, f.sample) > (w.record, w.sample))
+                    .is_none_or(|w| (f.record, f.sample) > (w.record, w.sample))
                 {
                     worst = Some(f);
                 }

@@ -57,7 +57,7 @@ pub(super) fn least_squares_theta(set: &ModelSet, k: usize) -> Result<Option<Vec
     let c = &set.cells[k];
     let sig = crate::pipeline::stage2(
         &set.model,
-        &layout,
+        layout,
         c.nonlinearity.as_ref(),
         &c.cell,
         &set.training.records,
@@ -90,7 +90,7 @@ pub(super) fn least_squares_theta(set: &ModelSet, k: usize) -> Result<Option<Vec
     if rows.len() < p {
         return Ok(None);
     }
-    let eq = theta_equalities(set, &layout);
+    let eq = theta_equalities(set, layout);
     let (gram, rhs) = normal_equations(&rows, p);
     let cost = |th: &[f64]| squared_error(&rows, th);
     // Least squares inside the cell's bounds: an active set that clamps the worst violator
@@ -270,7 +270,7 @@ pub fn theta_reproducing(
     if rows.len() < p {
         return Ok(None);
     }
-    let eq = theta_equalities(set, &layout);
+    let eq = theta_equalities(set, layout);
     let (gram, rhs) = normal_equations(&rows, p);
     let Some(th) = constrained_ls(&gram, &rhs, &eq, &vec![None; p]) else {
         return Ok(None);
@@ -815,7 +815,7 @@ pub fn inner_estimate(
             let c = &model.cells[0];
             let sig = crate::pipeline::stage2(
                 &model.model,
-                &layout,
+                layout,
                 c.nonlinearity.as_ref(),
                 &c.cell,
                 std::slice::from_ref(rec),

@@ -283,7 +283,7 @@ impl<'s> Search<'s> {
         let pset = self.set.model.nonlinearity.set_from_box(&b).ok()?;
         let cell: Vec<Interval> = psi.iter().map(|&v| Interval::new(v, v)).collect();
         let records = &self.set.training.records;
-        crate::pipeline::stage2(&self.set.model, &self.layout, pset.as_ref(), &cell, records).ok()
+        crate::pipeline::stage2(&self.set.model, self.layout, pset.as_ref(), &cell, records).ok()
     }
 
     fn values_of(&self, sp: &CellSpace, g: &[f64], th: &[f64]) -> Vec<(String, f64)> {

@@ -124,6 +124,8 @@ pub fn identify_below(spec: &Spec, data: ExperimentData, bar: Option<f64>) -> Re
 
 /// What [`identify_below`] found.
 #[derive(Debug)]
+// Returned once per candidate and matched at once: boxing the identification buys nothing.
+#[allow(clippy::large_enum_variant)]
 pub enum BelowBar {
     /// The training data are inconsistent at `bar`, proven by `test` (the classical test or
     /// the stage-3 method; `detail`: what it proved, with the first offending sample where the
@@ -362,7 +364,7 @@ pub fn identify_with(
     let representative = kept
         .iter()
         .position(|c| c.bounded() && holds_psi(c))
-        .or_else(|| kept.iter().position(|c| holds_psi(c)))
+        .or_else(|| kept.iter().position(&holds_psi))
         .or_else(|| kept.iter().position(|c| c.bounded()))
         .unwrap_or(0);
     let truth_in_set = match (&gamma_truth, &psi_truth) {
@@ -512,7 +514,7 @@ fn searched(
     let model = &spec.model;
     let method = &spec.method;
     let prior: Vec<Interval> = layout.dims.iter().map(|d| d.prior).collect();
-    let scale = data_scale(&data);
+    let scale = data_scale(data);
     let resolution = resolution(
         model,
         &layout,

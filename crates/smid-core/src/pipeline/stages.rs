@@ -312,12 +312,12 @@ pub fn stage2(
         rec.validate()?;
         if r > 0 {
             out.output
-                .extend(std::iter::repeat(InnerBound::unknown()).take(gap));
+                .extend(std::iter::repeat_n(InnerBound::unknown(), gap));
             out.input
-                .extend(std::iter::repeat(Interval::entire()).take(gap));
+                .extend(std::iter::repeat_n(Interval::entire(), gap));
             for e in &mut out.extra {
                 e.values
-                    .extend(std::iter::repeat(Interval::entire()).take(gap));
+                    .extend(std::iter::repeat_n(Interval::entire(), gap));
             }
         }
         out.starts.push(out.output.len());

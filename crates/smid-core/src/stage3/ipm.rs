@@ -430,7 +430,7 @@ impl<'a> Prepared<'a> {
                 .iter()
                 .chain(&ipm.lam)
                 .all(|v| v.is_finite() && *v > 0.0);
-        ok.then(|| Start {
+        ok.then_some(Start {
             z: ipm.z,
             zl: ipm.zl,
             zu: ipm.zu,
@@ -656,7 +656,7 @@ struct Pool(std::cell::RefCell<Vec<Vec<f64>>>);
 
 impl Pool {
     /// A vector of `len` values from `it` (reusing a pooled allocation when one fits).
-    fn from_iter(&self, len: usize, it: impl Iterator<Item = f64>) -> Vec<f64> {
+    fn filled(&self, len: usize, it: impl Iterator<Item = f64>) -> Vec<f64> {
         let mut pool = self.0.borrow_mut();
         let pick = pool
             .iter()
@@ -672,10 +672,10 @@ impl Pool {
         v
     }
     fn zeros(&self, len: usize) -> Vec<f64> {
-        self.from_iter(len, std::iter::repeat(0.0).take(len))
+        self.filled(len, std::iter::repeat_n(0.0, len))
     }
     fn copy(&self, src: &[f64]) -> Vec<f64> {
-        self.from_iter(src.len(), src.iter().copied())
+        self.filled(src.len(), src.iter().copied())
     }
     /// Give `v` back (every vector given back is one taken, so the pool holds at most the
     /// vectors one iteration has alive at once).
@@ -954,7 +954,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
             // Residual: r1 - H dz - Aᵀ dμ, r2 - A dz.
             let mut q1 = self
                 .pool
-                .from_iter(p.n, (0..p.n).map(|j| r1[j] - self.dbox[j] * dz[j]));
+                .filled(p.n, (0..p.n).map(|j| r1[j] - self.dbox[j] * dz[j]));
             for (i, row) in p.g.iter().enumerate() {
                 let d = self.lam[i] / self.s[i];
                 let gdz: f64 = row.iter().map(|&(j, v)| v * dz[j]).sum();
@@ -1049,7 +1049,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
         let dth: Vec<f64> = (0..nt).map(|k| sol[k]).collect();
         let dtmu: Vec<f64> = (0..nte).map(|i| sol[nt + i]).collect();
         // dμ = Z dθ - w.
-        let dmu = self.pool.from_iter(
+        let dmu = self.pool.filled(
             neq,
             (0..neq).map(|r| {
                 let zr = &self.zmat[r * nt..(r + 1) * nt];
@@ -1114,7 +1114,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
             // Residuals.
             let mut rd = self
                 .pool
-                .from_iter(n, (0..n).map(|j| self.q[j] - self.zl[j] + self.zu[j]));
+                .filled(n, (0..n).map(|j| self.q[j] - self.zl[j] + self.zu[j]));
             let mut rg = self.pool.zeros(mi);
             for (i, row) in p.g.iter().enumerate() {
                 let mut gz = 0.0;
@@ -1153,7 +1153,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
             if mu_c < 1e-8 {
                 match cert(&self.lam, &self.mu, &self.tmu) {
                     // An improvement below 1e-10 (relative) is a hundredth of the result pad.
-                    Some(v) if best.map_or(true, |b| v > b + 1e-10 * (1.0 + b.abs())) => {
+                    Some(v) if best.is_none_or(|b| v > b + 1e-10 * (1.0 + b.abs())) => {
                         best = Some(v);
                         stale = 0;
                     }
@@ -1182,16 +1182,16 @@ impl<'p, 'a> Ipm<'p, 'a> {
             }
             // Predictor (τ = 0), then corrector. Reciprocals of the slacks, once per iteration.
             let pool = &self.pool;
-            let inv_s = pool.from_iter(mi, self.s.iter().map(|v| 1.0 / v));
-            let inv_z = pool.from_iter(n, self.z.iter().map(|v| 1.0 / v));
-            let inv_u = pool.from_iter(n, self.z.iter().map(|v| 1.0 / (1.0 - v)));
-            let r2 = pool.from_iter(neq, rp.iter().map(|v| -v));
+            let inv_s = pool.filled(mi, self.s.iter().map(|v| 1.0 / v));
+            let inv_z = pool.filled(n, self.z.iter().map(|v| 1.0 / v));
+            let inv_u = pool.filled(n, self.z.iter().map(|v| 1.0 / (1.0 - v)));
+            let r2 = pool.filled(neq, rp.iter().map(|v| -v));
             let r2t: Vec<f64> = rpt.iter().map(|v| -v).collect();
             // The Newton direction whose complementarity products aim at `tau` (pairs: ineq i ->
             // tau[i]; lower box j -> tau[mi + j]; upper -> tau[mi + n + j]; None: all 0).
             let step = |this: &Self, tau: Option<&[f64]>| {
                 let ta = |k: usize| tau.map_or(0.0, |t| t[k]);
-                let mut r1 = this.pool.from_iter(n, rd.iter().map(|v| -v));
+                let mut r1 = this.pool.filled(n, rd.iter().map(|v| -v));
                 for (i, row) in p.g.iter().enumerate() {
                     let rc = -this.s[i] * this.lam[i] + ta(i);
                     let a = (rc + this.lam[i] * rg[i]) * inv_s[i];
@@ -1262,10 +1262,10 @@ impl<'p, 'a> Ipm<'p, 'a> {
                     .min(ratio(&this.zu, dzu));
                 (ap, ad)
             };
-            let Some(aff) = step(&self, None) else {
+            let Some(aff) = step(self, None) else {
                 break;
             };
-            let (ap, ad) = alphas(&self, &aff);
+            let (ap, ad) = alphas(self, &aff);
             let mut comp_aff = 0.0;
             for i in 0..mi {
                 comp_aff += (self.s[i] + ap * aff.ds[i]) * (self.lam[i] + ad * aff.dl[i]);
@@ -1277,7 +1277,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
             let sigma = ((comp_aff / npairs) / mu_c).clamp(0.0, 1.0).powi(3);
             let target = sigma * mu_c;
             // Mehrotra's corrector targets: σμ minus the predictor's second-order term.
-            let tau = self.pool.from_iter(
+            let tau = self.pool.filled(
                 mi + 2 * n,
                 (0..mi)
                     .map(|i| target - aff.ds[i] * aff.dl[i])
@@ -1285,10 +1285,10 @@ impl<'p, 'a> Ipm<'p, 'a> {
                     .chain((0..n).map(|j| target + aff.dz[j] * aff.dzu[j])),
             );
             aff.recycle(&self.pool);
-            let Some(st) = step(&self, Some(&tau)) else {
+            let Some(st) = step(self, Some(&tau)) else {
                 break;
             };
-            let (ap, ad) = alphas(&self, &st);
+            let (ap, ad) = alphas(self, &st);
             let (ap, ad) = ((0.995 * ap).min(1.0), (0.995 * ad).min(1.0));
             for j in 0..n {
                 self.z[j] += ap * st.dz[j];

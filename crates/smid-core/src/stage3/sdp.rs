@@ -540,7 +540,7 @@ mod imp {
             let lo = s.bound(0, false).unwrap().unwrap();
             let hi = s.bound(0, true).unwrap().unwrap();
             assert!(lo <= -1.0 && lo > -1.0 - 1e-5, "{lo}");
-            assert!(hi >= 1.0 && hi < 1.0 + 1e-5, "{hi}");
+            assert!((1.0..1.0 + 1e-5).contains(&hi), "{hi}");
         }
 
         /// A dual point off the cone is projected, so the bound stays valid: any z gives a
