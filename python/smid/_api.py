@@ -408,6 +408,8 @@ def identify_arrays(
         bad = np.flatnonzero(~np.isfinite(np.asarray(v)))
         if bad.size:
             raise DataError(f"array `{what}`, sample {bad[0]}: expected a finite number, got {v[bad[0]]}")
+    if not uu:
+        raise InvalidError("invalid `u, y`: empty arrays, expected one sample per row of the record")
     with tempfile.TemporaryDirectory(prefix="smid-") as d:
         path = Path(d) / "record.csv"
         with path.open("w", newline="") as f:
@@ -425,7 +427,11 @@ def identify_arrays(
             spec["plant"]["truth"] = dict(truth)
         if method:
             spec["method"] = dict(method)
-        return identify(spec, base=d)
+        try:
+            return identify(spec, base=d)
+        except (DataError, InvalidError, SpecError) as e:
+            # The temporary file is the caller's arrays: say so, not where it was written.
+            raise type(e)(str(e).replace(str(path), "arrays `u`, `y`")) from None
 
 
 def _model_text(model: Union[ModelSet, Identification, Mapping[str, Any], str, "os.PathLike[str]"]) -> str:

@@ -150,6 +150,12 @@ def test_bad_arrays_name_the_sample():
         smid.identify_arrays(u, y, model=LINEAR, noise={"delta": 0.01})
     with pytest.raises(smid.InvalidError, match="equal lengths"):
         smid.identify_arrays(u, y[:-1], model=LINEAR, noise={"delta": 0.01})
+    with pytest.raises(smid.InvalidError, match="empty"):
+        smid.identify_arrays(u[:0], y[:0], model=LINEAR, noise={"delta": 0.01})
+    # Too short for the orders: the error names the arrays, not a temporary file.
+    with pytest.raises(smid.DataError, match="arrays `u`, `y`.*too short") as e:
+        smid.identify_arrays(u[:4], u[:4], model=LINEAR, noise={"delta": 0.01})
+    assert "record.csv" not in str(e.value)
 
 
 def read_uy(path):
