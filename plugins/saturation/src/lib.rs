@@ -44,7 +44,7 @@
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
-use smid_core::interval::REL_PAD;
+use smid_core::interval::{ABS_PAD, REL_PAD};
 use smid_core::prelude::*;
 
 /// A saturation with known parameters (simulation).
@@ -318,27 +318,37 @@ smid_core::register_nonlinearity!(
 );
 smid_core::register_model!("saturation", SaturationModel, SaturationModel {});
 
-/// Bound on `|x|` on one branch from `|w| ∈ [a, b]` (`0 <= a <= b`).
-fn side(st: &Staircase, a: f64, b: f64) -> Interval {
+/// Bound on `|x|` on one branch from `|w| ∈ [a, b]` (`0 <= a <= b`); `None` when `a` lies
+/// above every limit of the branch (`|w| <= s` for every member; the comparison is padded
+/// outwards, so rounding never rejects a member).
+fn side(st: &Staircase, a: f64, b: f64) -> Option<Interval> {
+    if a > st.s.hi * (1.0 + REL_PAD) + ABS_PAD {
+        return None;
+    }
     let lo = a / st.m.hi;
     let hi = if b < st.s.lo {
         b / st.m.lo
     } else {
         f64::INFINITY
     };
-    Interval::new(lo, hi)
+    Some(Interval::new(lo, hi))
 }
 
 impl SaturationSet {
-    /// Bound on `x_t` from one output sample.
-    pub fn invert_sample(&self, y: f64, d: f64) -> InnerBound {
+    /// Bound on `x_t` from one output sample; `None` when no member reaches `y ± d` (the
+    /// sample lies beyond every limit of the cell).
+    pub fn invert_sample(&self, y: f64, d: f64) -> Option<InnerBound> {
         let mut parts = Vec::new();
         if y + d >= 0.0 {
-            parts.push(side(&self.right, (y - d).max(0.0), y + d));
+            parts.extend(side(&self.right, (y - d).max(0.0), y + d));
         }
         if y - d <= 0.0 {
-            let i = side(&self.left, (-(y + d)).max(0.0), -(y - d));
-            parts.push(Interval::new(-i.hi, -i.lo));
+            if let Some(i) = side(&self.left, (-(y + d)).max(0.0), -(y - d)) {
+                parts.push(Interval::new(-i.hi, -i.lo));
+            }
+        }
+        if parts.is_empty() {
+            return None;
         }
         let lo = parts.iter().map(|i| i.lo).fold(f64::INFINITY, f64::min);
         let hi = parts.iter().map(|i| i.hi).fold(f64::NEG_INFINITY, f64::max);
@@ -348,7 +358,7 @@ impl SaturationSet {
         } else {
             InnerKind::Band
         };
-        InnerBound { interval, kind }
+        Some(InnerBound { interval, kind })
     }
 }
 
@@ -369,10 +379,23 @@ impl NonlinearitySet for SaturationSet {
 
     fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
         check_outputs(y, dy)?;
-        Ok(y.iter()
+        y.iter()
             .zip(dy)
-            .map(|(&y, &d)| self.invert_sample(y, d))
-            .collect())
+            .enumerate()
+            .map(|(t, (&y, &d))| {
+                self.invert_sample(y, d).ok_or_else(|| {
+                    SmidError::inconsistent(
+                        Stage::InnerSignal,
+                        t,
+                        format!(
+                            "output {y} ± {d} lies beyond the limits of every member (-s_l ≥ {:.6e}, s_r ≤ {:.6e})",
+                            -self.left.s.hi,
+                            self.right.s.hi
+                        ),
+                    )
+                })
+            })
+            .collect()
     }
 
     /// `v = min(s_r, m_r u)` (`u >= 0`), `max(-s_l, m_l u)` (`u < 0`) over the box hull of
@@ -455,12 +478,34 @@ mod tests {
         assert_eq!(set.right.s.hi, f64::INFINITY);
         assert!(set.right.m.radius() < 1e-4);
         // A sample that is surely linear inverts; a possibly clipped one is one-sided.
-        let b = set.invert_sample(0.3, 1e-6);
+        let b = set.invert_sample(0.3, 1e-6).unwrap();
         assert_eq!(b.kind, InnerKind::Inverted);
         assert!(b.interval.contains(0.25));
-        let c = set.invert_sample(0.9, 1e-6);
+        let c = set.invert_sample(0.9, 1e-6).unwrap();
         assert_eq!(c.interval.hi, f64::INFINITY);
         assert!(c.interval.lo <= 0.75);
+    }
+
+    #[test]
+    fn an_output_beyond_every_limit_of_the_cell_is_inconsistent() {
+        // A cell whose right limit is at most 0.5: an output of 0.6 ± 0.01 no member reaches.
+        let set = SaturationModel {}
+            .set_from_box(&[
+                Interval::new(0.8, 1.2),
+                Interval::new(0.4, 0.6),
+                Interval::new(0.8, 1.2),
+                Interval::new(0.3, 0.5),
+            ])
+            .unwrap();
+        let y = [0.1, -0.55, 0.49, 0.6];
+        match set.invert(&y, &[0.01; 4]) {
+            Err(SmidError::Inconsistent(f)) => assert_eq!(f.sample, 3),
+            other => panic!("{other:?}"),
+        }
+        // Within the noise of the largest limit, the sample is kept (one-sided).
+        let inner = set.invert(&y[..3], &[0.01; 3]).unwrap();
+        assert_eq!(inner[2].interval.hi, f64::INFINITY);
+        assert!(set.invert(&[-0.605], &[0.01]).is_ok() && set.invert(&[-0.62], &[0.01]).is_err());
     }
 
     #[test]
