@@ -193,6 +193,12 @@ pub struct TrialOutcome {
     pub fit_after: f64,
     pub fit_baseline: f64,
     pub error: Option<String>,
+    /// Draws of an injected block's values until it showed in the training data (0: not a
+    /// drawn block).
+    pub draws: usize,
+    /// The largest change the injected block makes to a noise-free training output, in
+    /// units of Δη (NaN: not a drawn block).
+    pub moves: f64,
 }
 
 fn tag_of_label(label: &str) -> String {
@@ -274,8 +280,41 @@ fn drawn_block(
         format!("no valid draw of `{tag}` in its prior"),
     ))
 }
+/// Draws of a block's true values at most, until it shows in the training data.
+const MAX_DRAWS: usize = 20;
+
+/// The largest change of a noise-free training output (the steady-state experiment's and
+/// every dynamic record's) between two simulations of the same experiment.
+fn largest_change(a: &ExperimentData, b: &ExperimentData) -> f64 {
+    let recs = |d: &ExperimentData| -> Vec<Option<Vec<f64>>> {
+        d.steady_record
+            .iter()
+            .map(|r| Some(r.w.clone()))
+            .chain(d.records.iter().map(|r| r.w.clone()))
+            .collect()
+    };
+    recs(a)
+        .iter()
+        .zip(recs(b).iter())
+        .filter_map(|(x, y)| Some((x.as_ref()?, y.as_ref()?)))
+        .flat_map(|(x, y)| x.iter().zip(y).map(|(p, q)| (p - q).abs()))
+        .fold(0.0, f64::max)
+}
+
 /// Run one trial (`csv`: every record through CSV files first).
 pub fn trial(case: &Case, seed: u64, plant: PlantKind, csv: bool) -> TrialOutcome {
+    trial_in(case, seed, plant, csv, None)
+}
+
+/// [`trial`], keeping its records and spec as measured data in `keep/<case>-<seed>/` (rerun
+/// it with `smid diagnose keep/<case>-<seed>/spec.yaml --holdout ...holdout0.csv,...`).
+pub fn trial_in(
+    case: &Case,
+    seed: u64,
+    plant: PlantKind,
+    csv: bool,
+    keep: Option<&std::path::Path>,
+) -> TrialOutcome {
     let mut out = TrialOutcome {
         case: case.name.clone(),
         unchecked: 0,
@@ -289,6 +328,8 @@ pub fn trial(case: &Case, seed: u64, plant: PlantKind, csv: bool) -> TrialOutcom
         fit_after: f64::NAN,
         fit_baseline: f64::NAN,
         error: None,
+        draws: 0,
+        moves: f64::NAN,
     };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xd1a6_0c4e);
     let levels = if rng.gen_bool(0.5) { 2 } else { 8 };
@@ -297,7 +338,7 @@ pub fn trial(case: &Case, seed: u64, plant: PlantKind, csv: bool) -> TrialOutcom
             (Some(sim), PlantKind::Simulator) => sim,
             _ => {
                 return crate::with_fmu_plant(&spec, std::path::Path::new("."), |p| {
-                    run_trial(&spec, p, &case.kind, seed, csv, &mut out)
+                    run_trial(&spec, p, &case.kind, seed, csv, keep, &mut out)
                 })
             }
         };
@@ -312,12 +353,33 @@ pub fn trial(case: &Case, seed: u64, plant: PlantKind, csv: bool) -> TrialOutcom
             CaseKind::Block(t, side) => {
                 // The range the block sees: the base plant's own training data.
                 let mut base = sim.plant();
-                let scale =
-                    pipeline::data_scale(&pipeline::simulate_experiments(&spec, &mut base)?);
-                let b = drawn_block(t, *side, &scale, &mut rng)?;
-                match side {
-                    Side::Input => input.push(b),
-                    Side::Output => output.push(b),
+                let base_data = pipeline::simulate_experiments(&spec, &mut base)?;
+                let scale = pipeline::data_scale(&base_data);
+                let delta = spec.noise.delta()?;
+                // A block the training data cannot show is not present in them: draws that
+                // move no noise-free training output by more than 2Δη (noise can then make
+                // the records identical to the base plant's) are drawn again.
+                for draw in 1..=MAX_DRAWS {
+                    let b = drawn_block(t, *side, &scale, &mut rng)?;
+                    let (bi, bo) = match side {
+                        Side::Input => (vec![b], Vec::new()),
+                        Side::Output => (Vec::new(), vec![b]),
+                    };
+                    // The trial's plant below, with this draw.
+                    let mut p = SimulatedPlant {
+                        input: &bi,
+                        output: &bo,
+                        effects: &[],
+                        ..sim.plant()
+                    };
+                    let with = pipeline::simulate_experiments(&spec, &mut p)?;
+                    out.draws = draw;
+                    out.moves = largest_change(&base_data, &with) / delta;
+                    if out.moves > 2.0 || draw == MAX_DRAWS {
+                        input = bi;
+                        output = bo;
+                        break;
+                    }
                 }
             }
         }
@@ -330,7 +392,7 @@ pub fn trial(case: &Case, seed: u64, plant: PlantKind, csv: bool) -> TrialOutcom
             effects: &effects,
             dt: 1.0,
         };
-        run_trial(&spec, &mut p, &case.kind, seed, csv, &mut out)
+        run_trial(&spec, &mut p, &case.kind, seed, csv, keep, &mut out)
     });
     if let Err(e) = r {
         out.error = Some(e.to_string());
@@ -374,6 +436,9 @@ fn through_csv(
     }});
     let spec: Spec =
         serde_json::from_value(v).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
+    let text =
+        serde_norway::to_string(&spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
+    std::fs::write(dir.join("spec.yaml"), text).map_err(io)?;
     // As measured steady states come: the sign of ū says the direction (`rising = ū > 0`), no
     // step heights (the allowance α then assumes the paper's 2|ū|).
     let data = pipeline::load_data(&spec, dir)?;
@@ -396,6 +461,7 @@ fn run_trial(
     kind: &CaseKind,
     seed: u64,
     csv: bool,
+    keep: Option<&std::path::Path>,
     out: &mut TrialOutcome,
 ) -> Result<()> {
     let at = |what: &'static str| move |e: SmidError| SmidError::invalid(what, e.to_string());
@@ -406,20 +472,28 @@ fn run_trial(
             pipeline::dynamic_record(spec, plant, &mut rng, 300, format!("held-out {k}"))
         })
         .collect::<Result<_>>()?;
-    let dir = std::env::temp_dir().join(format!(
-        "smid-diagnose-check-{}-{seed}-{}",
-        std::process::id(),
-        out.case.replace('@', "-")
-    ));
+    let dir = match keep {
+        Some(k) => k.join(format!("{}-{seed}", out.case.replace('@', "-"))),
+        None => std::env::temp_dir().join(format!(
+            "smid-diagnose-check-{}-{seed}-{}",
+            std::process::id(),
+            out.case.replace('@', "-")
+        )),
+    };
     std::fs::create_dir_all(&dir).map_err(|e| SmidError::invalid("--csv", e.to_string()))?;
-    let (spec_used, training, holdout) = if csv {
-        through_csv(spec, &training, &holdout, &dir)?
+    let through = (csv || keep.is_some())
+        .then(|| through_csv(spec, &training, &holdout, &dir))
+        .transpose()?;
+    let (spec_used, training, holdout) = if let Some(t) = through.filter(|_| csv) {
+        t
     } else {
         let s: Spec = serde_json::from_value(serde_json::to_value(spec).expect("specs serialise"))
             .expect("a serialised spec deserialises");
         (s, training, holdout)
     };
-    let _ = std::fs::remove_dir_all(&dir);
+    if keep.is_none() {
+        let _ = std::fs::remove_dir_all(&dir);
+    }
     let spec = &spec_used;
     let mut choice =
         diagnose::choose(spec, &training, &Options::default(), &|_, _| {}).map_err(at("choice"))?;
@@ -499,6 +573,7 @@ pub fn run(
     only: &[String],
     plant: PlantKind,
     csv: bool,
+    keep: Option<&std::path::Path>,
     jobs: usize,
     tick: impl Fn() + Sync,
 ) -> Result<Vec<TrialOutcome>> {
@@ -531,7 +606,7 @@ pub fn run(
             sc.spawn(|| loop {
                 let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 let Some(&(c, s)) = work.get(i) else { break };
-                let o = trial(c, s, plant, csv);
+                let o = trial_in(c, s, plant, csv, keep);
                 results.lock().expect("no poisoned lock").push((i, o));
                 tick();
             });
@@ -587,6 +662,25 @@ pub fn format(outcomes: &[TrialOutcome]) -> String {
             median(o.iter().map(|x| x.fit_after).collect()),
             median(o.iter().map(|x| x.fit_baseline).collect()),
         );
+    }
+    for case in cases() {
+        let o: Vec<&TrialOutcome> = outcomes.iter().filter(|o| o.case == case.name).collect();
+        let again = o.iter().filter(|x| x.draws > 1).count();
+        if again > 0 {
+            let _ = writeln!(
+                s,
+                "  {}: {again} of {} trials drew the block again (a draw that moved no noise-free training output by more than 2Δη is not present in the data)",
+                case.name,
+                o.len()
+            );
+        }
+        for x in o.iter().filter(|x| x.draws > 0 && !(x.moves > 2.0)) {
+            let _ = writeln!(
+                s,
+                "  {} seed {}: after {} draws the block still moves the training outputs by at most {:.2}Δη",
+                x.case, x.seed, x.draws, x.moves
+            );
+        }
     }
     for o in outcomes {
         if let Some(e) = &o.error {

@@ -184,6 +184,10 @@ enum Command {
         /// column, the dynamic records), as measured data.
         #[arg(long)]
         csv: bool,
+        /// Keep each trial's records and spec, as measured data, in `DIR/<case>-<seed>/` (rerun
+        /// one with `smid diagnose DIR/<case>-<seed>/spec.yaml --holdout ...`).
+        #[arg(long, value_name = "DIR")]
+        keep: Option<PathBuf>,
         /// Trials run in parallel (default: the number of cores).
         #[arg(long)]
         jobs: Option<usize>,
@@ -552,6 +556,7 @@ fn real_main() -> Result<()> {
             jobs,
             fmu,
             csv,
+            keep,
         } => {
             let plant = if fmu {
                 smid::diagnose_check::PlantKind::Fmu
@@ -566,6 +571,7 @@ fn real_main() -> Result<()> {
                 &only,
                 plant,
                 csv,
+                keep.as_deref(),
                 jobs_or_cores(jobs),
                 || pb.inc(1),
             )?;
