@@ -860,10 +860,11 @@ fn rounds(
             estimated.then(|| bound_of(&base_train)),
             progress,
         );
-        // Admissible candidates whose centre members simulate the training records within
-        // FIT_SLACK points of the best one; among them the fewest added parameters, then the
+        // Admissible candidates whose members simulate the training records as well as the
+        // best one (within `slack` points); among them the fewest added parameters, then the
         // best fit. (Fewest parameters alone let a wide, uninformative set win: a lag whose
         // pole spans [0, 0.9] admits an input dead zone's data but simulates them at 65 %.)
+        let slack = fit_slack(training);
         let best_fit = cands
             .iter()
             .filter(|(_, e)| e.train.admissible())
@@ -872,7 +873,7 @@ fn rounds(
         let best_admissible = cands
             .iter()
             .enumerate()
-            .filter(|(_, (_, e))| e.train.admissible() && fit_of(&e.train) >= best_fit - FIT_SLACK)
+            .filter(|(_, (_, e))| e.train.admissible() && fit_of(&e.train) >= best_fit - slack)
             .min_by(|(_, (_, a)), (_, (_, b))| {
                 a.added_parameters.cmp(&b.added_parameters).then(
                     fit_of(&b.train)
@@ -976,6 +977,26 @@ fn rounds(
     }
 }
 
+/// How far (in fit points) a candidate's training free run may fall below the best one's and
+/// still count as simulating as well: what the noise alone can account for,
+/// `100 · ‖Δη‖ / ‖y - ȳ‖` over the training records (the pooled norms of [`validate::Fit`]),
+/// at most [`FIT_SLACK`]. Near 100 % a fixed slack would let a model with several times the
+/// best one's error win on parameter count.
+fn fit_slack(training: &ExperimentData) -> f64 {
+    let (mut n2, mut d2) = (0.0, 0.0);
+    for r in &training.records {
+        let m = r.y.iter().sum::<f64>() / r.y.len().max(1) as f64;
+        n2 += r.dy.iter().map(|d| d * d).sum::<f64>();
+        d2 += r.y.iter().map(|y| (y - m) * (y - m)).sum::<f64>();
+    }
+    let floor = 100.0 * (n2 / d2).sqrt();
+    if floor.is_finite() {
+        floor.min(FIT_SLACK)
+    } else {
+        FIT_SLACK
+    }
+}
+
 /// Every tag of `only` names a registered effect or plugin (an unknown one would leave the
 /// diagnosis without candidates, silently).
 fn check_only(only: &[String]) -> Result<()> {
@@ -1039,7 +1060,7 @@ pub fn choose(
     let rule = if estimated {
         format!("the noise bound is estimated per model (the smallest bound consistent with the training records, × margin), so every model is admissible: a candidate is kept when its bound falls below {PER_PARAMETER} × the base model's bound per added parameter (an information criterion on the training data, in the ℓ∞ sense) and its free-run fit on the training records is no worse than the base model's (by more than {FIT_SLACK} points: a candidate that explains samples away, as a saturation that swallows the worst ones, does not simulate better), the lowest bound first; a candidate the training data falsify at that bar is not bracketed further (\"inconsistent at the bar\")")
     } else {
-        format!("admissible (training data consistent with the declared noise bound) and simulating the training records within {FIT_SLACK} point(s) of the best admissible candidate's free-run fit, the fewest added parameters, then the best fit; when none is admissible, the one whose first contradiction comes latest is extended in a further round")
+        format!("admissible (training data consistent with the declared noise bound) and simulating the training records as well as the best admissible candidate (free-run fit within {:.3} point(s): what the noise bound accounts for, at most {FIT_SLACK}), the fewest added parameters, then the best fit; when none is admissible, the one whose first contradiction comes latest is extended in a further round", fit_slack(training))
     };
     let (reached, before_identified) = rayon::join(
         || {

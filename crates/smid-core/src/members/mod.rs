@@ -813,13 +813,19 @@ pub fn inner_estimate(
         _ => {
             let layout = model.layout()?;
             let c = &model.cells[0];
-            let sig = crate::pipeline::stage2(
+            let sig = match crate::pipeline::stage2(
                 &model.model,
                 layout,
                 c.nonlinearity.as_ref(),
                 &c.cell,
                 std::slice::from_ref(rec),
-            )?;
+            ) {
+                Ok(sig) => sig,
+                // The record contradicts the first cell (an output beyond its saturation
+                // limits): nothing is inverted there, the free run stands in throughout.
+                Err(crate::error::SmidError::Inconsistent(_)) => return Ok(free.x),
+                Err(e) => return Err(e),
+            };
             Ok(sig
                 .output
                 .iter()
