@@ -39,7 +39,8 @@
 //! interval ends, the analogue of Prop 4); a sample that may be clipped still bounds `x` from
 //! one side, `x >= (y-Δη)/m_hi` (clipped: `x >= s/m >= w/m`), with `+inf` on the other
 //! (such a bound is valid but not finite, so stage 3 does not use it). Samples whose output may
-//! be 0 join the two sides.
+//! be 0 join the two sides. A sample beyond every limit of the cell (`y - Δη > s_hi`, or
+//! `y + Δη < -s_l,hi`) is inconsistent with the cell: every member has `-s_l <= w <= s_r`.
 #![forbid(unsafe_code)]
 
 use schemars::JsonSchema;
