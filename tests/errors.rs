@@ -29,6 +29,11 @@ fn unknown_field_names_file_line_and_field() {
     assert!(e.starts_with("bad.yaml:"), "{e}");
     assert!(e.contains("sead") && e.contains("experiment"), "{e}");
     assert!(e.contains("expected one of"), "{e}");
+    // A missing top-level section and broken YAML say where, in words.
+    let e = err("name: x\n");
+    assert!(e.contains("(top level)") && e.contains("plant"), "{e}");
+    let e = err(": : :\n");
+    assert!(e.contains("(YAML syntax)") && e.contains("bad.yaml:1"), "{e}");
 }
 
 #[test]

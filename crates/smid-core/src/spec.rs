@@ -612,7 +612,12 @@ impl Spec {
     pub fn parse(text: &str, file: &Path) -> Result<Spec> {
         let de = serde_norway::Deserializer::from_str(text);
         let spec: Spec = serde_path_to_error::deserialize(de).map_err(|e| {
-            let field = e.path().to_string();
+            // serde_path_to_error writes the root as `.` and an unknown place as `?`.
+            let field = match e.path().to_string().as_str() {
+                "." => "(top level)".to_string(),
+                "?" => "(YAML syntax)".to_string(),
+                p => p.to_string(),
+            };
             let inner = e.into_inner();
             let line = inner
                 .location()
