@@ -342,9 +342,12 @@ def test_arrays_are_shaped_as_the_spec_shapes_its_csv_records(tmp_path):
 def test_diagnose_from_a_spec(tmp_path):
     run_cli("simulate", PAPER, "--seed", "92", "--out", tmp_path, cwd=ROOT)
     u, y = read_uy(tmp_path / "seed-92.csv")
-    d = smid.diagnose(PAPER, {"held": (u, y)}, only=["sensor_offset"], max_effects=1)
+    d = smid.diagnose(PAPER, {"held": (u, y)}, only=["offset"], max_effects=1)
     assert d.added == [] and "no missing effect" in d.summary
     assert d.after["validation"]["consistency"]["consistent"]
+    # A tag that names nothing registered is refused (it used to leave no candidate, silently).
+    with pytest.raises(smid.InvalidError, match="`sensor_offset`"):
+        smid.diagnose(PAPER, {"held": (u, y)}, only=["sensor_offset"], max_effects=1)
 
 
 def test_user_input_errors_are_smid_errors(tmp_path):
