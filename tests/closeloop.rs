@@ -65,7 +65,10 @@ fn a_fresh_record_too_short_for_one_equation_pair_is_refused_by_name() {
         match v {
             Err(e) if refused => {
                 let e = e.to_string();
-                assert!(e.contains(&format!("short-{n}")) && e.contains("too short"), "{e}");
+                assert!(
+                    e.contains(&format!("short-{n}")) && e.contains("too short"),
+                    "{e}"
+                );
             }
             Ok(_) if !refused => {}
             other => panic!("{n} samples: {:?}", other.map(|v| v.consistency)),
@@ -172,7 +175,10 @@ fn the_diagnosis_names_an_undeclared_delay_and_adds_nothing_when_nothing_is_miss
     let e = diagnose::choose(&spec, &data, &only(&["delay", "dleay"]), &|_, _| {})
         .expect_err("an unknown tag is refused")
         .to_string();
-    assert!(e.contains("`dleay`") && e.contains("delay") && e.contains("output_backlash"), "{e}");
+    assert!(
+        e.contains("`dleay`") && e.contains("delay") && e.contains("output_backlash"),
+        "{e}"
+    );
     // One round tells the equivalent explanations apart from the model as declared; it adds
     // nothing, and whatever it lists as equivalent was identified and admitted.
     assert_eq!(c.rounds.len(), 1);

@@ -300,7 +300,11 @@ fn a_saturation_that_clips_the_training_records_is_named_and_passes_held_out() {
         .expect("the saturation plugin is registered with a default prior on the output side");
     let t = trial(&case, 1, PlantKind::Simulator, false);
     assert!(t.error.is_none(), "{:?}", t.error);
-    assert!(t.moves > 2.0, "the drawn block moves the training outputs by {}Δη", t.moves);
+    assert!(
+        t.moves > 2.0,
+        "the drawn block moves the training outputs by {}Δη",
+        t.moves
+    );
     assert!(t.named, "chose {:?}", t.chosen);
     assert!(t.heldout_pass && t.truth_inside, "{t:?}");
 }

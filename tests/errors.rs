@@ -33,7 +33,10 @@ fn unknown_field_names_file_line_and_field() {
     let e = err("name: x\n");
     assert!(e.contains("(top level)") && e.contains("plant"), "{e}");
     let e = err(": : :\n");
-    assert!(e.contains("(YAML syntax)") && e.contains("bad.yaml:1"), "{e}");
+    assert!(
+        e.contains("(YAML syntax)") && e.contains("bad.yaml:1"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -183,10 +186,16 @@ fn measured_data_identify_and_bad_cells_are_named() {
     // A file with its header and no rows says so (not a complaint about `decimate`).
     let (_d, path) = data_spec(&steady, "u,y\n", 1e-4);
     let e = smid::run_spec_file(&path).unwrap_err().to_string();
-    assert!(e.contains("dynamic.csv") && e.contains("no data rows"), "{e}");
+    assert!(
+        e.contains("dynamic.csv") && e.contains("no data rows"),
+        "{e}"
+    );
     let (_d, path) = data_spec("u,y\n", &dynamic, 1e-4);
     let e = smid::run_spec_file(&path).unwrap_err().to_string();
-    assert!(e.contains("steady.csv") && e.contains("no data rows"), "{e}");
+    assert!(
+        e.contains("steady.csv") && e.contains("no data rows"),
+        "{e}"
+    );
 
     let (_d, path) = data_spec(&steady.replace("u,y", "input,y"), &dynamic, 1e-4);
     let e = smid::run_spec_file(&path).unwrap_err().to_string();

@@ -592,7 +592,9 @@ fn line_of(text: &str, key: &str) -> Option<usize> {
     let lines: Vec<&str> = text.lines().collect();
     let has = |l: &str, k: &str| {
         let t = l.trim_start().trim_start_matches("- ");
-        t.starts_with(&format!("{k}:")) || t.contains(&format!(" {k}:")) || t.contains(&format!("{{{k}:"))
+        t.starts_with(&format!("{k}:"))
+            || t.contains(&format!(" {k}:"))
+            || t.contains(&format!("{{{k}:"))
     };
     let mut from = 0;
     for p in parents {
