@@ -286,19 +286,27 @@ const MAX_DRAWS: usize = 20;
 /// The largest change of a noise-free training output (the steady-state experiment's and
 /// every dynamic record's) between two simulations of the same experiment.
 fn largest_change(a: &ExperimentData, b: &ExperimentData) -> f64 {
-    let recs = |d: &ExperimentData| -> Vec<Option<Vec<f64>>> {
+    fn recs(d: &ExperimentData) -> Vec<Option<&[f64]>> {
         d.steady_record
             .iter()
-            .map(|r| Some(r.w.clone()))
-            .chain(d.records.iter().map(|r| r.w.clone()))
+            .map(|r| Some(r.w.as_slice()))
+            .chain(d.records.iter().map(|r| r.w.as_deref()))
             .collect()
-    };
+    }
     recs(a)
         .iter()
         .zip(recs(b).iter())
-        .filter_map(|(x, y)| Some((x.as_ref()?, y.as_ref()?)))
+        .filter_map(|(x, y)| Some(((*x)?, (*y)?)))
         .flat_map(|(x, y)| x.iter().zip(y).map(|(p, q)| (p - q).abs()))
         .fold(0.0, f64::max)
+}
+
+/// How a check's trials see their records: `csv`, every record through CSV files first;
+/// `keep`, a directory that keeps each trial's records and spec as measured data.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TrialIo<'a> {
+    pub csv: bool,
+    pub keep: Option<&'a std::path::Path>,
 }
 
 /// Run one trial (`csv`: every record through CSV files first).
@@ -480,7 +488,9 @@ fn run_trial(
             out.case.replace('@', "-")
         )),
     };
-    std::fs::create_dir_all(&dir).map_err(|e| SmidError::invalid("--csv", e.to_string()))?;
+    let flag = if keep.is_some() { "--keep" } else { "--csv" };
+    std::fs::create_dir_all(&dir)
+        .map_err(|e| SmidError::invalid(flag, format!("{}: {e}", dir.display())))?;
     let through = (csv || keep.is_some())
         .then(|| through_csv(spec, &training, &holdout, &dir))
         .transpose()?;
@@ -572,8 +582,7 @@ pub fn run(
     first_seed: u64,
     only: &[String],
     plant: PlantKind,
-    csv: bool,
-    keep: Option<&std::path::Path>,
+    io: TrialIo,
     jobs: usize,
     tick: impl Fn() + Sync,
 ) -> Result<Vec<TrialOutcome>> {
@@ -606,7 +615,7 @@ pub fn run(
             sc.spawn(|| loop {
                 let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 let Some(&(c, s)) = work.get(i) else { break };
-                let o = trial_in(c, s, plant, csv, keep);
+                let o = trial_in(c, s, plant, io.csv, io.keep);
                 results.lock().expect("no poisoned lock").push((i, o));
                 tick();
             });

@@ -570,8 +570,10 @@ fn real_main() -> Result<()> {
                 first_seed,
                 &only,
                 plant,
-                csv,
-                keep.as_deref(),
+                smid::diagnose_check::TrialIo {
+                    csv,
+                    keep: keep.as_deref(),
+                },
                 jobs_or_cores(jobs),
                 || pb.inc(1),
             )?;

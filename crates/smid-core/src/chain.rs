@@ -164,7 +164,14 @@ fn invert_runs(block: &dyn NonlinearitySet, w: &[InnerBound]) -> Result<Vec<Inne
             .iter()
             .map(|b| centre_radius(b.interval))
             .unzip();
-        let inv = block.invert(&c, &r)?;
+        // A block's own proof names a sample of this run: moved to the record's index.
+        let inv = block.invert(&c, &r).map_err(|e| match e {
+            SmidError::Inconsistent(f) => SmidError::Inconsistent(crate::finding::Falsification {
+                sample: f.sample + start,
+                ..f
+            }),
+            e => e,
+        })?;
         out[start..t].copy_from_slice(&inv);
     }
     Ok(out)
@@ -177,12 +184,26 @@ pub fn centre_radius(i: Interval) -> (f64, f64) {
     (c, r + (c.abs() + r) * 4.0 * f64::EPSILON)
 }
 
-/// A steady-state output `y ± dy` carried back through the output blocks (signal order) to the
-/// output of the block before them: `(centre, radius)`. Empty: `(y, dy)` unchanged.
-pub fn backward_steady(blocks: &[&dyn NonlinearitySet], y: f64, dy: f64) -> Result<(f64, f64)> {
+/// A steady-state output `y ± dy` (steady-state point `index`) carried back through the output
+/// blocks (signal order) to the output of the block before them: `(centre, radius)`. Empty:
+/// `(y, dy)` unchanged. A block that no member leaves at this output (beyond a saturation's
+/// limits) proves the cell inconsistent at that point (stage 1).
+pub fn backward_steady(
+    blocks: &[&dyn NonlinearitySet],
+    index: usize,
+    y: f64,
+    dy: f64,
+) -> Result<(f64, f64)> {
     let (mut c, mut r) = (y, dy);
     for b in blocks.iter().rev() {
-        let i = b.invert_steady(c, r)?;
+        let i = b.invert_steady(c, r).map_err(|e| match e {
+            SmidError::Inconsistent(f) => SmidError::inconsistent(
+                Stage::SteadyState,
+                index,
+                format!("steady-state point {index}: {}", f.detail),
+            ),
+            e => e,
+        })?;
         if !i.is_finite() {
             return Ok((0.0, f64::INFINITY));
         }
@@ -275,6 +296,67 @@ mod tests {
             for t in 0..3 {
                 assert!(b[t].interval.contains(x[t]), "t = {t}: {:?}", b[t]);
             }
+        }
+    }
+
+    /// The identity on `|w| <= 1`; an output beyond it is inconsistent (as a saturation's
+    /// limits make it), named by the sample of the slice it was given.
+    #[derive(Debug, Serialize, Deserialize)]
+    struct Limit;
+    #[typetag::serde(name = "chain_test_limit")]
+    impl NonlinearitySet for Limit {
+        fn parameters(&self) -> Vec<crate::nonlinearity::ParameterBound> {
+            Vec::new()
+        }
+        fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
+            y.iter()
+                .zip(dy)
+                .enumerate()
+                .map(|(t, (&y, &d))| {
+                    if (y.abs() - d) > 1.0 {
+                        return Err(SmidError::inconsistent(Stage::InnerSignal, t, "beyond 1"));
+                    }
+                    Ok(InnerBound {
+                        interval: Interval::new(y - d, y + d),
+                        kind: InnerKind::Inverted,
+                    })
+                })
+                .collect()
+        }
+        fn propagate(&self, u: &[f64]) -> Result<Vec<InnerBound>> {
+            self.invert(u, &vec![0.0; u.len()])
+        }
+    }
+
+    #[test]
+    fn a_block_inside_the_chain_proves_inconsistency_at_the_records_sample() {
+        // The block after it leaves sample 1 unknown: the second run starts at sample 2, and
+        // its sample 1 (the record's 3) lies beyond the limit.
+        let w = [
+            InnerBound {
+                interval: Interval::new(0.1, 0.2),
+                kind: InnerKind::Inverted,
+            },
+            InnerBound::unknown(),
+            InnerBound {
+                interval: Interval::new(0.1, 0.2),
+                kind: InnerKind::Inverted,
+            },
+            InnerBound {
+                interval: Interval::new(1.5, 1.6),
+                kind: InnerKind::Inverted,
+            },
+        ];
+        match invert_runs(&Limit, &w) {
+            Err(SmidError::Inconsistent(f)) => assert_eq!(f.sample, 3),
+            other => panic!("{other:?}"),
+        }
+        // A steady-state point beyond it is stage 1's, at the point's index.
+        match backward_steady(&[&Limit], 7, 1.5, 0.1) {
+            Err(SmidError::Inconsistent(f)) => {
+                assert_eq!((f.stage, f.sample), (Stage::SteadyState, 7))
+            }
+            other => panic!("{other:?}"),
         }
     }
 

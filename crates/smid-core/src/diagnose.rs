@@ -983,13 +983,19 @@ fn rounds(
 /// at most [`FIT_SLACK`]. Near 100 % a fixed slack would let a model with several times the
 /// best one's error win on parameter count.
 fn fit_slack(training: &ExperimentData) -> f64 {
-    let (mut n2, mut d2) = (0.0, 0.0);
-    for r in &training.records {
-        let m = r.y.iter().sum::<f64>() / r.y.len().max(1) as f64;
-        n2 += r.dy.iter().map(|d| d * d).sum::<f64>();
-        d2 += r.y.iter().map(|y| (y - m) * (y - m)).sum::<f64>();
-    }
-    let floor = 100.0 * (n2 / d2).sqrt();
+    // The fit's own norms, of an output that misses each sample by its whole noise bound.
+    let off: Vec<Vec<f64>> = training
+        .records
+        .iter()
+        .map(|r| r.y.iter().zip(&r.dy).map(|(y, d)| y - d).collect())
+        .collect();
+    let pairs: Vec<(&[f64], &[f64])> = training
+        .records
+        .iter()
+        .zip(&off)
+        .map(|(r, o)| (r.y.as_slice(), o.as_slice()))
+        .collect();
+    let floor = 100.0 * validate::Fit::of(&pairs).nrmse;
     if floor.is_finite() {
         floor.min(FIT_SLACK)
     } else {

@@ -112,7 +112,7 @@ fn stage1_with(
         p.y -= s.center();
         p.dy += s.radius();
         if !outputs.is_empty() {
-            (p.y, p.dy) = chain::backward_steady(&outputs, p.y, p.dy)?;
+            (p.y, p.dy) = chain::backward_steady(&outputs, p.index, p.y, p.dy)?;
         }
         if !inputs.is_empty() {
             // The steady input through the input blocks over their cell: an interval.
@@ -186,7 +186,7 @@ fn prune_by_steady_points(
     let (input, output) = blocks.sides(model.structure, set);
     for p in &steady.points {
         let s = effect::sensor_sum(&model.effects, &slices, p.time)?;
-        let (c, r) = chain::backward_steady(&output, p.y - s.center(), p.dy + s.radius())?;
+        let (c, r) = chain::backward_steady(&output, p.index, p.y - s.center(), p.dy + s.radius())?;
         if !r.is_finite() {
             continue;
         }
