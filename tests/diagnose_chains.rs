@@ -308,3 +308,22 @@ fn a_saturation_that_clips_the_training_records_is_named_and_passes_held_out() {
     assert!(t.named, "chose {:?}", t.chosen);
     assert!(t.heldout_pass && t.truth_inside, "{t:?}");
 }
+
+/// An output quantiser coarser than the declared noise is named, with its step identified: a
+/// sensor map whose cells of steps are ruled out where their lattice misses a measurement's
+/// noise interval, so the after-model's step (and every other bound) holds the truth and the
+/// after-model passes on held-out records. Before, the step could only be declared, and the
+/// diagnosis explained the rounding with a dead zone before the linear block. On seed 2 of
+/// `smid diagnose-check`.
+#[test]
+fn an_undeclared_quantiser_is_named_with_its_step_bounded_around_the_truth() {
+    use smid::diagnose_check::{cases, trial, PlantKind};
+    let case = cases()
+        .into_iter()
+        .find(|c| c.name == "quantization")
+        .expect("the quantization effect is registered with a plant side");
+    let t = trial(&case, 2, PlantKind::Simulator, false);
+    assert!(t.error.is_none(), "{:?}", t.error);
+    assert!(t.named, "chose {:?}", t.chosen);
+    assert!(t.heldout_pass && t.truth_inside, "{t:?}");
+}

@@ -1033,7 +1033,10 @@ pub fn choose(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Choice> {
     check_only(&opts.only)?;
-    let scale = data_scale(training);
+    let mut scale = data_scale(training);
+    if !spec.noise.estimated() {
+        scale.noise = spec.noise.delta().ok();
+    }
     let before = spec.model.duplicate();
     let base = spec.model.duplicate();
     // Candidates that bisect a nonlinearity's parameters get a diagnosis budget (coarser cells);

@@ -15,10 +15,14 @@
 //! * **equation terms** ([`EquationTerm`]): known regressors `φ_k(t)` (a velocity, its
 //!   sign...) whose coefficients `c_k` stage 3 bounds beside `θ`; they vanish at steady state,
 //!   so stage 1 is unchanged;
-//! * **sensor terms** ([`SensorTerm`]): an additive output term `s_t` (an offset, a drift,
-//!   the error of a quantiser) known up to parameters `ψ`, which the branch and bound of
-//!   [`crate::cells`] bisects over a prior box; every stage sees the outputs `y - s` with `s` as
-//!   an interval over the cell, so the bounds stay guaranteed.
+//! * **sensor terms** ([`SensorTerm`]): an additive output term `s_t` (an offset, a drift)
+//!   known up to parameters `ψ`, which the branch and bound of [`crate::cells`] bisects over a
+//!   prior box; every stage sees the outputs `y - s` with `s` as an interval over the cell, so
+//!   the bounds stay guaranteed. A sensor may instead be a **map** of the true output
+//!   (`additive` false: a quantiser, `y = step·round(w/step) + η`); it then says which true
+//!   outputs give a measurement (`true_output`, possibly none, which rules the cell out) and
+//!   what a member measures (`measure`). The model is `y = M(w) + Σ s + η`, the maps applied
+//!   in list order ([`true_output`], [`measured`]).
 //!
 //! Apart from the model side, the plant side ([`PlantEffect`]) applies the same effect with its
 //! true values in the built-in simulator, so that data with an undeclared effect need no FMU.
@@ -91,6 +95,10 @@ pub struct DataScale {
     /// Range of the outputs `[min y, max y]` and of the inputs.
     pub y_range: (f64, f64),
     pub u_range: (f64, f64),
+    /// The declared noise bound `Δη`, where the caller knows one (a diagnosis of a spec that
+    /// declares it; `None` under `noise.estimate`): what a prior may not go below where a
+    /// parameter smaller than the noise could not be told from it.
+    pub noise: Option<f64>,
 }
 
 /// One term of the model: the serialised handle (`type` tag) and the list of what it can do.
@@ -201,8 +209,9 @@ pub trait EquationTerm {
     }
 }
 
-/// Model side: an additive output term `s_t` (an offset, a drift, the error of a quantiser)
-/// known up to parameters `ψ` that the branch and bound bisects (eqs 4-5 plus `s_t`).
+/// Model side: an output term `s_t` (an offset, a drift) known up to parameters `ψ` that the
+/// branch and bound bisects (eqs 4-5 plus `s_t`), or a sensor map of the true output (a
+/// quantiser; see [`SensorTerm::additive`]).
 pub trait SensorTerm {
     /// The sensor term `s_t` at sample `t` of its record (`None`: the time is unknown, e.g.
     /// measured steady-state points) over the cell `ψ ∈ cell` of this term's parameters: a
@@ -225,6 +234,32 @@ pub trait SensorTerm {
     /// units then widens the noise by at most a quarter of its bound).
     fn resolution(&self, delta: f64, _scale: &DataScale) -> Vec<f64> {
         vec![0.5 * delta; self.cell_parameters().len()]
+    }
+    /// Whether the term is additive, `y = w + s_t`, so that [`SensorTerm::true_output`] and
+    /// [`SensorTerm::measure`] are their defaults. Default: yes. A sensor that maps the true
+    /// output (a quantiser: `y = step·round(w/step)`) says no and overrides both; its
+    /// [`SensorTerm::sensor`] is then an enclosure of `y - w`, which the guaranteed output band
+    /// uses.
+    fn additive(&self) -> bool {
+        true
+    }
+    /// The true outputs `w` that give a noise-free measurement in `y` (the measurement with its
+    /// noise interval) for some `ψ` of the cell: a guaranteed interval, `None` when no `w` does
+    /// (this sample falsifies the cell). Default: `y - s_t`.
+    fn true_output(
+        &self,
+        t: Option<usize>,
+        cell: &[Interval],
+        y: Interval,
+    ) -> Result<Option<Interval>> {
+        let s = self.sensor(t, cell)?;
+        Ok(Some(Interval::new(y.lo - s.hi, y.hi - s.lo)))
+    }
+    /// The noise-free measurement of the true output `w` at the point `ψ` (a member's
+    /// simulation). Default: `w` plus the centre of `s_t` at `ψ`.
+    fn measure(&self, t: usize, psi: &[f64], w: f64) -> f64 {
+        let cell: Vec<Interval> = psi.iter().map(|&v| Interval::new(v, v)).collect();
+        w + self.sensor(Some(t), &cell).map_or(0.0, |s| s.center())
     }
 }
 
@@ -434,9 +469,23 @@ pub fn sensor_sum(
     cells: &[&[Interval]],
     t: Option<usize>,
 ) -> Result<Interval> {
+    sum_over(
+        effects
+            .iter()
+            .map(|e| e.as_ref())
+            .zip(cells.iter().copied()),
+        t,
+    )
+}
+
+/// [`sensor_sum`] over `(effect, its cell)` pairs.
+fn sum_over<'a>(
+    terms: impl Iterator<Item = (&'a dyn Effect, &'a [Interval])>,
+    t: Option<usize>,
+) -> Result<Interval> {
     let mut lo = 0.0;
     let mut hi = 0.0;
-    for (e, c) in effects.iter().zip(cells) {
+    for (e, c) in terms {
         let s = e.sensor(t, c)?;
         if !(s.lo <= s.hi) {
             return Err(SmidError::invalid(
@@ -451,6 +500,76 @@ pub fn sensor_sum(
         return Ok(Interval::new(0.0, 0.0));
     }
     Ok(Interval::new(lo, hi).outward())
+}
+
+/// Whether effect `e` is a sensor map (not additive; see [`SensorTerm::additive`]).
+fn is_map(e: &dyn Effect) -> bool {
+    e.as_sensor().is_some_and(|s| !s.additive())
+}
+
+/// The true output `w` (centre, radius) behind a measurement `y ± dy` over a cell, where
+/// `cells[i]` is effect `i`'s slice: the model is `y = M(w) + Σ s + η` with the sensor maps `M`
+/// of the effects that have one applied in list order and the additive terms after them. The
+/// additive sum is subtracted (with no map, exactly `y - centre(s)`, `dy + radius(s)`, the
+/// arithmetic of eqs 4-5 with `s_t`), then each map is inverted, last first. `None`: a map
+/// rules the measurement out over this cell.
+pub fn true_output(
+    effects: &[Box<dyn Effect>],
+    cells: &[&[Interval]],
+    t: Option<usize>,
+    y: f64,
+    dy: f64,
+) -> Result<Option<(f64, f64)>> {
+    if !effects.iter().any(|e| is_map(e.as_ref())) {
+        let s = sensor_sum(effects, cells, t)?;
+        return Ok(Some((y - s.center(), dy + s.radius())));
+    }
+    let s = sum_over(
+        effects
+            .iter()
+            .map(|e| e.as_ref())
+            .zip(cells.iter().copied())
+            .filter(|(e, _)| !is_map(*e)),
+        t,
+    )?;
+    let mut w = Interval::new(y - dy - s.hi, y + dy - s.lo).outward();
+    for (e, c) in effects.iter().zip(cells).rev() {
+        if let Some(m) = e.as_sensor().filter(|m| !m.additive()) {
+            match m.true_output(t, c, w)? {
+                Some(v) if v.lo <= v.hi => w = v.outward(),
+                Some(_) => {
+                    return Err(SmidError::invalid(
+                        format!("effect `{}`", e.label()),
+                        "its true-output interval is empty or not a number",
+                    ))
+                }
+                None => return Ok(None),
+            }
+        }
+    }
+    Ok(Some((w.center(), w.radius())))
+}
+
+/// The noise-free measurement of the true output `w` at sample `t` for the parameter point
+/// `psi[i]` of effect `i`: the maps in list order, then the additive terms (the model of
+/// [`true_output`]). With no map, exactly `w + centre(Σ s)`.
+pub fn measured(effects: &[Box<dyn Effect>], psi: &[&[f64]], t: usize, w: f64) -> f64 {
+    let mut y = w;
+    for (e, p) in effects.iter().zip(psi) {
+        if let Some(m) = e.as_sensor().filter(|m| !m.additive()) {
+            y = m.measure(t, p, y);
+        }
+    }
+    let cells: Vec<Vec<Interval>> = psi
+        .iter()
+        .map(|p| p.iter().map(|&v| Interval::new(v, v)).collect())
+        .collect();
+    let add = effects
+        .iter()
+        .map(|e| e.as_ref())
+        .zip(cells.iter().map(|c| c.as_slice()))
+        .filter(|(e, _)| !is_map(*e));
+    y + sum_over(add, Some(t)).map_or(0.0, |s| s.center())
 }
 
 /// The regressor columns of every effect on one record.

@@ -11,7 +11,7 @@
 //! | `extra_zero` | order | `nb += 1` | unit-gain zero `(1 + z q^-1)/(1+z)` |
 //! | `offset` | sensor | `s_t = offset`, bisected | `y += offset` |
 //! | `drift` | sensor | `s_t = offset + drift·t` (t: sample of the record), bisected | `y += offset + drift·t` |
-//! | `quantization` | sensor | `|s_t| <= step/2`, `step` declared | `w` rounded to the step |
+//! | `quantization` | sensor map | `y = step·round(w/step)`: `w` within `step/2` of a lattice value `k·step` in `y ± Δη`; `step` declared or bisected | `w` rounded to the step |
 //! | `coulomb_friction` | equation | `c · sign(u_t - u_{t-1})` (0 below 1e-3 of the largest move) | the same term with `value` |
 //! | `viscous_friction` | equation | `c · (u_t - u_{t-1})/dt` | the same term with `value` |
 //!
@@ -339,49 +339,151 @@ register_effect!(
     }]
 );
 
-/// A sensor coarser than the noise bound says: the output is rounded to a known step, an
-/// error of at most `step/2` beside the declared noise. The step is declared, not identified
-/// (a step inferred from data would only be the smallest consistent noise bound, which
-/// `smid validate` reports), so this effect is no diagnosis candidate.
+/// A sensor coarser than the noise bound says: the measured output is the true output rounded
+/// to a step, `y = step·round(w/step) + η`. The step is declared, or, left out, identified: the
+/// branch and bound bisects it, and a cell of steps whose lattice `k·step` misses a measurement's
+/// noise interval `y ± Δη` is ruled out, so the data themselves say which steps they were
+/// rounded to (a step inferred from the size of the errors alone would only be a larger noise
+/// bound). This makes the identified quantiser a diagnosis candidate.
 #[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Quantization {
-    /// The quantiser's step (`> 0`).
-    pub step: f64,
+    /// The quantiser's step (`> 0`); left out in a model, it is identified (bisected).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub step: Option<f64>,
+}
+
+impl Quantization {
+    /// The step over a cell: the declared one, or the cell's (bisected) interval.
+    fn steps(&self, cell: &[Interval]) -> Result<Interval> {
+        let q = match self.step {
+            Some(q) => Interval::new(q, q),
+            None => *cell.first().ok_or_else(|| {
+                SmidError::invalid("model.effects: quantization", "no cell for the step")
+            })?,
+        };
+        if !(q.hi.is_finite() && q.hi > 0.0 && q.lo <= q.hi) {
+            return Err(SmidError::invalid(
+                "model.effects: quantization.step",
+                format!("expected a step > 0, got [{}, {}]", q.lo, q.hi),
+            ));
+        }
+        Ok(q)
+    }
+}
+
+/// The lattice values `k·q`, `q ∈ [qa, qb]` (`0 < qa`), that lie in `y`: the hull of them, or
+/// `None`. The ends are padded so that rounding never rules a lattice point out.
+fn lattice_in(y: Interval, qa: f64, qb: f64) -> Option<Interval> {
+    let pad = 1e-12 * (y.lo.abs() + y.hi.abs() + qb) + f64::MIN_POSITIVE;
+    let (ya, yb) = (y.lo - pad, y.hi + pad);
+    let (qa, qb) = (qa * (1.0 - 1e-12), qb * (1.0 + 1e-12));
+    // k >= 1: k·qa <= yb and k·qb >= ya; k <= -1: k·qa >= ya and k·qb <= yb; k = 0: 0 in y.
+    let pos = ((ya / qb).ceil().max(1.0), (yb / qa).floor());
+    let neg = ((ya / qa).ceil(), (yb / qb).floor().min(-1.0));
+    let mut ks: Vec<f64> = Vec::new();
+    if neg.0 <= neg.1 {
+        ks.extend([neg.0, neg.1]);
+    }
+    if ya <= 0.0 && 0.0 <= yb {
+        ks.push(0.0);
+    }
+    if pos.0 <= pos.1 {
+        ks.extend([pos.0, pos.1]);
+    }
+    let (kmin, kmax) = (ks.first()?, ks.last()?);
+    let lo = ya.max((kmin * qa).min(kmin * qb));
+    let hi = yb.min((kmax * qa).max(kmax * qb));
+    Some(Interval::new(lo.min(hi), hi.max(lo)))
 }
 
 impl SensorTerm for Quantization {
-    fn sensor(&self, _t: Option<usize>, _cell: &[Interval]) -> Result<Interval> {
-        if !(self.step.is_finite() && self.step > 0.0) {
-            return Err(SmidError::invalid(
-                "model.effects: quantization.step",
-                format!("expected a step > 0, got {}", self.step),
-            ));
+    fn cell_parameters(&self) -> Vec<String> {
+        if self.step.is_some() {
+            Vec::new()
+        } else {
+            vec!["step".into()]
         }
-        let h = 0.5 * self.step;
+    }
+    /// Steps up to an eighth of the training outputs' range (at least eight levels), and at
+    /// least four times the declared noise bound: the lattice then leaves gaps of at least
+    /// `2Δη` between the noise intervals it can meet, so outputs that were not rounded fall
+    /// into them and rule the step out; a finer step would only be a larger noise bound.
+    /// Without a declared bound, at least 2^-10 of the range.
+    fn default_prior(&self, s: &DataScale) -> Vec<Interval> {
+        let span = (s.y_range.1 - s.y_range.0).abs().max(f64::MIN_POSITIVE);
+        let lo = s.noise.map_or(span / 1024.0, |d| 4.0 * d);
+        self.cell_parameters()
+            .iter()
+            .map(|_| Interval::new(lo.min(span / 8.0), span / 8.0))
+            .collect()
+    }
+    /// Fine enough for the lattice to tell steps apart at the largest output: `k·dq` below
+    /// the noise bound for `k` up to `y_max/Δη`.
+    fn resolution(&self, delta: f64, s: &DataScale) -> Vec<f64> {
+        let r = 0.25 * delta * delta / s.y_max.max(delta);
+        vec![r; self.cell_parameters().len()]
+    }
+    /// An enclosure of `y - w`: `|s_t| <= step/2`.
+    fn sensor(&self, _t: Option<usize>, cell: &[Interval]) -> Result<Interval> {
+        let h = 0.5 * self.steps(cell)?.hi;
         Ok(Interval::new(-h, h))
+    }
+    fn additive(&self) -> bool {
+        false
+    }
+    /// `w ∈ [k·q - q/2, k·q + q/2]` for the lattice values `k·q` in `y`; none: ruled out.
+    fn true_output(
+        &self,
+        _t: Option<usize>,
+        cell: &[Interval],
+        y: Interval,
+    ) -> Result<Option<Interval>> {
+        let q = self.steps(cell)?;
+        let h = 0.5 * q.hi;
+        if q.lo <= 0.0 {
+            return Ok(Some(Interval::new(y.lo - h, y.hi + h)));
+        }
+        Ok(lattice_in(y, q.lo, q.hi).map(|k| Interval::new(k.lo - h, k.hi + h)))
+    }
+    fn measure(&self, _t: usize, psi: &[f64], w: f64) -> f64 {
+        match self.step.or(psi.first().copied()) {
+            Some(q) if q > 0.0 => q * (w / q).round(),
+            _ => w,
+        }
     }
 }
 
 impl PlantEffect for Quantization {
     fn validate_plant(&self) -> Result<()> {
-        if !(self.step.is_finite() && self.step > 0.0) {
-            return Err(SmidError::invalid("step", "expected a step > 0"));
+        match self.step {
+            Some(q) if q.is_finite() && q > 0.0 => Ok(()),
+            _ => Err(SmidError::invalid("step", "expected a step > 0")),
         }
-        Ok(())
     }
     fn plant_output(&self, _t: usize, w: f64) -> f64 {
-        self.step * (w / self.step).round()
+        match self.step {
+            Some(q) if q > 0.0 => q * (w / q).round(),
+            _ => w,
+        }
+    }
+    fn truth(&self) -> Vec<(String, f64)> {
+        opt("step", self.step)
     }
 }
 
 #[typetag::serde(name = "quantization")]
 impl Effect for Quantization {
     fn label(&self) -> String {
-        format!("output quantization (step {:.3e})", self.step)
+        match self.step {
+            Some(q) => format!("output quantization (step {q:.3e})"),
+            None => "output quantization".into(),
+        }
     }
     fn settings(&self) -> Vec<(String, f64)> {
-        vec![("step".into(), self.step)]
+        self.step
+            .map(|q| vec![("step".into(), q)])
+            .unwrap_or_default()
     }
     fn as_sensor(&self) -> Option<&dyn SensorTerm> {
         Some(self)
@@ -394,8 +496,8 @@ register_effect!(
     "quantization",
     Quantization,
     50,
-    Quantization { step: 0.005 },
-    []
+    Quantization { step: Some(0.005) },
+    [Quantization { step: None }]
 );
 
 /// Which velocity drives a friction term.
@@ -784,10 +886,51 @@ mod tests {
             assert!(s.contains(v), "{s:?} misses {v}");
         }
         assert!(d.sensor(None, &cell).is_err());
-        let q = Quantization { step: 0.2 };
+        let q = Quantization { step: Some(0.2) };
         let s = q.sensor(None, &[]).unwrap();
         assert!(s.contains(0.1) && s.contains(-0.1) && !s.contains(0.11));
         assert_eq!(q.plant_output(0, 0.29), 0.2);
+    }
+
+    /// The quantiser's inversion is sound: for random steps, cells around them, true outputs
+    /// of either sign and noise inside its bound, the true output lies in what the
+    /// inversion returns; and it has power: a cell of steps away from the true one is ruled
+    /// out by some sample of a record that spans several levels.
+    #[test]
+    fn a_quantiser_inverts_to_every_true_output_and_rules_out_wrong_steps() {
+        let q = Quantization { step: None };
+        let mut seed = 12345u64;
+        let mut rnd = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut ruled_out = 0;
+        for case in 0..300 {
+            let step = 10f64.powf(-3.0 + 2.5 * rnd());
+            let delta = step * (0.01 + 0.3 * rnd());
+            let width = step * 1e-3 * rnd();
+            let lo = step - width * rnd();
+            let cell = [Interval::new(lo, lo + width)];
+            let truth = Quantization { step: Some(step) };
+            let mut wrong_ruled_out = false;
+            let wrong = [Interval::new(step * 1.13, step * 1.131)];
+            for _ in 0..50 {
+                let w = (rnd() - 0.5) * 400.0 * step;
+                let y = truth.plant_output(0, w) + delta * (2.0 * rnd() - 1.0);
+                let yi = Interval::new(y - delta, y + delta);
+                let inv = q.true_output(Some(0), &cell, yi).unwrap();
+                let inv = inv.unwrap_or_else(|| panic!("case {case}: {w} ruled out"));
+                assert!(inv.contains(w), "case {case}: {w} outside {inv:?}");
+                wrong_ruled_out |= q.true_output(Some(0), &wrong, yi).unwrap().is_none();
+            }
+            ruled_out += usize::from(wrong_ruled_out);
+        }
+        assert!(
+            ruled_out > 250,
+            "a wrong step was ruled out in {ruled_out} of 300 cases"
+        );
     }
 
     #[test]

@@ -614,6 +614,20 @@ impl ModelPoint {
             .unwrap_or(0.0)
     }
 
+    /// The noise-free measurements of the true outputs `w` (the sensor maps and terms at
+    /// this point; [`effect::measured`]).
+    fn measure(&self, w: &[f64]) -> Vec<f64> {
+        let psi: Vec<&[f64]> = self
+            .effect_cells
+            .iter()
+            .map(|r| &self.psi[r.clone()])
+            .collect();
+        w.iter()
+            .enumerate()
+            .map(|(t, &v)| effect::measured(&self.effects, &psi, t, v))
+            .collect()
+    }
+
     /// The equation-term sequence `Σ c_k φ_k(t)` of a record with the linear block's output
     /// given (`x`: regressors that read it use it), and the coefficient slices of the effects
     /// that read the output (to be evaluated online in a free run).
@@ -725,7 +739,6 @@ impl ModelPoint {
             free.push(xs);
             free_iv.push(Interval::new(xs, xs));
         }
-        let sensor: Vec<f64> = (0..n).map(|t| self.sensor(t)).collect();
         let out = |x: &[f64]| -> Vec<f64> {
             let mut w = match self.structure {
                 Structure::Wiener => self.nonlinearity.simulate(x),
@@ -740,7 +753,7 @@ impl ModelPoint {
             Some(x) if k < n && k > 0 => x,
             _ => {
                 let w = out(&free);
-                let yy = w.iter().zip(&sensor).map(|(a, b)| a + b).collect();
+                let yy = self.measure(&w);
                 return Simulation { x: free, w, y: yy };
             }
         };
@@ -776,7 +789,7 @@ impl ModelPoint {
             x[t] = xs;
         }
         let w = out(&x);
-        let yy = w.iter().zip(&sensor).map(|(a, b)| a + b).collect();
+        let yy = self.measure(&w);
         Simulation { x, w, y: yy }
     }
 

@@ -156,6 +156,7 @@ pub fn data_scale(data: &ExperimentData) -> DataScale {
         length: length.max(1),
         y_range: fix(y_range),
         u_range: fix(u_range),
+        noise: None,
     }
 }
 

@@ -6,7 +6,7 @@ use super::*;
 use crate::cells::Verdict;
 use crate::chain::{self, Side};
 use crate::effect::{self, Signals};
-use crate::error::{Result, SmidError};
+use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
 use crate::inversion::InnerBound;
 use crate::model::{CellSet, Layout, Training};
@@ -108,9 +108,8 @@ fn stage1_with(
     let inputs = blocks.refs(Side::Input);
     let mut data = steady.clone();
     for p in &mut data.points {
-        let s = effect::sensor_sum(&model.effects, &slices, p.time)?;
-        p.y -= s.center();
-        p.dy += s.radius();
+        (p.y, p.dy) = effect::true_output(&model.effects, &slices, p.time, p.y, p.dy)?
+            .ok_or_else(|| no_true_output(p.index))?;
         if !outputs.is_empty() {
             (p.y, p.dy) = chain::backward_steady(&outputs, p.index, p.y, p.dy)?;
         }
@@ -185,8 +184,9 @@ fn prune_by_steady_points(
     let blocks = BlockSets::new(model, layout, cell)?;
     let (input, output) = blocks.sides(model.structure, set);
     for p in &steady.points {
-        let s = effect::sensor_sum(&model.effects, &slices, p.time)?;
-        let (c, r) = chain::backward_steady(&output, p.index, p.y - s.center(), p.dy + s.radius())?;
+        let (y, dy) = effect::true_output(&model.effects, &slices, p.time, p.y, p.dy)?
+            .ok_or_else(|| no_true_output(p.index))?;
+        let (c, r) = chain::backward_steady(&output, p.index, y, dy)?;
         if !r.is_finite() {
             continue;
         }
@@ -326,9 +326,18 @@ pub fn stage2(
         let mut dy = rec.dy.clone();
         if !model.effects.is_empty() {
             for t in 0..n {
-                let s = effect::sensor_sum(&model.effects, &slices, Some(t))?;
-                yc[t] -= s.center();
-                dy[t] += s.radius();
+                (yc[t], dy[t]) =
+                    effect::true_output(&model.effects, &slices, Some(t), yc[t], dy[t])?
+                        .ok_or_else(|| {
+                            SmidError::inconsistent(
+                                Stage::InnerSignal,
+                                t,
+                                format!(
+                                    "sample {t}: no true output of the cell gives this measurement through the model's sensor"
+                                ),
+                            )
+                            .in_record(r)
+                        })?;
             }
         }
         // Wiener: the nonlinearity is the first output block; Hammerstein: the last input
@@ -505,4 +514,15 @@ fn undecided<T>(e: &SmidError) -> Verdict<T> {
         SmidError::Solver(m) => Verdict::Undecided(UndecidedCause::Solver, m.clone()),
         other => Verdict::Undecided(UndecidedCause::Unbounded, other.to_string()),
     }
+}
+
+/// Steady-state point `index` is ruled out by a sensor map of the model over the cell.
+fn no_true_output(index: usize) -> SmidError {
+    SmidError::inconsistent(
+        Stage::SteadyState,
+        index,
+        format!(
+            "steady-state point {index}: no true output of the cell gives this measurement through the model's sensor"
+        ),
+    )
 }
