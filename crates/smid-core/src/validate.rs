@@ -359,11 +359,13 @@ pub fn consistency(model: &ModelSet, fresh: &[Record]) -> Result<Consistency> {
 ///
 /// It is the smallest of the cells' own smallest bounds: the cells are visited centre first;
 /// a cell is bisected only when it admits the data just below the best bound found so far
-/// (one check otherwise), so most cells cost one stage-3 call.
+/// (one check otherwise), so most cells cost one stage-3 call. `consistent_at_delta`: the
+/// verdict at the model's own bound when the caller has it (the check is not repeated).
 pub fn smallest_bound(
     model: &ModelSet,
     fresh: &[Record],
     resolution: f64,
+    consistent_at_delta: Option<bool>,
 ) -> Result<Option<(f64, f64)>> {
     let with = |d: f64| -> Vec<Record> {
         let recs: Vec<Record> = fresh.iter().map(|r| r.with_bound(d)).collect();
@@ -378,7 +380,11 @@ pub fn smallest_bound(
     let mut lo_set = 0.0;
     let mut hi = d0;
     let mut steps = 0;
-    while !ok_set(hi)? {
+    let mut known = consistent_at_delta;
+    while !match known.take() {
+        Some(v) => v,
+        None => ok_set(hi)?,
+    } {
         steps += 1;
         if steps > 30 {
             return Ok(None);
@@ -489,12 +495,23 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     let o = layout.orders;
     check_fresh(o, fresh)?;
     let fresh: Vec<Record> = fresh.iter().map(|r| r.with_bound(model.delta)).collect();
+    let clock = std::time::Instant::now();
     let consistency = consistency(model, &fresh)?;
-    let smallest = smallest_bound(model, &fresh, opts.bound_resolution)?;
+    log::info!(target: "smid::validate", "consistency: {:.2} s", clock.elapsed().as_secs_f64());
+    let clock = std::time::Instant::now();
+    let smallest = smallest_bound(
+        model,
+        &fresh,
+        opts.bound_resolution,
+        Some(consistency.consistent),
+    )?;
+    log::info!(target: "smid::validate", "smallest consistent bound: {:.2} s", clock.elapsed().as_secs_f64());
     let pass = consistency.consistent && smallest.is_some_and(|(_, hi)| hi <= model.delta);
 
     let centre = members::representative(model)?;
+    let clock = std::time::Instant::now();
     let (members, envelope) = members::envelope_members(model);
+    log::info!(target: "smid::validate", "envelope members: {:.2} s", clock.elapsed().as_secs_f64());
     let arx = Arx::fit(&model.training.records, o.na, o.nb, o.nk).ok();
     let mut warnings = Vec::new();
     if !centre.stable() {
@@ -559,7 +576,10 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
         });
         let base = arx.as_ref().map(|a| a.simulate_from(&rec.u, &rec.y, w0));
         let band = if opts.band {
-            Some(crate::band::one_step_band(model, rec)?)
+            let clock = std::time::Instant::now();
+            let b = crate::band::one_step_band(model, rec)?;
+            log::info!(target: "smid::validate", "band of `{}`: {:.2} s", rec.name, clock.elapsed().as_secs_f64());
+            Some(b)
         } else {
             None
         };
