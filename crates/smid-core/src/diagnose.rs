@@ -626,6 +626,12 @@ fn candidates(
             let before = m.layout().map(|l| l.p() + l.dims.len()).unwrap_or(0);
             let names = cand.cell_parameters();
             let priors = cand.default_prior(scale);
+            if priors.len() < names.len() {
+                // No default prior from these data (a quantiser's step under an estimated
+                // bound): not offered, and said so in the log (README, *Diagnosis*).
+                log::info!(target: "smid::diagnose", "{}: not offered (no default prior for {} from these data)", cand.label(), names.join(", "));
+                continue;
+            }
             let mut given = Vec::new();
             for (n, p) in names.iter().zip(&priors) {
                 m.prior.insert(n.clone(), [p.lo, p.hi]);

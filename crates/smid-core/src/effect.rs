@@ -222,7 +222,8 @@ pub trait SensorTerm {
         Vec::new()
     }
     /// Default prior box of [`SensorTerm::cell_parameters`] for a diagnosis candidate, from the
-    /// training data's scale. Default: `|ψ| <= y_max`.
+    /// training data's scale. Default: `|ψ| <= y_max`. Fewer boxes than parameters: these data
+    /// give no prior, and the candidate is not offered.
     fn default_prior(&self, scale: &DataScale) -> Vec<Interval> {
         self.cell_parameters()
             .iter()

@@ -409,13 +409,17 @@ impl SensorTerm for Quantization {
     /// least four times the declared noise bound: the lattice then leaves gaps of at least
     /// `2Δη` between the noise intervals it can meet, so outputs that were not rounded fall
     /// into them and rule the step out; a finer step would only be a larger noise bound.
-    /// Without a declared bound, at least 2^-10 of the range.
+    /// Without a declared bound (`noise.estimate`) no prior: a step and the bound being
+    /// estimated cannot be told apart, so the quantiser is not offered.
     fn default_prior(&self, s: &DataScale) -> Vec<Interval> {
         let span = (s.y_range.1 - s.y_range.0).abs().max(f64::MIN_POSITIVE);
-        let lo = s.noise.map_or(span / 1024.0, |d| 4.0 * d);
+        let Some(d) = s.noise else {
+            return Vec::new();
+        };
+        let lo = (4.0 * d).min(span / 8.0);
         self.cell_parameters()
             .iter()
-            .map(|_| Interval::new(lo.min(span / 8.0), span / 8.0))
+            .map(|_| Interval::new(lo, span / 8.0))
             .collect()
     }
     /// Fine enough for the lattice to tell steps apart at the largest output: `k·dq` below
@@ -931,6 +935,21 @@ mod tests {
             ruled_out > 250,
             "a wrong step was ruled out in {ruled_out} of 300 cases"
         );
+        // The prior starts where the lattice can rule steps out (4Δη), and without a declared
+        // bound there is none: the quantiser is then not offered.
+        let mut scale = DataScale {
+            y_max: 2.0,
+            length: 100,
+            y_range: (-1.0, 2.0),
+            u_range: (-1.0, 1.0),
+            noise: Some(1e-3),
+        };
+        assert_eq!(
+            q.default_prior(&scale),
+            vec![Interval::new(4e-3, 3.0 / 8.0)]
+        );
+        scale.noise = None;
+        assert!(q.default_prior(&scale).is_empty());
     }
 
     #[test]
