@@ -256,11 +256,11 @@ pub trait SensorTerm {
         let s = self.sensor(t, cell)?;
         Ok(Some(Interval::new(y.lo - s.hi, y.hi - s.lo)))
     }
-    /// The noise-free measurement of the true output `w` at the point `ψ` (a member's
-    /// simulation). Default: `w` plus the centre of `s_t` at `ψ`.
-    fn measure(&self, t: usize, psi: &[f64], w: f64) -> f64 {
-        let cell: Vec<Interval> = psi.iter().map(|&v| Interval::new(v, v)).collect();
-        w + self.sensor(Some(t), &cell).map_or(0.0, |s| s.center())
+    /// A sensor map's noise-free measurement of the true output `w` at the point `ψ` (a
+    /// member's simulation). Asked of maps only: an additive term's `w + s_t` is added by
+    /// [`measured`]. Default: `w`.
+    fn measure(&self, _t: usize, _psi: &[f64], w: f64) -> f64 {
+        w
     }
 }
 
@@ -503,9 +503,13 @@ fn sum_over<'a>(
     Ok(Interval::new(lo, hi).outward())
 }
 
-/// Whether effect `e` is a sensor map (not additive; see [`SensorTerm::additive`]).
+/// Effect `e`'s sensor when it is a map (not additive; see [`SensorTerm::additive`]).
+pub fn sensor_map(e: &dyn Effect) -> Option<&dyn SensorTerm> {
+    e.as_sensor().filter(|s| !s.additive())
+}
+
 fn is_map(e: &dyn Effect) -> bool {
-    e.as_sensor().is_some_and(|s| !s.additive())
+    sensor_map(e).is_some()
 }
 
 /// The true output `w` (centre, radius) behind a measurement `y ± dy` over a cell, where
@@ -535,7 +539,7 @@ pub fn true_output(
     )?;
     let mut w = Interval::new(y - dy - s.hi, y + dy - s.lo).outward();
     for (e, c) in effects.iter().zip(cells).rev() {
-        if let Some(m) = e.as_sensor().filter(|m| !m.additive()) {
+        if let Some(m) = sensor_map(e.as_ref()) {
             match m.true_output(t, c, w)? {
                 Some(v) if v.lo <= v.hi => w = v.outward(),
                 Some(_) => {
@@ -557,7 +561,7 @@ pub fn true_output(
 pub fn measured(effects: &[Box<dyn Effect>], psi: &[&[f64]], t: usize, w: f64) -> f64 {
     let mut y = w;
     for (e, p) in effects.iter().zip(psi) {
-        if let Some(m) = e.as_sensor().filter(|m| !m.additive()) {
+        if let Some(m) = sensor_map(e.as_ref()) {
             y = m.measure(t, p, y);
         }
     }

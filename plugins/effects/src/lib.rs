@@ -372,6 +372,14 @@ impl Quantization {
     }
 }
 
+/// `w` rounded to the step `q` (unchanged without a positive step).
+fn round_to(q: Option<f64>, w: f64) -> f64 {
+    match q {
+        Some(q) if q > 0.0 => q * (w / q).round(),
+        _ => w,
+    }
+}
+
 /// The lattice values `k·q`, `q ∈ [qa, qb]` (`0 < qa`), that lie in `y`: the hull of them, or
 /// `None`. The ends are padded so that rounding never rules a lattice point out.
 fn lattice_in(y: Interval, qa: f64, qb: f64) -> Option<Interval> {
@@ -381,17 +389,16 @@ fn lattice_in(y: Interval, qa: f64, qb: f64) -> Option<Interval> {
     // k >= 1: k·qa <= yb and k·qb >= ya; k <= -1: k·qa >= ya and k·qb <= yb; k = 0: 0 in y.
     let pos = ((ya / qb).ceil().max(1.0), (yb / qa).floor());
     let neg = ((ya / qa).ceil(), (yb / qb).floor().min(-1.0));
-    let mut ks: Vec<f64> = Vec::new();
-    if neg.0 <= neg.1 {
-        ks.extend([neg.0, neg.1]);
-    }
-    if ya <= 0.0 && 0.0 <= yb {
-        ks.push(0.0);
-    }
-    if pos.0 <= pos.1 {
-        ks.extend([pos.0, pos.1]);
-    }
-    let (kmin, kmax) = (ks.first()?, ks.last()?);
+    // The smallest and the largest k present.
+    let zero = (ya <= 0.0 && 0.0 <= yb).then_some((0.0, 0.0));
+    let present = [neg, pos]
+        .into_iter()
+        .filter(|r| r.0 <= r.1)
+        .chain(zero)
+        .fold(None, |acc: Option<(f64, f64)>, r| {
+            Some(acc.map_or(r, |a| (a.0.min(r.0), a.1.max(r.1))))
+        });
+    let (kmin, kmax) = present?;
     let lo = ya.max((kmin * qa).min(kmin * qb));
     let hi = yb.min((kmax * qa).max(kmax * qb));
     Some(Interval::new(lo.min(hi), hi.max(lo)))
@@ -451,10 +458,7 @@ impl SensorTerm for Quantization {
         Ok(lattice_in(y, q.lo, q.hi).map(|k| Interval::new(k.lo - h, k.hi + h)))
     }
     fn measure(&self, _t: usize, psi: &[f64], w: f64) -> f64 {
-        match self.step.or(psi.first().copied()) {
-            Some(q) if q > 0.0 => q * (w / q).round(),
-            _ => w,
-        }
+        round_to(self.step.or(psi.first().copied()), w)
     }
 }
 
@@ -466,10 +470,7 @@ impl PlantEffect for Quantization {
         }
     }
     fn plant_output(&self, _t: usize, w: f64) -> f64 {
-        match self.step {
-            Some(q) if q > 0.0 => q * (w / q).round(),
-            _ => w,
-        }
+        round_to(self.step, w)
     }
     fn truth(&self) -> Vec<(String, f64)> {
         opt("step", self.step)

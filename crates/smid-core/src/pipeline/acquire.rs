@@ -117,7 +117,7 @@ pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<Experi
                 .model
                 .effects
                 .iter()
-                .find(|e| e.as_sensor().is_some_and(|s| !s.additive()))
+                .find(|e| crate::effect::sensor_map(e.as_ref()).is_some())
             {
                 return Err(SmidError::invalid(
                     "experiment.filter.pole",
