@@ -6,6 +6,7 @@
 //! by the `smid` CLI.
 #![forbid(unsafe_code)]
 
+pub use smid_bias as bias;
 pub use smid_core as core;
 pub use smid_core::{Falsification, Outcome, Result, SmidError};
 pub use smid_dead_zone as dead_zone;
@@ -45,6 +46,7 @@ fn bundled_models() -> Vec<Box<dyn smid_core::nonlinearity::NonlinearityModel>> 
         Box::new(smid_example_gain::GainModel::default()),
         Box::new(smid_linear::LinearModel::default()),
         Box::new(smid_filters::LagModel::default()),
+        Box::new(smid_bias::BiasModel::default()),
     ]
 }
 
