@@ -286,6 +286,15 @@ pub trait NonlinearityModel: Debug + Send + Sync {
     fn default_prior(&self, _structure: Structure, _seen: (f64, f64)) -> Option<Vec<Interval>> {
         None
     }
+    /// The branch and bound's resolution of each parameter over its prior box: a cell narrower
+    /// than this is not halved further. `halvings` is the spec's
+    /// `method.cells.nonlinearity_halvings`, `delta` the output noise bound. Default: the
+    /// prior's width halved `halvings` times. A parameter in output units (a bias) may ask for
+    /// the noise's scale instead, as a sensor term does.
+    fn resolution(&self, prior: &[Interval], halvings: u32, _delta: f64) -> Vec<f64> {
+        let h = 2f64.powi(halvings as i32);
+        prior.iter().map(|p| (p.hi - p.lo) / h).collect()
+    }
     /// Identification from any record (no steady-state data): the set of **every** parameter
     /// vector in a box (one interval per parameter, in the order of
     /// [`Nonlinearity::parameters`] of the plugin's simulator), whose

@@ -99,6 +99,23 @@ impl NonlinearityModel for BiasModel {
         let r = 0.25 * (seen.1 - seen.0);
         (r.is_finite() && r > 0.0).then(|| vec![Interval::new(-r, r)])
     }
+    /// Half the noise bound, as a sensor offset's (at most the default): the bias moves the
+    /// output by as much as it moves its input through a unit-gain block, and a cell as wide as
+    /// the default (a 64th of the prior) would leave the set far wider than the data do.
+    fn resolution(&self, prior: &[Interval], halvings: u32, delta: f64) -> Vec<f64> {
+        let h = 2f64.powi(halvings as i32);
+        prior
+            .iter()
+            .map(|p| {
+                let w = (p.hi - p.lo) / h;
+                if delta > 0.0 {
+                    w.min(0.5 * delta)
+                } else {
+                    w
+                }
+            })
+            .collect()
+    }
     fn set_from_box(&self, cell: &[Interval]) -> Result<Box<dyn NonlinearitySet>> {
         match cell {
             [d] if d.lo <= d.hi && d.is_finite() => Ok(Box::new(BiasSet { d: *d })),

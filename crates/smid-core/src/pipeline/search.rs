@@ -3,7 +3,7 @@
 //! artifacts ([`Identification`]).
 use super::*;
 use crate::cells::{self, Budget};
-use crate::chain::{self};
+use crate::chain::{self, Side};
 use crate::effect::DataScale;
 use crate::error::{Result, SmidError};
 use crate::experiment::{self};
@@ -77,21 +77,45 @@ pub(super) fn resolution(
     delta: f64,
     scale: &DataScale,
 ) -> Vec<f64> {
-    let h = 2f64.powi(halvings as i32);
-    let effects: Vec<f64> = model
+    let prior: Vec<Interval> = layout.dims.iter().map(|d| d.prior).collect();
+    let mut out: Vec<f64> = prior
+        .iter()
+        .map(|p| (p.hi - p.lo) / 2f64.powi(halvings as i32))
+        .collect();
+    // Each plugin's own parameters: the nonlinearity's, then every chain block's.
+    let plugins = std::iter::once((
+        model.nonlinearity.as_ref(),
+        layout.nonlinearity_cells.clone(),
+    ))
+    .chain(layout.blocks.iter().map(|b| {
+        let m = match b.side {
+            Side::Input => &model.input[b.index],
+            Side::Output => &model.output[b.index],
+        };
+        (m.as_ref(), b.cells.clone())
+    }));
+    for (plugin, range) in plugins {
+        if range.is_empty() {
+            continue;
+        }
+        let r = plugin.resolution(&prior[range.clone()], halvings, delta);
+        for (slot, v) in out[range].iter_mut().zip(r) {
+            *slot = v;
+        }
+    }
+    let effects = model
         .effects
         .iter()
-        .flat_map(|e| e.resolution(delta, scale))
-        .collect();
-    let first_effect = layout
+        .flat_map(|e| e.resolution(delta, scale));
+    for (slot, v) in layout
         .effect_cells
-        .first()
-        .map_or(layout.dims.len(), |r| r.start);
-    layout.dims[..first_effect]
         .iter()
-        .map(|d| (d.prior.hi - d.prior.lo) / h)
-        .chain(effects)
-        .collect()
+        .flat_map(|r| r.clone())
+        .zip(effects)
+    {
+        out[slot] = v;
+    }
+    out
 }
 
 /// Stages 1-3 on acquired data. `truth` holds known true values by parameter name.
