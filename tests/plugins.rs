@@ -1,5 +1,5 @@
 //! End-to-end tests of the nonlinearity plugins beyond the output backlash (input backlash,
-//! dead zone on either side, saturation, the example gain): insta snapshots of the bounds each
+//! dead zone on either side, saturation, the example gain, the bias): insta snapshots of the bounds each
 //! example spec gives, proptest containment of the truth over random systems, parameters and
 //! noise (the full three-stage pipeline), and the errors a misspelled `type` or parameter gets.
 use proptest::prelude::*;
@@ -9,12 +9,13 @@ use smid::{Outcome, SmidError};
 use std::path::Path;
 
 /// The plugin examples and what they identify.
-const EXAMPLES: [&str; 5] = [
+const EXAMPLES: [&str; 6] = [
     "input-backlash",
     "dead-zone-input",
     "dead-zone-output",
     "saturation",
     "example-gain",
+    "bias",
 ];
 
 /// A machine-independent view of the bounds: six significant digits.
