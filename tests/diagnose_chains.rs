@@ -51,8 +51,10 @@ fn an_undeclared_sensor_lag_is_found_and_the_after_model_holds() {
 }
 
 /// The `smid diagnose-check` cases of input-side blocks, generated from the registry, whose set
-/// over the diagnosis's prior keeps the designed experiment (`keeps == true`: a unit-gain lag)
-/// or breaks it (a dead zone, a play, a saturation).
+/// over the diagnosis's prior keeps the designed experiment and passes a steady input unchanged
+/// (`keeps == true`: a unit-gain linear block, such as the lag; a bias keeps the design but
+/// shifts the input, and is not of this class) or breaks the design (a dead zone, a play, a
+/// saturation).
 fn input_side_cases(keeps: bool) -> Vec<smid::diagnose_check::Case> {
     use smid::diagnose_check::{cases, CaseKind};
     use smid_core::chain::Side;
@@ -68,7 +70,13 @@ fn input_side_cases(keeps: bool) -> Vec<smid::diagnose_check::Case> {
                 let s = smid_core::nonlinearity::Structure::Hammerstein;
                 ex.default_prior(s, (-3.0, 3.0))
                     .and_then(|p| ex.set_from_box(&p).ok())
-                    .is_some_and(|set| set.keeps_steady_design() == keeps)
+                    .is_some_and(|set| {
+                        let unit_gain = || {
+                            set.propagate_steady(1.0)
+                                .is_ok_and(|v| v.lo == 1.0 && v.hi == 1.0)
+                        };
+                        set.keeps_steady_design() == keeps && (!keeps || unit_gain())
+                    })
             }
             _ => false,
         })
@@ -162,7 +170,8 @@ fn a_play_and_a_dead_zone_on_a_binary_record_are_reported_indistinguishable() {
 
 /// A linear block before the linear block is the linear block with its order raised: generated
 /// from the registry, every input-side plugin whose set over its prior keeps the designed
-/// experiment (a unit-gain lag) is a case of `smid diagnose-check`. Its plant is the paper's
+/// experiment and passes steady inputs unchanged (a unit-gain lag) is a case of
+/// `smid diagnose-check`. Its plant is the paper's
 /// with that block before the linear block, its size and the input drawn per seed. The
 /// diagnosis finds one more pole (its exact LP bounds the effect tighter), and reports the block
 /// as indistinguishable from it: the chosen member, put into the block's class with the block's
