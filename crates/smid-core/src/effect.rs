@@ -126,7 +126,7 @@ pub struct DataScale {
 ///     fn sensor(&self, _t: Option<usize>, cell: &[Interval]) -> smid_core::Result<Interval> {
 ///         Ok(cell[0])
 ///     }
-///     fn cell_parameters(&self) -> Vec<String> { vec!["bias".into()] }
+///     fn cell_parameters(&self) -> Vec<String> { vec!["level".into()] }
 /// }
 /// impl PlantEffect for Bias {
 ///     fn validate_plant(&self) -> smid_core::Result<()> { Ok(()) }
@@ -142,7 +142,7 @@ pub struct DataScale {
 ///
 /// let e: Box<dyn Effect> = serde_json::from_str(r#"{"type":"doc_bias","value":0.5}"#).unwrap();
 /// assert_eq!(e.sensor(Some(3), &[Interval::new(0.1, 0.2)]).unwrap(), Interval::new(0.1, 0.2));
-/// assert_eq!(e.cell_parameters(), vec!["bias".to_string()]);
+/// assert_eq!(e.cell_parameters(), vec!["level".to_string()]);
 /// assert_eq!(e.plant_output(3, 1.0), 1.5);
 /// let mut o = Orders { na: 2, nb: 2, nk: 0 };
 /// e.orders(&mut o); // not an order change: nothing happens
