@@ -87,6 +87,14 @@ impl ModelSpec {
         }
     }
 
+    /// The plugin of one of the chain's blocks (`model.input` or `model.output`).
+    pub fn block_model(&self, b: &BlockLayout) -> &dyn crate::nonlinearity::NonlinearityModel {
+        match b.side {
+            Side::Input => self.input[b.index].as_ref(),
+            Side::Output => self.output[b.index].as_ref(),
+        }
+    }
+
     /// Resolve the structure; errors name the field (`model.fixed.x`, `model.prior.x`).
     pub fn layout(&self) -> Result<Layout> {
         // Orders bound every allocation below: check them (and each effect's share, from

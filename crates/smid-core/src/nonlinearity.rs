@@ -292,8 +292,7 @@ pub trait NonlinearityModel: Debug + Send + Sync {
     /// prior's width halved `halvings` times. A parameter in output units (a bias) may ask for
     /// the noise's scale instead, as a sensor term does.
     fn resolution(&self, prior: &[Interval], halvings: u32, _delta: f64) -> Vec<f64> {
-        let h = 2f64.powi(halvings as i32);
-        prior.iter().map(|p| (p.hi - p.lo) / h).collect()
+        halved_widths(prior, halvings)
     }
     /// Identification from any record (no steady-state data): the set of **every** parameter
     /// vector in a box (one interval per parameter, in the order of
@@ -316,6 +315,13 @@ pub trait NonlinearityModel: Debug + Send + Sync {
     fn check_draw(&self, _structure: Structure, _rng: &mut dyn RngCore) -> Option<CheckDraw> {
         None
     }
+}
+
+/// Each interval's width halved `halvings` times: the default resolution of a plugin's
+/// parameters in the branch and bound ([`NonlinearityModel::resolution`]).
+pub fn halved_widths(prior: &[Interval], halvings: u32) -> Vec<f64> {
+    let h = 2f64.powi(halvings as i32);
+    prior.iter().map(|p| (p.hi - p.lo) / h).collect()
 }
 
 /// One random true block of a plugin for a containment trial ([`NonlinearityModel::check_draw`]).

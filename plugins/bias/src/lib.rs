@@ -103,18 +103,11 @@ impl NonlinearityModel for BiasModel {
     /// output by as much as it moves its input through a unit-gain block, and a cell as wide as
     /// the default (a 64th of the prior) would leave the set far wider than the data do.
     fn resolution(&self, prior: &[Interval], halvings: u32, delta: f64) -> Vec<f64> {
-        let h = 2f64.powi(halvings as i32);
-        prior
-            .iter()
-            .map(|p| {
-                let w = (p.hi - p.lo) / h;
-                if delta > 0.0 {
-                    w.min(0.5 * delta)
-                } else {
-                    w
-                }
-            })
-            .collect()
+        let mut r = smid_core::nonlinearity::halved_widths(prior, halvings);
+        if delta > 0.0 {
+            r.iter_mut().for_each(|w| *w = w.min(0.5 * delta));
+        }
+        r
     }
     fn set_from_box(&self, cell: &[Interval]) -> Result<Box<dyn NonlinearitySet>> {
         match cell {

@@ -3,7 +3,7 @@
 //! artifacts ([`Identification`]).
 use super::*;
 use crate::cells::{self, Budget};
-use crate::chain::{self, Side};
+use crate::chain::{self};
 use crate::effect::DataScale;
 use crate::error::{Result, SmidError};
 use crate::experiment::{self};
@@ -78,22 +78,18 @@ pub(super) fn resolution(
     scale: &DataScale,
 ) -> Vec<f64> {
     let prior: Vec<Interval> = layout.dims.iter().map(|d| d.prior).collect();
-    let mut out: Vec<f64> = prior
-        .iter()
-        .map(|p| (p.hi - p.lo) / 2f64.powi(halvings as i32))
-        .collect();
+    let mut out = crate::nonlinearity::halved_widths(&prior, halvings);
     // Each plugin's own parameters: the nonlinearity's, then every chain block's.
     let plugins = std::iter::once((
         model.nonlinearity.as_ref(),
         layout.nonlinearity_cells.clone(),
     ))
-    .chain(layout.blocks.iter().map(|b| {
-        let m = match b.side {
-            Side::Input => &model.input[b.index],
-            Side::Output => &model.output[b.index],
-        };
-        (m.as_ref(), b.cells.clone())
-    }));
+    .chain(
+        layout
+            .blocks
+            .iter()
+            .map(|b| (model.block_model(b), b.cells.clone())),
+    );
     for (plugin, range) in plugins {
         if range.is_empty() {
             continue;

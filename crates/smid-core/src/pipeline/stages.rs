@@ -218,11 +218,8 @@ impl BlockSets {
     pub fn new(model: &ModelSpec, layout: &Layout, cell: &[Interval]) -> Result<BlockSets> {
         let mut sets = Vec::with_capacity(layout.blocks.len());
         for b in &layout.blocks {
-            let plugin = match b.side {
-                Side::Input => &model.input[b.index],
-                Side::Output => &model.output[b.index],
-            };
-            let set = plugin
+            let set = model
+                .block_model(b)
                 .set_from_box(&cell[b.cells.clone()])
                 .map_err(|e| match e {
                     SmidError::Invalid { field, message } => SmidError::invalid(
