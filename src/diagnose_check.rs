@@ -189,6 +189,8 @@ pub struct TrialOutcome {
     pub chosen: Vec<String>,
     pub heldout_pass: bool,
     pub truth_inside: bool,
+    /// The true values outside the after-model's bounds: `name = value ∉ [lower, upper]`.
+    pub truth_outside: Vec<String>,
     pub fit_before: f64,
     pub fit_after: f64,
     pub fit_baseline: f64,
@@ -332,6 +334,7 @@ pub fn trial_in(
         chosen: Vec::new(),
         heldout_pass: false,
         truth_inside: false,
+        truth_outside: Vec::new(),
         fit_before: f64::NAN,
         fit_after: f64::NAN,
         fit_baseline: f64::NAN,
@@ -565,14 +568,19 @@ fn run_trial(
     let Some(model) = after_set else {
         return Ok(());
     };
-    out.truth_inside = truth.iter().all(|(n, v)| {
-        model
-            .parameter(n)
-            .is_none_or(|p| p.lower <= *v && *v <= p.upper)
-    }) && model
-        .parameters
+    out.truth_outside = truth
         .iter()
-        .any(|p| truth.iter().any(|(n, _)| n == &p.name));
+        .filter_map(|(n, v)| {
+            let p = model.parameter(n)?;
+            (!(p.lower <= *v && *v <= p.upper))
+                .then(|| format!("{n} = {v:.4e} ∉ [{:.4e}, {:.4e}]", p.lower, p.upper))
+        })
+        .collect();
+    out.truth_inside = out.truth_outside.is_empty()
+        && model
+            .parameters
+            .iter()
+            .any(|p| truth.iter().any(|(n, _)| n == &p.name));
     Ok(())
 }
 
@@ -703,12 +711,23 @@ pub fn format(outcomes: &[TrialOutcome]) -> String {
         } else if !(o.named && o.heldout_pass && o.truth_inside) {
             let _ = writeln!(
                 s,
-                "  {} seed {}: chose [{}], held-out {}, truth {}",
+                "  {} seed {}: chose [{}] ({}), held-out {}, truth {}",
                 o.case,
                 o.seed,
                 o.chosen.join(", "),
+                match (o.named, o.equivalent) {
+                    (true, true) => "named as an equivalent",
+                    (true, false) => "named",
+                    (false, _) => "not named",
+                },
                 if o.heldout_pass { "PASS" } else { "FAIL" },
-                if o.truth_inside { "inside" } else { "OUTSIDE" }
+                if o.truth_inside {
+                    "inside".to_string()
+                } else if o.truth_outside.is_empty() {
+                    "OUTSIDE (no parameter of the truth's in the model)".to_string()
+                } else {
+                    format!("OUTSIDE ({})", o.truth_outside.join(", "))
+                }
             );
         }
     }
