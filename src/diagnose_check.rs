@@ -24,7 +24,7 @@ use rand::{Rng, SeedableRng};
 use smid_core::chain::Side;
 use smid_core::diagnose::{self, Options};
 use smid_core::effect::{self, Effect};
-use smid_core::nonlinearity::Nonlinearity;
+use smid_core::nonlinearity::{Nonlinearity, Structure};
 use smid_core::pipeline::{self, ExperimentData, Record};
 use smid_core::plant::{Plant, SimulatedPlant};
 use smid_core::registry;
@@ -247,7 +247,11 @@ fn scaled_effect(tag: &str, f: f64) -> Result<Box<dyn Effect>> {
 }
 
 /// A true block of plugin `tag` on `side`: every parameter drawn in the middle half of the
-/// prior the diagnosis gives it from the training data's `scale`.
+/// plugin's prior for the range of the block's *input* in the training data's `scale` (simulated
+/// without the block, so the range on `side` is what the block will see). That is the range
+/// `default_prior` reads on the input side (`Structure::Hammerstein`), whichever side the block
+/// sits on: on the output side the diagnosis gives the prior from the block's output range
+/// instead (a dead zone's output range is its input's less the zone).
 fn drawn_block(
     tag: &str,
     side: Side,
@@ -263,7 +267,7 @@ fn drawn_block(
         Side::Output => scale.y_range,
     };
     let prior = (m.example)()
-        .default_prior(side.structure(), seen)
+        .default_prior(Structure::Hammerstein, seen)
         .ok_or_else(|| SmidError::invalid("case", format!("`{tag}` offers no default prior")))?;
     for _ in 0..20 {
         let values: Vec<(String, f64)> = registry::parameter_names(tag)

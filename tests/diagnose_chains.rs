@@ -379,3 +379,13 @@ fn an_undeclared_input_bias_is_named_or_reported_equal_to_the_choice() {
 fn a_second_backlash_is_not_ranked_by_a_member_search_cut_short() {
     named_trial("output_backlash@output", 2);
 }
+
+/// A dead zone after the backlash whose break point swallows more than a third of its input's
+/// range is named with its truth inside: the diagnosis's prior for a zone on the output side
+/// reaches the whole output's range (the zone swallowing at most half of its input's), where
+/// half the output's range had left the true break point (0.401, output up to 0.69) outside the
+/// prior and so outside every bound. Seed 9 of `smid diagnose-check`.
+#[test]
+fn a_sensor_dead_zone_wider_than_half_its_output_range_is_inside_its_prior() {
+    named_trial("dead_zone@output", 9);
+}

@@ -190,12 +190,20 @@ impl NonlinearityModel for DeadZoneModel {
     fn supports(&self, _structure: Structure) -> bool {
         true
     }
-    /// Unit slopes; each break point within half the range seen on its side (0 when that side
-    /// is never seen).
-    fn default_prior(&self, _s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
+    /// Unit slopes; each break point swallows at most half of the range its input spans on
+    /// that side (0 when that side is never seen). Before the linear block (Hammerstein) the
+    /// range seen is the zone's input: `c <= |u|max / 2`. After it (Wiener) the range seen is
+    /// the zone's output `y = w - c`, whose input reaches `|y|max + c`: `c <= (|y|max + c)/2`,
+    /// that is `c <= |y|max`. (Half the output's range, as before, left out zones of 0.40 and
+    /// 0.47 whose outputs reached 0.69 and 0.81.)
+    fn default_prior(&self, s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
+        let share = match s {
+            Structure::Hammerstein => 0.5,
+            Structure::Wiener => 1.0,
+        };
         let one = Interval::new(1.0, 1.0);
-        let cl = Interval::new(0.0, 0.5 * (-seen.0).max(0.0));
-        let cr = Interval::new(0.0, 0.5 * seen.1.max(0.0));
+        let cl = Interval::new(0.0, share * (-seen.0).max(0.0));
+        let cr = Interval::new(0.0, share * seen.1.max(0.0));
         Some(vec![one, cl, one, cr])
     }
     /// A box of `(m_l, c_l, m_r, c_r)`: each branch's exact image in `(m, m·c)`.
