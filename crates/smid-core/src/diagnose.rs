@@ -11,8 +11,10 @@
 //!   ([`crate::pipeline::design_prior`], an assumption, reported), inside which the points
 //!   prune the cells with any history.
 //! * **Equivalences**: candidates whose members simulate the training records within twice
-//!   the noise bound of each other, or whose member put into the other's model class (the same
-//!   parameter names) does, are reported as indistinguishable, never silently chosen between.
+//!   the noise bound of each other after both transients from rest, or whose member put into
+//!   the other's model class does (by an equation-error or an output-error fit), and the
+//!   rule's ties (admissible, as many parameters, fits within the noise's slack), are reported
+//!   as indistinguishable, never silently chosen between.
 //! * **Choice (training data only)**: the base model and every candidate are identified on the
 //!   training records with the declared noise bound. A model is *admissible* when its feasible
 //!   set is not empty (the training data do not falsify it). When the base model is admissible
@@ -164,14 +166,7 @@ fn centre_runs(set: &ModelSet) -> Option<Vec<Vec<f64>>> {
 /// Whether two models' centre free runs stay within `tol` of each other on every training
 /// sample after the first `skip` of each record.
 fn indistinguishable(a: &[Vec<f64>], b: &[Vec<f64>], tol: f64, skip: usize) -> bool {
-    a.len() == b.len()
-        && a.iter().zip(b).all(|(x, y)| {
-            x.len() == y.len()
-                && x.iter()
-                    .zip(y)
-                    .skip(skip)
-                    .all(|(p, q)| (p - q).abs() <= tol)
-        })
+    max_deviation(a, b, skip) <= tol
 }
 
 /// Free runs on `to`'s training records of a point of `to`'s model class that reproduces the
@@ -293,6 +288,8 @@ fn max_deviation(a: &[Vec<f64>], b: &[Vec<f64>], skip: usize) -> f64 {
     a.iter()
         .zip(b)
         .flat_map(|(x, y)| x.iter().zip(y).skip(skip).map(|(p, q)| (p - q).abs()))
+        // A NaN (a run that broke down) is no match.
+        .map(|d| if d.is_nan() { f64::INFINITY } else { d })
         .fold(0.0, f64::max)
 }
 
@@ -539,15 +536,10 @@ fn mark_equivalences(
 /// could not tell from it: admissible at the same declared bound, adding as many parameters,
 /// and simulating the training records within `slack` points of the best (what the noise
 /// bound accounts for), so that only the best fit, a difference the noise explains, decided
-/// between them. An input bias beside a sensor offset on a backlash of nearly equal slopes:
-/// both sets are consistent, both members simulate at 99.97-99.98 %, and their runs differ
-/// by a little more than twice the bound where the two classes part (the slopes' 1.6 %).
+/// between them (in the 12-bit offset diagnosis of `examples/diagnose/12bit/`, one more pole,
+/// one more zero and the frictions beside the offset).
 fn mark_ties(evidence: &mut [Evidence], i: usize, slack: f64) {
-    let best_fit = evidence
-        .iter()
-        .filter(|e| e.train.admissible())
-        .map(|e| fit_of(&e.train))
-        .fold(f64::NEG_INFINITY, f64::max);
+    let best_fit = best_fit(evidence.iter());
     let added = evidence[i].added_parameters;
     let tied: Vec<usize> = (0..evidence.len())
         .filter(|&j| {
@@ -1061,16 +1053,20 @@ fn bound_of(t: &TrainVerdict) -> f64 {
     }
 }
 
+/// The best training free-run fit among the admissible candidates (−∞ when none is).
+fn best_fit<'a>(evidence: impl Iterator<Item = &'a Evidence>) -> f64 {
+    evidence
+        .filter(|e| e.train.admissible())
+        .map(|e| fit_of(&e.train))
+        .fold(f64::NEG_INFINITY, f64::max)
+}
+
 /// The rule's pick at a declared bound: among the admissible candidates whose members simulate
 /// the training records as well as the best one (within `slack` points), the fewest added
 /// parameters, then the best fit. (Fewest parameters alone let a wide, uninformative set win: a
 /// lag whose pole spans [0, 0.9] admits an input dead zone's data but simulates them at 65 %.)
 fn admissible_pick(cands: &[(ModelSpec, Evidence)], slack: f64) -> Option<usize> {
-    let best_fit = cands
-        .iter()
-        .filter(|(_, e)| e.train.admissible())
-        .map(|(_, e)| fit_of(&e.train))
-        .fold(f64::NEG_INFINITY, f64::max);
+    let best_fit = best_fit(cands.iter().map(|(_, e)| e));
     cands
         .iter()
         .enumerate()
@@ -1126,11 +1122,7 @@ fn refine_contenders(
     if *member == crate::spec::MemberSpec::LIGHT {
         return false;
     }
-    let best_fit = cands
-        .iter()
-        .filter(|(_, e)| e.train.admissible())
-        .map(|(_, e)| fit_of(&e.train))
-        .fold(f64::NEG_INFINITY, f64::max);
+    let best_fit = best_fit(cands.iter().map(|(_, e)| e));
     // A ranking search: its fit decides, its envelope would not be used.
     let ranking = crate::spec::MemberSpec {
         spread: false,
