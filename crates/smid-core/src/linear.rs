@@ -39,6 +39,43 @@ pub fn spectral_radius(a: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The nearest stable polynomial in the roots: `a` with every root of
+/// `z^n + a_1 z^(n-1) + ... + a_n` of modulus above 1 moved radially to just inside the unit
+/// circle (modulus `1 - 1e-12`), the others kept; `None` when the roots cannot be computed. A
+/// stable `a` comes back unchanged.
+pub fn stable_projection(a: &[f64]) -> Option<Vec<f64>> {
+    let n = a.len();
+    if spectral_radius(a) <= 1.0 {
+        return Some(a.to_vec());
+    }
+    let mut c = nalgebra::DMatrix::<f64>::zeros(n, n);
+    for j in 0..n {
+        c[(0, j)] = -a[j];
+    }
+    for i in 1..n {
+        c[(i, i - 1)] = 1.0;
+    }
+    let roots = nalgebra::Schur::try_new(c, f64::EPSILON, 10_000)?.complex_eigenvalues();
+    let edge = 1.0 - 1e-12;
+    // Coefficients of prod (z - r), highest power first.
+    let mut poly = vec![nalgebra::Complex::new(1.0, 0.0)];
+    for r in roots.iter() {
+        let r = if r.norm() > edge {
+            r * (edge / r.norm())
+        } else {
+            *r
+        };
+        let mut next = poly.clone();
+        next.push(nalgebra::Complex::new(0.0, 0.0));
+        for (k, p) in poly.iter().enumerate() {
+            next[k + 1] -= r * p;
+        }
+        poly = next;
+    }
+    let out: Vec<f64> = poly[1..].iter().map(|z| z.re).collect();
+    out.iter().all(|v| v.is_finite()).then_some(out)
+}
+
 impl LinearModel {
     /// Steady-state gain `sum b / (1 + sum a)` (eq 8).
     pub fn gain(&self) -> f64 {
@@ -183,6 +220,24 @@ mod tests {
             b: vec![0.0, 1.4, 0.8],
         }
     }
+    #[test]
+    fn the_stable_projection_moves_only_the_roots_outside_the_unit_circle() {
+        // (z - 1.5)(z - 0.5) = z^2 - 2z + 0.75 -> (z - 1)(z - 0.5) = z^2 - 1.5z + 0.5.
+        let p = stable_projection(&[-2.0, 0.75]).unwrap();
+        assert!(
+            (p[0] + 1.5).abs() < 1e-9 && (p[1] - 0.5).abs() < 1e-9,
+            "{p:?}"
+        );
+        assert!(spectral_radius(&p) <= 1.0);
+        // A complex pair of modulus 2 keeps its angle: z^2 - 2z + 4 -> z^2 - z + 1.
+        let q = stable_projection(&[-2.0, 4.0]).unwrap();
+        assert!(
+            (q[0] + 1.0).abs() < 1e-9 && (q[1] - 1.0).abs() < 1e-9,
+            "{q:?}"
+        );
+        assert_eq!(stable_projection(&[-0.5, 0.06]).unwrap(), vec![-0.5, 0.06]);
+    }
+
     #[test]
     fn paper_system_has_unit_gain_and_is_stable() {
         let m = paper();

@@ -98,6 +98,103 @@ fn nelder_mead_or_give_up(
     (c <= f0).then_some((best, c)).or(Some((z0.to_vec(), f0)))
 }
 
+/// Levenberg-Marquardt (the `levenberg-marquardt` crate, MINPACK's method) on the residual
+/// vector `f(z)`, from `z0`, kept inside `bounds` by the transform `z = c + r·sin(w)` on each
+/// finite bound (a coordinate without one is free). A point where `f` is `None`, or not finite,
+/// gets residuals ten times the start's norm, so a step there is refused. The Jacobian is by
+/// forward differences. The best point and its sum of squares, `None` when the start has no
+/// residuals.
+pub(crate) fn least_squares_in_box(
+    f: &dyn Fn(&[f64]) -> Option<Vec<f64>>,
+    z0: &[f64],
+    bounds: &[Interval],
+) -> Option<(Vec<f64>, f64)> {
+    use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+    use nalgebra::{DMatrix, DVector, Dyn, Owned};
+    let r0 = f(z0).filter(|r| r.iter().all(|v| v.is_finite()) && !r.is_empty())?;
+    if z0.is_empty() {
+        return None;
+    }
+    let finite = |b: &Interval| b.lo.is_finite() && b.hi.is_finite() && b.hi > b.lo;
+    let to_z = |w: &[f64]| -> Vec<f64> {
+        w.iter()
+            .zip(bounds)
+            .map(|(&w, b)| {
+                if finite(b) {
+                    (b.center() + b.radius() * w.sin()).clamp(b.lo, b.hi)
+                } else {
+                    w
+                }
+            })
+            .collect()
+    };
+    let w0: Vec<f64> = z0
+        .iter()
+        .zip(bounds)
+        .map(|(&z, b)| {
+            if finite(b) {
+                ((z - b.center()) / b.radius()).clamp(-1.0, 1.0).asin()
+            } else {
+                z
+            }
+        })
+        .collect();
+    let big = 10.0
+        * (r0.iter().map(|v| v * v).sum::<f64>() / r0.len() as f64)
+            .sqrt()
+            .max(1e-300);
+    let m = r0.len();
+    let eval = |w: &[f64]| -> DVector<f64> {
+        match f(&to_z(w)) {
+            Some(r) if r.len() == m => DVector::from_iterator(
+                m,
+                r.into_iter().map(|v| if v.is_finite() { v } else { big }),
+            ),
+            _ => DVector::from_element(m, big),
+        }
+    };
+    struct Problem<'e> {
+        eval: &'e dyn Fn(&[f64]) -> DVector<f64>,
+        w: DVector<f64>,
+    }
+    impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
+        type ResidualStorage = Owned<f64, Dyn>;
+        type JacobianStorage = Owned<f64, Dyn, Dyn>;
+        type ParameterStorage = Owned<f64, Dyn>;
+        fn set_params(&mut self, w: &DVector<f64>) {
+            self.w.copy_from(w);
+        }
+        fn params(&self) -> DVector<f64> {
+            self.w.clone()
+        }
+        fn residuals(&self) -> Option<DVector<f64>> {
+            Some((self.eval)(self.w.as_slice()))
+        }
+        fn jacobian(&self) -> Option<DMatrix<f64>> {
+            let r = (self.eval)(self.w.as_slice());
+            let mut j = DMatrix::zeros(r.len(), self.w.len());
+            for k in 0..self.w.len() {
+                let mut w = self.w.clone();
+                let h = 1e-5 * w[k].abs().max(1.0);
+                w[k] += h;
+                let rk = (self.eval)(w.as_slice());
+                j.set_column(k, &((rk - &r) / h));
+            }
+            Some(j)
+        }
+    }
+    let (solved, report) = LevenbergMarquardt::new()
+        .with_patience(50)
+        .minimize(Problem {
+            eval: &eval,
+            w: DVector::from_vec(w0),
+        });
+    let z = to_z(solved.w.as_slice());
+    let e2: f64 = f(&z)?.iter().map(|v| v * v).sum();
+    log::debug!(target: "smid::members", "Levenberg-Marquardt: {:?} after {} evaluations, sum of squares {:.4e} from {:.4e}", report.termination, report.number_of_evaluations, e2, r0.iter().map(|v| v * v).sum::<f64>());
+    e2.is_finite().then_some((z, e2))
+}
+
 /// A point of the cell's nonlinearity set: the centre of its parameter bounds when the set
 /// holds it, else the grid point (5 levels per parameter, up to 625) nearest that centre.
 fn nonlinearity_point(c: &CellSet) -> Option<Vec<f64>> {
@@ -203,21 +300,26 @@ impl CellSpace<'_> {
 }
 
 impl<'s> Search<'s> {
-    /// Squared free-run error over the training records (`+inf` when it diverges).
-    fn sse(&self, values: &[(String, f64)]) -> f64 {
-        let Ok(m) = point(self.set, values) else {
-            return f64::INFINITY;
-        };
+    /// The free-run errors `y - y_sim` over the training records after each record's warm start
+    /// (`None` when the point is no model).
+    fn residuals(&self, values: &[(String, f64)]) -> Option<Vec<f64>> {
+        let m = point(self.set, values).ok()?;
         let o = self.layout.orders;
         let warm = o.na + o.nb + o.nk;
-        let mut e2 = 0.0;
+        let mut out = Vec::new();
         for (r, xd) in self.set.training.records.iter().zip(&self.x_warm) {
             let w0 = warm.min(r.y.len());
             let y = m.predict(&r.u, Some(xd), r.dt, usize::MAX, w0).y;
-            for (a, b) in r.y[w0..].iter().zip(&y[w0..]) {
-                e2 += (a - b) * (a - b);
-            }
+            out.extend(r.y[w0..].iter().zip(&y[w0..]).map(|(a, b)| a - b));
         }
+        Some(out)
+    }
+
+    /// Squared free-run error over the training records (`+inf` when it diverges).
+    fn sse(&self, values: &[(String, f64)]) -> f64 {
+        let e2: f64 = self
+            .residuals(values)
+            .map_or(f64::INFINITY, |r| r.iter().map(|e| e * e).sum());
         if e2.is_finite() {
             e2
         } else {
@@ -605,6 +707,19 @@ impl<'s> Search<'s> {
                 th[i] = theta0[i] + s * zi;
             }
             self.fix_gain(&mut th);
+            // A declared stable block: a point whose poles leave the unit circle stands for
+            // its stable projection (the roots outside moved onto the circle's inside), so
+            // the search can lie along the boundary where an integrator's optimum sits (EMPS)
+            // instead of stopping at a wall. A declared (fixed) `a` keeps the old wall.
+            let na = self.layout.orders.na;
+            if self.set.model.stable
+                && (0..na).all(|i| self.layout.fixed[i].is_none())
+                && crate::linear::spectral_radius(&th[..na]) > 1.0
+            {
+                let a = crate::linear::stable_projection(&th[..na])?;
+                th[..na].copy_from_slice(&a);
+                self.fix_gain(&mut th);
+            }
             th.iter()
                 .zip(&sp.cell.theta)
                 .all(|(v, b)| b.contains(*v))
@@ -622,8 +737,64 @@ impl<'s> Search<'s> {
                 None => f64::INFINITY,
             }
         };
+        // Two local searches from the start, the better kept (on EMPS each wins on some
+        // cells): Nelder-Mead, restarted from its best with a fresh, smaller simplex (a
+        // collapsed one stalls) for the spec's restarts until a run gains less than a
+        // thousandth, then Levenberg-Marquardt on the free-run errors themselves; and
+        // Levenberg-Marquardt first (a Gauss-Newton step crosses an integrator's valley that
+        // a simplex crawls along), then the restarted Nelder-Mead (the kinks of a friction's
+        // sign stop Gauss-Newton).
+        let bounds: Vec<Interval> = (0..split)
+            .map(|_| Interval::new(-1.0, 1.0))
+            .chain(t_free.iter().zip(&t_scale).map(|(&i, s)| {
+                let b = sp.cell.theta[i];
+                Interval::new((b.lo - theta0[i]) / s, (b.hi - theta0[i]) / s)
+            }))
+            .collect();
+        let errors = |z: &[f64]| -> Option<Vec<f64>> {
+            match point_of(z) {
+                Some((_, th)) if unstable(&th) => None,
+                Some((g, th)) => self.residuals(&self.values_of(sp, &g, &th)),
+                None => None,
+            }
+        };
+        let simplex = |mut z: Vec<f64>, mut e2: f64| -> (Vec<f64>, f64) {
+            let mut step = 0.05;
+            for _ in 0..opts.restarts.max(1) {
+                let Some((zn, en)) =
+                    nelder_mead(&cost, &z, step, opts.iterations, f64::NEG_INFINITY)
+                else {
+                    break;
+                };
+                let gained = e2 - en;
+                if en < e2 {
+                    z = zn;
+                    e2 = en;
+                }
+                if !(gained > 1e-3 * e2.abs()) {
+                    break;
+                }
+                step *= 0.5;
+            }
+            (z, e2)
+        };
+        let gauss = |z: Vec<f64>, e2: f64| -> (Vec<f64>, f64) {
+            match least_squares_in_box(&errors, &z, &bounds) {
+                Some((zl, el)) if el < e2 => (zl, el),
+                _ => (z, e2),
+            }
+        };
         let z0 = vec![0.0; split + t_free.len()];
-        let (z, e2) = nelder_mead(&cost, &z0, 0.05, opts.iterations, f64::NEG_INFINITY)?;
+        let e0 = cost(&z0);
+        let (za, ea) = {
+            let (z, e) = simplex(z0.clone(), e0);
+            gauss(z, e)
+        };
+        let (zb, eb) = {
+            let (z, e) = gauss(z0, e0);
+            simplex(z, e)
+        };
+        let (z, e2) = if eb < ea { (zb, eb) } else { (za, ea) };
         let (g, th) = point_of(&z)?;
         e2.is_finite().then(|| {
             (
@@ -949,5 +1120,35 @@ mod tests {
         .expect("not given up");
         assert!(count.get() > 30, "the run took {} evaluations", count.get());
         assert!(v < -0.499, "{v}");
+    }
+
+    /// Rosenbrock's valley as residuals: least squares at (1, 1).
+    fn valley(z: &[f64]) -> Option<Vec<f64>> {
+        Some(vec![1.0 - z[0], 10.0 * (z[1] - z[0] * z[0])])
+    }
+
+    #[test]
+    fn levenberg_marquardt_crosses_a_curved_valley_and_keeps_to_its_box() {
+        let wide = [Interval::new(-5.0, 5.0), Interval::new(-5.0, 5.0)];
+        let (z, e2) = least_squares_in_box(&valley, &[-1.2, 1.0], &wide).expect("a start");
+        assert!(
+            (z[0] - 1.0).abs() < 1e-6 && (z[1] - 1.0).abs() < 1e-6,
+            "{z:?}"
+        );
+        assert!(e2 < 1e-12, "{e2}");
+        // The minimum outside the box: the best point of the box, on its edge.
+        let boxed = [Interval::new(-5.0, 0.5), Interval::new(-5.0, 5.0)];
+        let (z, e2) = least_squares_in_box(&valley, &[-1.2, 1.0], &boxed).expect("a start");
+        assert!(z[0] <= 0.5 && (z[0] - 0.5).abs() < 1e-4, "{z:?}");
+        assert!(
+            (z[1] - 0.25).abs() < 1e-3 && (e2 - 0.25).abs() < 1e-6,
+            "{z:?} {e2}"
+        );
+        // A region without residuals (a run that diverges) is stepped around, never returned.
+        let holed = |z: &[f64]| (z[1] <= 1.5).then(|| valley(z)).flatten();
+        let (z, _) = least_squares_in_box(&holed, &[-1.2, 1.0], &wide).expect("a start");
+        assert!(z[1] <= 1.5, "{z:?}");
+        // No residuals at the start: no search.
+        assert!(least_squares_in_box(&holed, &[0.0, 2.0], &wide).is_none());
     }
 }
