@@ -389,3 +389,17 @@ fn a_second_backlash_is_not_ranked_by_a_member_search_cut_short() {
 fn a_sensor_dead_zone_wider_than_half_its_output_range_is_inside_its_prior() {
     named_trial("dead_zone@output", 9);
 }
+
+/// A constant term in the linear equation (a load, an actuator's zero offset) with the designed
+/// steady-state experiment: at rest it only shifts the linear block's output (`x̄ = v̄ + c/A(1)`
+/// under unit gain), so the diagnosis offers it with the shift bisected
+/// (`EquationTerm::rest_parameter`) and it is named, or reported indistinguishable from the
+/// choice (the declared model with its plays shifted is the same class). Before, a term that
+/// does not vanish at rest was not offered with steady-state data, and the row was 0/10.
+/// Seeds of `smid diagnose-check`.
+#[test]
+fn an_undeclared_constant_is_offered_with_steady_state_data_and_named() {
+    for seed in [1, 4] {
+        named_trial("constant", seed);
+    }
+}

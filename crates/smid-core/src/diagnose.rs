@@ -828,7 +828,7 @@ fn candidates(
                 .effects
                 .iter()
                 .any(|e| effect::tag_of(e.as_ref()) == entry.tag)
-                || (steady && !cand.vanishes_at_steady_state())
+                || (steady && !cand.steady_state_ready())
             {
                 continue;
             }

@@ -207,6 +207,23 @@ pub trait EquationTerm {
     fn vanishes_at_steady_state(&self) -> bool {
         true
     }
+    /// A term that does not vanish at rest may still be used with steady-state data when it
+    /// only **shifts** the linear block's output there: with unit gain (eq 8), `x̄ = v̄ + s`
+    /// for an unknown constant `s` (a constant term `c`: `s = c/A(1)`). The shift is then a
+    /// parameter of its own, named here, that the branch and bound bisects over
+    /// [`EquationTerm::rest_prior`]; stage 1 carries each steady input as `v̄ + s` over the
+    /// cell, and stage 3 bounds the term's coefficients beside `θ` as before (the coupling
+    /// `c = A(1)·s` is left out: a relaxation, so every bound stays guaranteed). Default: none
+    /// (the term vanishes at rest, or steady-state data are refused with it).
+    fn rest_parameter(&self) -> Option<String> {
+        None
+    }
+    /// The default prior box of [`EquationTerm::rest_parameter`] from the training data's
+    /// scale. Default: `|s|` up to half the input's range (the rest input `v̄` lives in it).
+    fn rest_prior(&self, scale: &DataScale) -> Interval {
+        let h = 0.5 * (scale.u_range.1 - scale.u_range.0).abs();
+        Interval::new(-h, h)
+    }
 }
 
 /// Model side: an output term `s_t` (an offset, a drift) known up to parameters `ψ` that the
@@ -322,23 +339,54 @@ impl<'a> dyn Effect + 'a {
         self.as_equation()
             .is_none_or(|c| c.vanishes_at_steady_state())
     }
-    /// [`SensorTerm::cell_parameters`], or none.
+    /// Whether steady-state data can be used with this term: it vanishes at rest, or it names
+    /// the parameter of its shift there ([`EquationTerm::rest_parameter`]).
+    pub fn steady_state_ready(&self) -> bool {
+        self.vanishes_at_steady_state() || self.rest_parameter().is_some()
+    }
+    /// [`EquationTerm::rest_parameter`] of a term that does not vanish at rest, or none.
+    pub fn rest_parameter(&self) -> Option<String> {
+        self.as_equation()
+            .filter(|c| !c.vanishes_at_steady_state())
+            .and_then(|c| c.rest_parameter())
+    }
+    /// The bisected parameters: [`SensorTerm::cell_parameters`], then the
+    /// [`EquationTerm::rest_parameter`], or none.
     pub fn cell_parameters(&self) -> Vec<String> {
-        self.as_sensor()
+        let mut v = self
+            .as_sensor()
             .map(|c| c.cell_parameters())
-            .unwrap_or_default()
+            .unwrap_or_default();
+        v.extend(self.rest_parameter());
+        v
     }
-    /// [`SensorTerm::default_prior`], or none.
+    /// [`SensorTerm::default_prior`], then [`EquationTerm::rest_prior`], or none.
     pub fn default_prior(&self, scale: &DataScale) -> Vec<Interval> {
-        self.as_sensor()
+        let mut v = self
+            .as_sensor()
             .map(|c| c.default_prior(scale))
-            .unwrap_or_default()
+            .unwrap_or_default();
+        if self.rest_parameter().is_some() {
+            v.extend(self.as_equation().map(|c| c.rest_prior(scale)));
+        }
+        v
     }
-    /// [`SensorTerm::resolution`], or none.
+    /// [`SensorTerm::resolution`], then a sixteenth of the rest shift's prior (the shift is
+    /// told from the nonlinearity's own parameters only as far as the data allow: finer cells
+    /// cost a stage 3 each and, where the data cannot tell them apart, decide nothing), or
+    /// none.
     pub fn resolution(&self, delta: f64, scale: &DataScale) -> Vec<f64> {
-        self.as_sensor()
+        let mut v = self
+            .as_sensor()
             .map(|c| c.resolution(delta, scale))
-            .unwrap_or_default()
+            .unwrap_or_default();
+        if self.rest_parameter().is_some() {
+            v.extend(
+                self.as_equation()
+                    .map(|c| 2.0 * c.rest_prior(scale).radius() / 16.0),
+            );
+        }
+        v
     }
     /// [`SensorTerm::sensor`], or `[0, 0]`.
     pub fn sensor(&self, t: Option<usize>, cell: &[Interval]) -> Result<Interval> {
@@ -575,6 +623,26 @@ pub fn measured(effects: &[Box<dyn Effect>], psi: &[&[f64]], t: usize, w: f64) -
         .zip(cells.iter().map(|c| c.as_slice()))
         .filter(|(e, _)| !is_map(*e));
     y + sum_over(add, Some(t)).map_or(0.0, |s| s.center())
+}
+
+/// The shift `s` of the linear block's output at rest, summed over the terms that name one
+/// ([`EquationTerm::rest_parameter`]), over a cell where `cells[i]` is effect `i`'s slice (the
+/// rest parameter last in it): a guaranteed interval, `[0, 0]` when no term names one.
+pub fn rest_shift(effects: &[Box<dyn Effect>], cells: &[&[Interval]]) -> Interval {
+    let (mut lo, mut hi) = (0.0, 0.0);
+    for (e, c) in effects.iter().zip(cells) {
+        if e.rest_parameter().is_some() {
+            if let Some(s) = c.last() {
+                lo += s.lo;
+                hi += s.hi;
+            }
+        }
+    }
+    if lo == 0.0 && hi == 0.0 {
+        Interval::new(0.0, 0.0)
+    } else {
+        Interval::new(lo, hi).outward()
+    }
 }
 
 /// The regressor columns of every effect on one record.

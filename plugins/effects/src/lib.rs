@@ -784,6 +784,10 @@ impl EquationTerm for Constant {
     fn vanishes_at_steady_state(&self) -> bool {
         false
     }
+    /// At rest `A(1)·x̄ = B(1)·v̄ + c`: with unit gain, `x̄ = v̄ + c/A(1)`.
+    fn rest_parameter(&self) -> Option<String> {
+        Some("constant_at_rest".into())
+    }
 }
 
 impl PlantEffect for Constant {

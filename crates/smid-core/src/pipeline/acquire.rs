@@ -320,6 +320,33 @@ pub(super) fn theta_truth(layout: &Layout, lin: &crate::linear::LinearModel) -> 
     t
 }
 
+/// The true shift at rest of each model term that names one
+/// ([`crate::effect::EquationTerm::rest_parameter`]): `Σ c_k φ_k(rest) / A(1)`, the term's
+/// regressors on a record at rest and its coefficients' true values (by column name); none
+/// where a coefficient's truth is unknown or `A(1) = 0`.
+fn rest_truth(
+    spec: &Spec,
+    lin: &crate::linear::LinearModel,
+    truth: &[(String, f64)],
+) -> Vec<(String, f64)> {
+    let a1 = 1.0 + lin.a.iter().sum::<f64>();
+    let rest = vec![0.0; 8];
+    let signals = crate::effect::Signals::input(&rest, 1.0);
+    spec.model
+        .effects
+        .iter()
+        .filter_map(|e| {
+            let name = e.rest_parameter()?;
+            let mut sum = 0.0;
+            for col in e.regressors(&signals) {
+                let c = truth.iter().find(|(n, _)| *n == col.name)?.1;
+                sum += c * col.values.last()?.center();
+            }
+            (a1 != 0.0).then(|| (name, sum / a1))
+        })
+        .collect()
+}
+
 /// The truth of a plant in the model's names: the nonlinearity's and effects' own, and `θ`
 /// from the plant's total linear block under the model's orders; `plant.truth` of the spec
 /// overrides.
@@ -328,6 +355,7 @@ pub fn plant_truth(spec: &Spec, plant: &dyn Plant) -> Result<Vec<(String, f64)>>
     let mut truth = plant.truth();
     if let Some(lin) = plant.linear_truth() {
         truth.extend(theta_truth(&layout, &lin));
+        truth.extend(rest_truth(spec, &lin, &truth));
     }
     for (k, v) in &spec.plant.truth {
         truth.retain(|(n, _)| n != k);

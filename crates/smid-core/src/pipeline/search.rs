@@ -506,16 +506,11 @@ fn searched(
         r.validate()?;
     }
     if data.steady.is_some() {
-        if let Some(e) = spec
-            .model
-            .effects
-            .iter()
-            .find(|e| !e.vanishes_at_steady_state())
-        {
+        if let Some(e) = spec.model.effects.iter().find(|e| !e.steady_state_ready()) {
             return Err(SmidError::invalid(
                 "model.effects",
                 format!(
-                    "`{}` does not vanish at steady state, so stage 1 from steady-state data would be biased: use it on records without the designed steady-state experiment",
+                    "`{}` does not vanish at steady state and names no shift there, so stage 1 from steady-state data would be biased: use it on records without the designed steady-state experiment",
                     e.label()
                 ),
             ));

@@ -138,6 +138,7 @@ fn stage1_with(
             }
             // `rising` stays: the blocks are monotone, so the input reached v̄ from the same side.
         }
+        rest_shifted(model, &slices, p)?;
     }
     // A point an output block leaves unknown (a clipped saturation) bounds nothing: it is left
     // out of stage 1 (fewer points can only widen the set).
@@ -171,11 +172,11 @@ fn prune_by_steady_points(
             "steady-state points with a prior box on the nonlinearity need `unit_gain: true` (at rest the linear block's output is then its input, eq 8); give the steady-state data or the prior box, not both",
         ));
     }
-    if let Some(e) = model.effects.iter().find(|e| !e.vanishes_at_steady_state()) {
+    if let Some(e) = model.effects.iter().find(|e| !e.steady_state_ready()) {
         return Err(SmidError::invalid(
             "model.effects",
             format!(
-                "steady-state points with a prior box on the nonlinearity need every term to vanish at rest, and `{}` does not; give the steady-state data or the prior box, not both",
+                "steady-state points with a prior box on the nonlinearity need every term to vanish at rest or name its shift there, and `{}` does neither; give the steady-state data or the prior box, not both",
                 e.label()
             ),
         ));
@@ -194,6 +195,8 @@ fn prune_by_steady_points(
         let Some(v) = chain::forward_steady(&input, Interval::new(p.u - p.du, p.u + p.du))? else {
             continue;
         };
+        let s = effect::rest_shift(&model.effects, &slices);
+        let v = Interval::new(v.lo + s.lo, v.hi + s.hi).outward();
         if x.intersect(&v.outward()).is_none() {
             return Err(SmidError::inconsistent(
                 crate::error::Stage::SteadyState,
@@ -205,6 +208,35 @@ fn prune_by_steady_points(
             ));
         }
     }
+    Ok(())
+}
+
+/// A steady point's input moved by the terms' shift at rest over the cell
+/// ([`effect::rest_shift`]): `v̄ + s`, an interval, so the nonlinearity must honour an input
+/// radius. Nothing changes when no term names a shift.
+fn rest_shifted(
+    model: &ModelSpec,
+    slices: &[&[Interval]],
+    p: &mut crate::nonlinearity::SteadyPoint,
+) -> Result<()> {
+    let s = effect::rest_shift(&model.effects, slices);
+    if s.lo == 0.0 && s.hi == 0.0 {
+        return Ok(());
+    }
+    if !model.unit_gain {
+        return Err(SmidError::invalid(
+            "model.unit_gain",
+            "a term's shift at rest carries the steady input as `v + s` only with `unit_gain: true` (eq 8)",
+        ));
+    }
+    if !model.nonlinearity.accepts_input_radius() {
+        return Err(SmidError::invalid(
+            "model.effects",
+            "a term's shift at rest makes every steady input an interval, and this plugin's stage 1 needs exact inputs: give the nonlinearity's parameters a prior box (`model.prior`), or identify from records without the steady-state experiment",
+        ));
+    }
+    let v = Interval::new(p.u - p.du + s.lo, p.u + p.du + s.hi).outward();
+    (p.u, p.du) = chain::centre_radius(v);
     Ok(())
 }
 

@@ -1,0 +1,181 @@
+//! Terms that do not vanish at rest but only shift the linear block's output there
+//! (`EquationTerm::rest_parameter`, e.g. a constant: `x̄ = v̄ + c/A(1)` under unit gain), used
+//! with the designed steady-state experiment: stage 1 carries every steady input as `v̄ + s`
+//! over the cell of the bisected shift `s`. The cases are generated from the effect registry:
+//! every registered effect whose diagnosis candidate names a rest parameter and whose example
+//! has a plant side, at a random size, on the paper's Wiener plant (output backlash) with a
+//! random record (binary or multilevel, random length and amplitude). The true values are
+//! computed here from what the test drew (the plant's own equation term at rest over the
+//! plant's `A(1)`), not read from the report, and every bound must hold them.
+use rand::{Rng, SeedableRng};
+use smid_core::effect::{self, Signals};
+use smid_core::outcome::Outcome;
+
+/// The paper's backlash and linear block (`A(1) = 2.2`), `(name, value)`.
+const TRUTH: [(&str, f64); 8] = [
+    ("m_l", 0.248),
+    ("c_l", 0.0698),
+    ("m_r", 0.252),
+    ("c_r", 0.0349),
+    ("a1", 0.5),
+    ("a2", 0.7),
+    ("b1", 1.4),
+    ("b2", 0.8),
+];
+const A1: f64 = 2.2;
+
+/// Registered effects whose candidate names a shift at rest: `(tag, rest parameter)`.
+fn shifting_effects() -> Vec<(&'static str, String)> {
+    smid::link_plugins();
+    effect::effects()
+        .into_iter()
+        .filter_map(|e| {
+            let cand = (e.candidates)().into_iter().next()?;
+            let name = cand.rest_parameter()?;
+            (e.example)().as_plant()?;
+            Some((e.tag, name))
+        })
+        .collect()
+}
+
+/// The example of `tag` with its numbers scaled by `f` (its true values).
+fn scaled(tag: &str, f: f64) -> serde_json::Value {
+    let e = effect::effects()
+        .into_iter()
+        .find(|e| e.tag == tag)
+        .unwrap();
+    let mut v = serde_json::to_value((e.example)()).unwrap();
+    for (_, x) in v.as_object_mut().unwrap().iter_mut() {
+        if let Some(n) = x.as_f64().filter(|_| !(x.is_u64() || x.is_i64())) {
+            *x = serde_json::json!(n * f);
+        }
+    }
+    v
+}
+
+fn run(text: &str) -> Outcome<smid::core::pipeline::Identification> {
+    smid::link_plugins();
+    let spec = smid::parse_spec(text, std::path::Path::new("<rest-shift>"))
+        .unwrap_or_else(|e| panic!("{e}\n{text}"));
+    smid::run_spec(&spec, std::path::Path::new("."), &|_| {})
+        .unwrap_or_else(|e| panic!("{e}\n{text}"))
+}
+
+fn spec_text(seed: u64, plant_effect: &str, tag: &str, rest: &str, rng: &mut impl Rng) -> String {
+    let levels = if rng.gen_bool(0.5) { 2 } else { 8 };
+    let length = rng.gen_range(150..260);
+    let amplitude = rng.gen_range(0.8..1.6);
+    format!(
+        "name: rest-shift-{tag}
+plant:
+  simulator:
+    a: [0.5, 0.7]
+    b: [0.0, 1.4, 0.8]
+    nonlinearity: {{ type: output_backlash, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 }}
+    effects: [ {plant_effect} ]
+noise: {{ encoder_bits: 15 }}
+experiment:
+  seed: {seed}
+  filter: {{ pole: 0.8125 }}
+  steady_state: {{ amplitudes: 30 }}
+  dynamic: {{ length: {length}, amplitude: {amplitude:?}, levels: {levels} }}
+model:
+  nonlinearity: {{ type: output_backlash }}
+  na: 2
+  nb: 2
+  fixed: {{ b0: 0.0 }}
+  unit_gain: true
+  effects: [ {{ type: {tag} }} ]
+  prior: {{ {rest}: [-0.4, 0.4] }}
+method:
+  alpha: zero
+  eiv: classical
+  member: {{ search: false }}
+"
+    )
+}
+
+#[test]
+fn a_term_that_shifts_the_rest_keeps_every_bound_around_the_truth_with_steady_state_data() {
+    let cases = shifting_effects();
+    assert!(
+        cases.iter().any(|(t, _)| *t == "constant"),
+        "the registry's constant names its shift at rest: {cases:?}"
+    );
+    for (k, (tag, rest)) in cases.iter().enumerate() {
+        for trial in 0..3u64 {
+            let seed = 70 + 10 * k as u64 + trial;
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let f = rng.gen_range(0.5..2.5) * if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
+            let value = scaled(tag, f);
+            let plant_effect: Box<dyn effect::Effect> =
+                serde_json::from_value(value.clone()).unwrap();
+            // The true shift at rest from the plant side: its equation term on a record at rest.
+            let still = vec![0.0; 8];
+            let term = plant_effect
+                .plant_equation(&Signals::input(&still, 1.0))
+                .expect("a term of the linear equation");
+            let shift = term.last().unwrap() / A1;
+            let mut truth: Vec<(String, f64)> =
+                TRUTH.iter().map(|(n, v)| (n.to_string(), *v)).collect();
+            truth.push((rest.clone(), shift));
+            truth.extend(plant_effect.truth());
+            let text = spec_text(seed, &value.to_string(), tag, rest, &mut rng);
+            let id = match run(&text) {
+                Outcome::Consistent(id) => id,
+                Outcome::Falsified(f) => {
+                    panic!("{tag}: the true model was falsified: {f:?}\n{text}")
+                }
+            };
+            for (n, v) in &truth {
+                let p = id
+                    .model
+                    .parameters
+                    .iter()
+                    .find(|p| &p.name == n)
+                    .unwrap_or_else(|| panic!("{tag}: `{n}` is not reported"));
+                assert!(
+                    p.lower <= *v && *v <= p.upper,
+                    "{tag} seed {seed}: {n} = {v} outside [{}, {}]\n{text}",
+                    p.lower,
+                    p.upper
+                );
+            }
+            eprintln!("{tag} seed {seed}: shift at rest {shift:.4}, truth inside every bound");
+        }
+    }
+}
+
+/// The test above is not vacuous: the shift is what lets stage 1 see the plays. Declared
+/// without the constant, the same data (the plant's constant at its largest draw) put the true
+/// plays outside stage 1's bounds, or falsify the model.
+#[test]
+fn without_the_shift_the_steady_state_points_miss_the_true_plays() {
+    smid::link_plugins();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let text = spec_text(
+        5,
+        "{\"type\": \"constant\", \"value\": 0.12}",
+        "constant",
+        "constant_at_rest",
+        &mut rng,
+    )
+    .replace(
+        "  effects: [ { type: constant } ]\n  prior: { constant_at_rest: [-0.4, 0.4] }\n",
+        "",
+    );
+    assert!(!text.contains("model:\n  effects"), "{text}");
+    match run(&text) {
+        Outcome::Falsified(_) => {}
+        Outcome::Consistent(id) => {
+            let missed = TRUTH[..4].iter().any(|(n, v)| {
+                let p = id.parameter(n).unwrap();
+                !(p.lower <= *v && *v <= p.upper)
+            });
+            assert!(
+                missed,
+                "the plays' bounds hold the truth without the shift\n{text}"
+            );
+        }
+    }
+}
