@@ -179,3 +179,24 @@ fn without_the_shift_the_steady_state_points_miss_the_true_plays() {
         }
     }
 }
+
+/// With steady-state data and no prior box for the shift, the error names the field to give.
+#[test]
+fn a_shift_at_rest_without_its_prior_is_refused_naming_the_prior_to_give() {
+    smid::link_plugins();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(6);
+    let text = spec_text(
+        6,
+        "{\"type\": \"constant\", \"value\": 0.05}",
+        "constant",
+        "constant_at_rest",
+        &mut rng,
+    )
+    .replace("  prior: { constant_at_rest: [-0.4, 0.4] }\n", "");
+    let spec = smid::parse_spec(&text, std::path::Path::new("<rest-shift>")).unwrap();
+    let e = smid::run_spec(&spec, std::path::Path::new("."), &|_| {})
+        .err()
+        .unwrap_or_else(|| panic!("identified without the shift's prior\n{text}"))
+        .to_string();
+    assert!(e.contains("model.prior.constant_at_rest"), "{e}");
+}

@@ -828,14 +828,20 @@ fn candidates(
                 .effects
                 .iter()
                 .any(|e| effect::tag_of(e.as_ref()) == entry.tag)
-                || (steady && !cand.steady_state_ready())
+                || (steady && !cand.vanishes_at_steady_state() && cand.rest_parameter().is_none())
             {
                 continue;
             }
             let mut m = base.duplicate();
             let before = m.layout().map(|l| l.p() + l.dims.len()).unwrap_or(0);
-            let names = cand.cell_parameters();
-            let priors = cand.default_prior(scale);
+            // A shift at rest is bisected only for steady-state data (without them it is no
+            // parameter of the model: `Layout` leaves it out where no prior is given).
+            let mut names = cand.cell_parameters();
+            let mut priors = cand.default_prior(scale);
+            if !steady && cand.rest_parameter().is_some() {
+                names.pop();
+                priors.truncate(names.len());
+            }
             if priors.len() < names.len() {
                 // No default prior from these data (a quantiser's step under an estimated
                 // bound): not offered, and said so in the log (README, *Diagnosis*).

@@ -339,26 +339,38 @@ impl<'a> dyn Effect + 'a {
         self.as_equation()
             .is_none_or(|c| c.vanishes_at_steady_state())
     }
-    /// Whether steady-state data can be used with this term: it vanishes at rest, or it names
-    /// the parameter of its shift there ([`EquationTerm::rest_parameter`]).
-    pub fn steady_state_ready(&self) -> bool {
-        self.vanishes_at_steady_state() || self.rest_parameter().is_some()
-    }
     /// [`EquationTerm::rest_parameter`] of a term that does not vanish at rest, or none.
     pub fn rest_parameter(&self) -> Option<String> {
         self.as_equation()
             .filter(|c| !c.vanishes_at_steady_state())
             .and_then(|c| c.rest_parameter())
     }
-    /// The bisected parameters: [`SensorTerm::cell_parameters`], then the
-    /// [`EquationTerm::rest_parameter`], or none.
-    pub fn cell_parameters(&self) -> Vec<String> {
-        let mut v = self
-            .as_sensor()
+    /// [`SensorTerm::cell_parameters`], or none: the bisected parameters every model with
+    /// this term has.
+    pub fn sensor_parameters(&self) -> Vec<String> {
+        self.as_sensor()
             .map(|c| c.cell_parameters())
-            .unwrap_or_default();
+            .unwrap_or_default()
+    }
+    /// The parameters this term may have bisected: [`Self::sensor_parameters`], then the
+    /// [`EquationTerm::rest_parameter`], which a model has only where its prior box is given
+    /// (`model.prior`; the diagnosis gives it with steady-state data).
+    pub fn cell_parameters(&self) -> Vec<String> {
+        let mut v = self.sensor_parameters();
         v.extend(self.rest_parameter());
         v
+    }
+    /// Whether steady-state data can be used with this term in a model whose bisected
+    /// parameters have the prior boxes `prior`: it vanishes at rest, or its shift there is a
+    /// parameter with a prior box.
+    pub fn steady_state_usable(
+        &self,
+        prior: &std::collections::BTreeMap<String, [f64; 2]>,
+    ) -> bool {
+        self.vanishes_at_steady_state()
+            || self
+                .rest_parameter()
+                .is_some_and(|n| prior.contains_key(&n))
     }
     /// [`SensorTerm::default_prior`], then [`EquationTerm::rest_prior`], or none.
     pub fn default_prior(&self, scale: &DataScale) -> Vec<Interval> {
@@ -631,7 +643,9 @@ pub fn measured(effects: &[Box<dyn Effect>], psi: &[&[f64]], t: usize, w: f64) -
 pub fn rest_shift(effects: &[Box<dyn Effect>], cells: &[&[Interval]]) -> Interval {
     let (mut lo, mut hi) = (0.0, 0.0);
     for (e, c) in effects.iter().zip(cells) {
-        if e.rest_parameter().is_some() {
+        // The shift is in the cell only where the model has it (its prior given), after the
+        // sensor's parameters.
+        if e.rest_parameter().is_some() && c.len() > e.sensor_parameters().len() {
             if let Some(s) = c.last() {
                 lo += s.lo;
                 hi += s.hi;

@@ -198,7 +198,7 @@ impl ModelSpec {
         let mut effect_cells = Vec::new();
         for e in &self.effects {
             let start = dims.len();
-            for name in e.cell_parameters() {
+            for name in e.sensor_parameters() {
                 let p = self.prior.get(&name).ok_or_else(|| {
                     SmidError::invalid(
                         format!("model.prior.{name}"),
@@ -210,6 +210,14 @@ impl ModelSpec {
                 })?;
                 let prior = check_prior(&name, p)?;
                 dims.push(CellDim { name, prior });
+            }
+            // A shift at rest is a parameter only where its prior box is given (for use with
+            // steady-state data; see `EquationTerm::rest_parameter`).
+            if let Some(name) = e.rest_parameter() {
+                if let Some(p) = self.prior.get(&name) {
+                    let prior = check_prior(&name, p)?;
+                    dims.push(CellDim { name, prior });
+                }
             }
             effect_cells.push(start..dims.len());
         }

@@ -99,17 +99,12 @@ pub(super) fn resolution(
             *slot = v;
         }
     }
-    let effects = model
-        .effects
-        .iter()
-        .flat_map(|e| e.resolution(delta, scale));
-    for (slot, v) in layout
-        .effect_cells
-        .iter()
-        .flat_map(|r| r.clone())
-        .zip(effects)
-    {
-        out[slot] = v;
+    // Each effect's own, slot by slot within its slice (a shift at rest without its prior
+    // is not in the slice, and its resolution is dropped with it).
+    for (e, range) in model.effects.iter().zip(&layout.effect_cells) {
+        for (slot, v) in range.clone().zip(e.resolution(delta, scale)) {
+            out[slot] = v;
+        }
     }
     out
 }
@@ -506,13 +501,15 @@ fn searched(
         r.validate()?;
     }
     if data.steady.is_some() {
-        if let Some(e) = spec.model.effects.iter().find(|e| !e.steady_state_ready()) {
+        if let Some(e) = spec
+            .model
+            .effects
+            .iter()
+            .find(|e| !e.steady_state_usable(&spec.model.prior))
+        {
             return Err(SmidError::invalid(
                 "model.effects",
-                format!(
-                    "`{}` does not vanish at steady state and names no shift there, so stage 1 from steady-state data would be biased: use it on records without the designed steady-state experiment",
-                    e.label()
-                ),
+                super::stages::not_at_rest(e.as_ref(), "steady-state data"),
             ));
         }
     }

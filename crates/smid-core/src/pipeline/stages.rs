@@ -172,12 +172,16 @@ fn prune_by_steady_points(
             "steady-state points with a prior box on the nonlinearity need `unit_gain: true` (at rest the linear block's output is then its input, eq 8); give the steady-state data or the prior box, not both",
         ));
     }
-    if let Some(e) = model.effects.iter().find(|e| !e.steady_state_ready()) {
+    if let Some(e) = model
+        .effects
+        .iter()
+        .find(|e| !e.steady_state_usable(&model.prior))
+    {
         return Err(SmidError::invalid(
             "model.effects",
-            format!(
-                "steady-state points with a prior box on the nonlinearity need every term to vanish at rest or name its shift there, and `{}` does neither; give the steady-state data or the prior box, not both",
-                e.label()
+            not_at_rest(
+                e.as_ref(),
+                "steady-state points with a prior box on the nonlinearity",
             ),
         ));
     }
@@ -209,6 +213,21 @@ fn prune_by_steady_points(
         }
     }
     Ok(())
+}
+
+/// Why a term cannot be used with steady-state data (`what` needs every term to vanish at
+/// rest), and what to give instead.
+pub(crate) fn not_at_rest(e: &dyn effect::Effect, what: &str) -> String {
+    match e.rest_parameter() {
+        Some(n) => format!(
+            "{what} need every term to vanish at rest or have its shift there bounded, and `{}` shifts the linear block's output at rest: give that shift a prior box, `model.prior.{n}: [lo, hi]` (in the input's units; the diagnosis takes half the input's range)",
+            e.label()
+        ),
+        None => format!(
+            "{what} need every term to vanish at rest, and `{}` does not (nor is it a constant shift there): use it on records without the designed steady-state experiment",
+            e.label()
+        ),
+    }
 }
 
 /// A steady point's input moved by the terms' shift at rest over the cell
