@@ -7,6 +7,8 @@
 //! random record (binary or multilevel, random length and amplitude). The true values are
 //! computed here from what the test drew (the plant's own equation term at rest over the
 //! plant's `A(1)`), not read from the report, and every bound must hold them.
+mod common;
+
 use rand::{Rng, SeedableRng};
 use smid_core::effect::{self, Signals};
 use smid_core::outcome::Outcome;
@@ -127,20 +129,7 @@ fn a_term_that_shifts_the_rest_keeps_every_bound_around_the_truth_with_steady_st
                     panic!("{tag}: the true model was falsified: {f:?}\n{text}")
                 }
             };
-            for (n, v) in &truth {
-                let p = id
-                    .model
-                    .parameters
-                    .iter()
-                    .find(|p| &p.name == n)
-                    .unwrap_or_else(|| panic!("{tag}: `{n}` is not reported"));
-                assert!(
-                    p.lower <= *v && *v <= p.upper,
-                    "{tag} seed {seed}: {n} = {v} outside [{}, {}]\n{text}",
-                    p.lower,
-                    p.upper
-                );
-            }
+            common::assert_truth_inside(&id, &truth, &format!("{tag} seed {seed}\n{text}"));
             eprintln!("{tag} seed {seed}: shift at rest {shift:.4}, truth inside every bound");
         }
     }

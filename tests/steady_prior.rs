@@ -8,6 +8,8 @@
 //! random box around its true values. The data are consistent (the truth is in the model and
 //! in the boxes) and every bound must hold the true value, checked here against the values the
 //! test drew, not against the report's own flags.
+mod common;
+
 use rand::{Rng, SeedableRng};
 use smid_core::outcome::Outcome;
 use smid_core::registry;
@@ -152,20 +154,7 @@ method:
         truth.extend(
             [("a1", 0.5), ("a2", 0.7), ("b1", 1.4), ("b2", 0.8)].map(|(n, v)| (n.into(), v)),
         );
-        for (n, v) in &truth {
-            let p = id
-                .model
-                .parameters
-                .iter()
-                .find(|p| &p.name == n)
-                .unwrap_or_else(|| panic!("{tag}: `{n}` is not reported"));
-            assert!(
-                p.lower <= *v && *v <= p.upper,
-                "{tag}: {n} = {v} outside [{}, {}]\n{text}",
-                p.lower,
-                p.upper
-            );
-        }
+        common::assert_truth_inside(&id, &truth, &format!("{tag}\n{text}"));
         eprintln!("{tag}: truth inside every bound");
         tried += 1;
     }

@@ -30,3 +30,27 @@ pub fn measured(tag: &str, u: &[f64], y: &[f64], rest: &str) -> (Spec, Experimen
 }
 
 static COUNTER: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// Every `(name, true value)` inside its reported bound; panics naming the first that is not
+/// (or is not reported), with `context` (the case and its spec).
+#[allow(dead_code)] // not every test file uses every helper
+pub fn assert_truth_inside(
+    id: &smid::core::pipeline::Identification,
+    truth: &[(String, f64)],
+    context: &str,
+) {
+    for (n, v) in truth {
+        let p = id
+            .model
+            .parameters
+            .iter()
+            .find(|p| &p.name == n)
+            .unwrap_or_else(|| panic!("{context}: `{n}` is not reported"));
+        assert!(
+            p.lower <= *v && *v <= p.upper,
+            "{context}: {n} = {v} outside [{}, {}]",
+            p.lower,
+            p.upper
+        );
+    }
+}
