@@ -18,9 +18,18 @@ pub struct LinearModel {
 /// `a = [a_1, ..., a_n]`); infinite when the eigenvalue iteration does not converge (a
 /// non-finite coefficient; at most 10 000 QR steps, so no input can make it spin).
 pub fn spectral_radius(a: &[f64]) -> f64 {
+    match roots(a) {
+        Some(r) => r.iter().map(|z| z.norm()).fold(0.0, f64::max),
+        None => f64::INFINITY,
+    }
+}
+
+/// The roots of `z^n + a_1 z^(n-1) + ... + a_n`: the eigenvalues of its companion matrix;
+/// `None` when the iteration (at most 10 000 QR steps) does not converge.
+fn roots(a: &[f64]) -> Option<Vec<nalgebra::Complex<f64>>> {
     let n = a.len();
     if n == 0 {
-        return 0.0;
+        return Some(Vec::new());
     }
     let mut c = nalgebra::DMatrix::<f64>::zeros(n, n);
     for j in 0..n {
@@ -29,14 +38,8 @@ pub fn spectral_radius(a: &[f64]) -> f64 {
     for i in 1..n {
         c[(i, i - 1)] = 1.0;
     }
-    let Some(schur) = nalgebra::Schur::try_new(c, f64::EPSILON, 10_000) else {
-        return f64::INFINITY;
-    };
-    schur
-        .complex_eigenvalues()
-        .iter()
-        .map(|z| z.norm())
-        .fold(0.0, f64::max)
+    let schur = nalgebra::Schur::try_new(c, f64::EPSILON, 10_000)?;
+    Some(schur.complex_eigenvalues().iter().copied().collect())
 }
 
 /// The nearest stable polynomial in the roots: `a` with every root of
@@ -44,18 +47,10 @@ pub fn spectral_radius(a: &[f64]) -> f64 {
 /// circle (modulus `1 - 1e-12`), the others kept; `None` when the roots cannot be computed. A
 /// stable `a` comes back unchanged.
 pub fn stable_projection(a: &[f64]) -> Option<Vec<f64>> {
-    let n = a.len();
-    if spectral_radius(a) <= 1.0 {
+    let roots = roots(a)?;
+    if roots.iter().all(|z| z.norm() <= 1.0) {
         return Some(a.to_vec());
     }
-    let mut c = nalgebra::DMatrix::<f64>::zeros(n, n);
-    for j in 0..n {
-        c[(0, j)] = -a[j];
-    }
-    for i in 1..n {
-        c[(i, i - 1)] = 1.0;
-    }
-    let roots = nalgebra::Schur::try_new(c, f64::EPSILON, 10_000)?.complex_eigenvalues();
     let edge = 1.0 - 1e-12;
     // Coefficients of prod (z - r), highest power first.
     let mut poly = vec![nalgebra::Complex::new(1.0, 0.0)];
