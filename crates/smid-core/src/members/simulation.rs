@@ -651,6 +651,7 @@ impl<'s> Search<'s> {
         sp: &CellSpace,
         opts: &Options,
         centre: &[(String, f64)],
+        thorough: bool,
     ) -> Option<(f64, SimulationMember)> {
         // From the central member's θ, and from θ refitted by least squares with the regressors
         // read at the inner-signal estimates themselves (`theta_reproducing`: an output
@@ -668,16 +669,18 @@ impl<'s> Search<'s> {
         [Some(from_centre), refit]
             .into_iter()
             .flatten()
-            .filter_map(|start| self.uncertified_from(sp, opts, &start))
+            .filter_map(|start| self.uncertified_from(sp, opts, &start, thorough))
             .min_by(|a, b| a.0.total_cmp(&b.0))
     }
 
-    /// [`Self::best_uncertified`] from one start `θ`.
+    /// [`Self::best_uncertified`] from one start `θ`: one Nelder-Mead run, or with `thorough`
+    /// the better of two chained local searches.
     fn uncertified_from(
         &self,
         sp: &CellSpace,
         opts: &Options,
         start: &[f64],
+        thorough: bool,
     ) -> Option<(f64, SimulationMember)> {
         let split = sp.moved.len();
         let gain = self.gain_slot();
@@ -785,10 +788,10 @@ impl<'s> Search<'s> {
             }
         };
         let z0 = vec![0.0; split + t_free.len()];
-        // A ranking search (the diagnosis's candidates, compared by fit) keeps to one
-        // Nelder-Mead run: the two local searches cost 4-8 times as much on the 12-bit
-        // diagnoses' input-side candidates (6 s to 50 s for the whole offset diagnosis).
-        if opts.gives_up_early() {
+        // The quick search, and a ranking search's (the diagnosis's candidates, compared by
+        // fit), is one Nelder-Mead run: the two local searches cost 4-8 times as much on the
+        // 12-bit diagnoses' input-side candidates (6 s to 50 s for the whole offset diagnosis).
+        if !thorough {
             let (z, e2) = nelder_mead(&cost, &z0, 0.05, opts.iterations, f64::NEG_INFINITY)?;
             return self.stand_in(sp, &point_of, &z, e2);
         }
@@ -1008,13 +1011,36 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
         // a point that simulates, not by its centre. (The ranking above is by nearness to a
         // certificate, not by simulation, and a saturation level's cells differ in how they
         // simulate: every probed cell is tried; free runs only, one LP each for its report.)
+        //
+        // Every probed cell gets the quick search (one Nelder-Mead run per start); a full
+        // search then refines the best `opts.cells` of them with both local searches
+        // ([`Search::uncertified_from`]). Refining all 64 probed cells cost a random plugin
+        // trial 4-8 times the quick pass. A refined cell keeps the better of its two points, so the
+        // ranking only decides where the effort goes.
+        let mut quick: Vec<(f64, &CellSpace, SimulationMember)> = Vec::new();
         for (_, sp) in &spaces {
-            let found = search.best_uncertified(sp, opts, &centre_values);
+            let found = search.best_uncertified(sp, opts, &centre_values, false);
             log::debug!(target: "smid::members", "cell {}: best uncertified point {:?} after {} evaluations", sp.k, found.as_ref().map(|f| f.0), search.evaluations.load(Relaxed));
             if let Some((e2, m)) = found {
-                if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
-                    best = Some((e2, m));
-                }
+                quick.push((e2, sp, m));
+            }
+        }
+        quick.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let refine = if opts.gives_up_early() {
+            0
+        } else {
+            opts.cells.max(1)
+        };
+        for (i, (e2, sp, m)) in quick.into_iter().enumerate() {
+            let (e2, m) = match (i < refine)
+                .then(|| search.best_uncertified(sp, opts, &centre_values, true))
+                .flatten()
+            {
+                Some((er, mr)) if er < e2 => (er, mr),
+                _ => (e2, m),
+            };
+            if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
+                best = Some((e2, m));
             }
         }
     }
