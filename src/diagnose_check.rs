@@ -228,24 +228,6 @@ fn expected_label(kind: &CaseKind) -> Option<String> {
     }
 }
 
-/// An effect's registered example with its non-integer values scaled by `f`.
-fn scaled_effect(tag: &str, f: f64) -> Result<Box<dyn Effect>> {
-    let e = effect::effects()
-        .into_iter()
-        .find(|e| e.tag == tag)
-        .ok_or_else(|| SmidError::invalid("case", format!("no effect `{tag}`")))?;
-    let mut v = serde_json::to_value((e.example)())
-        .map_err(|e| SmidError::invalid("case", e.to_string()))?;
-    if let Some(o) = v.as_object_mut() {
-        for (_, x) in o.iter_mut() {
-            if let Some(n) = x.as_f64().filter(|_| !(x.is_u64() || x.is_i64())) {
-                *x = serde_json::json!(n * f);
-            }
-        }
-    }
-    serde_json::from_value(v).map_err(|e| SmidError::invalid("case", e.to_string()))
-}
-
 /// A true block of plugin `tag` on `side`: every parameter drawn in the middle half of the
 /// plugin's prior for the range of the block's *input* in the training data's `scale` (simulated
 /// without the block, so the range on `side` is what the block will see). That is the range
@@ -364,7 +346,9 @@ pub fn trial_in(
         ) = (Vec::new(), Vec::new(), Vec::new());
         match &case.kind {
             CaseKind::None => {}
-            CaseKind::Effect(t) => effects.push(scaled_effect(t, rng.gen_range(0.8..1.25))?),
+            CaseKind::Effect(t) => {
+                effects.push(effect::effect_entry(t)?.scaled_example(rng.gen_range(0.8..1.25))?)
+            }
             CaseKind::Block(t, side) => {
                 // The range the block sees: the base plant's own training data.
                 let mut base = sim.plant();

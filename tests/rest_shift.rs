@@ -41,20 +41,6 @@ fn shifting_effects() -> Vec<(&'static str, String)> {
 }
 
 /// The example of `tag` with its numbers scaled by `f` (its true values).
-fn scaled(tag: &str, f: f64) -> serde_json::Value {
-    let e = effect::effects()
-        .into_iter()
-        .find(|e| e.tag == tag)
-        .unwrap();
-    let mut v = serde_json::to_value((e.example)()).unwrap();
-    for (_, x) in v.as_object_mut().unwrap().iter_mut() {
-        if let Some(n) = x.as_f64().filter(|_| !(x.is_u64() || x.is_i64())) {
-            *x = serde_json::json!(n * f);
-        }
-    }
-    v
-}
-
 fn run(text: &str) -> Outcome<smid::core::pipeline::Identification> {
     smid::link_plugins();
     let spec = smid::parse_spec(text, std::path::Path::new("<rest-shift>"))
@@ -109,9 +95,11 @@ fn a_term_that_shifts_the_rest_keeps_every_bound_around_the_truth_with_steady_st
             let seed = 70 + 10 * k as u64 + trial;
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
             let f = rng.gen_range(0.5..2.5) * if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
-            let value = scaled(tag, f);
-            let plant_effect: Box<dyn effect::Effect> =
-                serde_json::from_value(value.clone()).unwrap();
+            let plant_effect = effect::effect_entry(tag)
+                .unwrap()
+                .scaled_example(f)
+                .unwrap();
+            let value = serde_json::to_value(&plant_effect).unwrap();
             // The true shift at rest from the plant side: its equation term on a record at rest.
             let still = vec![0.0; 8];
             let term = plant_effect

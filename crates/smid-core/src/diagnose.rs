@@ -30,7 +30,7 @@
 //!   for the table it is re-identified at the smallest noise bound that makes its training
 //!   data consistent (said in the table).
 use crate::chain::{qualified, Side};
-use crate::effect::{self, DataScale, Effect};
+use crate::effect::{self, DataScale};
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
 use crate::model::ModelSet;
@@ -1656,21 +1656,6 @@ pub fn assess(
         || column(&choice.after, choice.after_set.as_ref(), None),
     );
     Ok((before?, after?))
-}
-
-/// Add effects to a model (for tests and the diagnosis check): the model with `extra` appended
-/// and priors from `scale`.
-pub fn extend(base: &ModelSpec, extra: &dyn Effect, scale: &DataScale) -> ModelSpec {
-    let mut m = base.duplicate();
-    for (n, p) in extra
-        .cell_parameters()
-        .iter()
-        .zip(extra.default_prior(scale))
-    {
-        m.prior.insert(n.clone(), [p.lo, p.hi]);
-    }
-    m.effects.push(effect::clone_effect(extra));
-    m
 }
 
 #[cfg(test)]

@@ -482,6 +482,38 @@ pub struct EffectEntry {
 
 inventory::collect!(EffectEntry);
 
+impl EffectEntry {
+    /// The registered example with every non-integer value scaled by `f` (a true effect of
+    /// another size, as the checks draw them).
+    pub fn scaled_example(&self, f: f64) -> Result<Box<dyn Effect>> {
+        let bad = |e: serde_json::Error| {
+            SmidError::invalid("effect", format!("`{}` scaled by {f}: {e}", self.tag))
+        };
+        let mut v = serde_json::to_value((self.example)()).map_err(bad)?;
+        if let Some(o) = v.as_object_mut() {
+            for (_, x) in o.iter_mut() {
+                if let Some(n) = x.as_f64().filter(|_| !(x.is_u64() || x.is_i64())) {
+                    *x = serde_json::json!(n * f);
+                }
+            }
+        }
+        serde_json::from_value(v).map_err(bad)
+    }
+}
+
+/// The registered effect `tag`.
+pub fn effect_entry(tag: &str) -> Result<&'static EffectEntry> {
+    effects().into_iter().find(|e| e.tag == tag).ok_or_else(|| {
+        SmidError::invalid(
+            "effect",
+            format!(
+                "no effect `{tag}`; the registered ones are {:?}",
+                effect_types()
+            ),
+        )
+    })
+}
+
 /// Registered effects, by priority then tag.
 pub fn effects() -> Vec<&'static EffectEntry> {
     let mut v: Vec<_> = inventory::iter::<EffectEntry>.into_iter().collect();
