@@ -9,15 +9,16 @@ use std::path::PathBuf;
 #[test]
 fn every_plugin_is_bounded_from_a_dynamic_record_alone_with_the_truth_inside() {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/any");
-    let mut n = 0;
     let mut entries: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|e| e == "yaml"))
         .collect();
     entries.sort();
-    for path in entries {
-        let spec = smid::load_spec(&path).unwrap();
+    // The examples side by side (each run is mostly sequential work).
+    use rayon::prelude::*;
+    entries.par_iter().for_each(|path| {
+        let spec = smid::load_spec(path).unwrap();
         assert!(
             spec.experiment.steady_state.skip,
             "{}: expected no steady-state experiment",
@@ -40,8 +41,8 @@ fn every_plugin_is_bounded_from_a_dynamic_record_alone_with_the_truth_inside() {
             p.upper - p.lower < 0.9 * (hi - lo)
         });
         assert!(narrowed, "{}: the data narrowed no prior", path.display());
-        n += 1;
-    }
+    });
+    let n = entries.len();
     assert!(n >= 5, "only {n} examples in {}", dir.display());
 }
 

@@ -321,33 +321,36 @@ fn a_declared_offset_is_bounded_around_the_truth_by_the_branch_and_bound() {
 /// PASS, and its free run fits.
 #[test]
 fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
-    let mut n = 0;
-    for entry in std::fs::read_dir(root().join("examples")).unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_none_or(|e| e != "yaml") {
-            continue;
-        }
+    let mut paths: Vec<_> = std::fs::read_dir(root().join("examples"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "yaml"))
+        .collect();
+    paths.sort();
+    // The examples side by side (each run is mostly sequential work); `true` for one validated.
+    use rayon::prelude::*;
+    let validated = |path: &std::path::PathBuf| -> bool {
         let text = std::fs::read_to_string(&path).unwrap();
         if text.contains("\n  data:") {
             eprintln!(
                 "skipping {}: measured data, no plant to draw a fresh record from (validated on its held-out records in measured_examples_validate_on_their_held_out_rows)",
                 path.display()
             );
-            continue;
+            return false;
         }
         if text.contains("\n  fmu:") && !cfg!(feature = "fmu") {
             eprintln!(
                 "skipping {}: built without the `fmu` feature",
                 path.display()
             );
-            continue;
+            return false;
         }
         if text.contains("eiv: sdp") && !smid::core::stage3::EivMethod::Sdp.available() {
             eprintln!(
                 "skipping {}: built without the `sdp` feature",
                 path.display()
             );
-            continue;
+            return false;
         }
         let mut src = closeloop::load_source(&path).unwrap();
         let id = smid::run_spec(&src.spec, &src.base, &|_| {})
@@ -397,8 +400,9 @@ fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
                 w.len()
             );
         }
-        n += 1;
-    }
+        true
+    };
+    let n = paths.par_iter().filter(|p| validated(p)).count();
     assert!(n >= 7, "only {n} examples validated");
 }
 
@@ -427,11 +431,13 @@ fn measured_examples_validate_on_their_held_out_rows() {
             3.0,
         ),
     ];
-    for (spec_path, held_out, margin) in cases {
+    // The two side by side (each run is mostly sequential work).
+    use rayon::prelude::*;
+    cases.par_iter().for_each(|&(spec_path, held_out, margin)| {
         let data = root().join(held_out.split('@').next().unwrap());
         if !data.exists() {
             eprintln!("skipping {spec_path}: {} is absent", data.display());
-            continue;
+            return;
         }
         let path = root().join(spec_path);
         let mut src = closeloop::load_source(&path).unwrap();
@@ -463,7 +469,7 @@ fn measured_examples_validate_on_their_held_out_rows() {
             "{spec_path}: {:?}",
             v.consistency
         );
-    }
+    });
 }
 
 /// Where no point of a measured-data set is certified (an output saturation on the cascaded
