@@ -330,7 +330,7 @@ fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
     // The examples side by side (each run is mostly sequential work); `true` for one validated.
     use rayon::prelude::*;
     let validated = |path: &std::path::PathBuf| -> bool {
-        let text = std::fs::read_to_string(&path).unwrap();
+        let text = std::fs::read_to_string(path).unwrap();
         if text.contains("\n  data:") {
             eprintln!(
                 "skipping {}: measured data, no plant to draw a fresh record from (validated on its held-out records in measured_examples_validate_on_their_held_out_rows)",
@@ -352,7 +352,7 @@ fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
             );
             return false;
         }
-        let mut src = closeloop::load_source(&path).unwrap();
+        let mut src = closeloop::load_source(path).unwrap();
         let id = smid::run_spec(&src.spec, &src.base, &|_| {})
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
             .unwrap();
