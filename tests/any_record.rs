@@ -6,15 +6,12 @@
 //! guarantee where it is most fragile: coarse, undecided cells.
 use std::path::PathBuf;
 
+mod common;
+
 #[test]
 fn every_plugin_is_bounded_from_a_dynamic_record_alone_with_the_truth_inside() {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/any");
-    let mut entries: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "yaml"))
-        .collect();
-    entries.sort();
+    let entries = common::yaml_files(&dir);
     // The examples side by side (each run is mostly sequential work).
     use rayon::prelude::*;
     entries.par_iter().for_each(|path| {

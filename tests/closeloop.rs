@@ -321,12 +321,7 @@ fn a_declared_offset_is_bounded_around_the_truth_by_the_branch_and_bound() {
 /// PASS, and its free run fits.
 #[test]
 fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
-    let mut paths: Vec<_> = std::fs::read_dir(root().join("examples"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "yaml"))
-        .collect();
-    paths.sort();
+    let paths = common::yaml_files(&root().join("examples"));
     // The examples side by side (each run is mostly sequential work); `true` for one validated.
     use rayon::prelude::*;
     let validated = |path: &std::path::PathBuf| -> bool {

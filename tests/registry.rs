@@ -7,6 +7,8 @@ use smid::core::registry;
 use smid::core::spec::Spec;
 use std::path::{Path, PathBuf};
 
+mod common;
+
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -63,13 +65,7 @@ fn every_registered_type_round_trips_through_yaml() {
 }
 
 fn examples() -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(root().join("examples"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "yaml"))
-        .collect();
-    v.sort();
-    v
+    common::yaml_files(&root().join("examples"))
 }
 
 const SPEC_SCHEMA_LINE: &str = "# yaml-language-server: $schema=../schemas/smid-spec.schema.json\n";

@@ -54,3 +54,15 @@ pub fn assert_truth_inside(
         );
     }
 }
+
+/// The `.yaml` files of `dir`, sorted by path.
+#[allow(dead_code)] // not every test file uses every helper
+pub fn yaml_files(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "yaml"))
+        .collect();
+    v.sort();
+    v
+}
