@@ -142,6 +142,7 @@ pub fn fresh_records(
                     rows: None,
                     decimate: None,
                     t: None,
+                    step: None,
                 },
                 1.0,
             ),

@@ -16,7 +16,7 @@
 //! the training experiment only (designed steady-state points in shuffled order, given filter
 //! pole, a PRBS of 300 samples), then two fresh records of the plant (other seeds) are the
 //! held-out data. With `--csv` every record goes through CSV files first (steady-state points
-//! with a time column, the dynamic records), as measured data would. A trial passes when the
+//! with their time and step-height columns, the dynamic records), as measured data would. A trial passes when the
 //! diagnosis names the case (nothing, for `none`), the after-model is consistent with the
 //! declared bound on the held-out records (PASS), and every bound of the after-model contains
 //! the true parameter. A plugin or effect linked into the binary is a case with no edit here.
@@ -399,45 +399,16 @@ pub fn trial_in(
     out
 }
 
-/// Write the training data and held-out records as CSV files in `dir` and read them back
-/// through a spec with `plant.data`, as measured data would come.
+/// Write the training data and held-out records as CSV files in `dir`
+/// ([`crate::simulate::write_experiment`]) and read them back through its spec, as measured
+/// data would come.
 fn through_csv(
     spec: &Spec,
     training: &ExperimentData,
     holdout: &[Record],
     dir: &std::path::Path,
 ) -> Result<(Spec, ExperimentData, Vec<Record>)> {
-    let io = |e: std::io::Error| SmidError::invalid("--csv", e.to_string());
-    let mut ss = String::from("u,y,t\n");
-    for p in training.steady.iter().flat_map(|s| &s.points) {
-        let t = p
-            .time
-            .ok_or_else(|| SmidError::invalid("--csv", "a steady-state point without its time"))?;
-        let _ = writeln!(ss, "{:e},{:e},{t}", p.u, p.y);
-    }
-    std::fs::write(dir.join("steady.csv"), ss).map_err(io)?;
-    let rec_csv = |r: &Record, name: &str| -> Result<()> {
-        let mut d = String::from("u,y\n");
-        for (u, y) in r.u.iter().zip(&r.y) {
-            let _ = writeln!(d, "{u:e},{y:e}");
-        }
-        std::fs::write(dir.join(name), d).map_err(io)
-    };
-    rec_csv(&training.records[0], "train.csv")?;
-    for (k, r) in holdout.iter().enumerate() {
-        rec_csv(r, &format!("holdout{k}.csv"))?;
-    }
-    let mut v =
-        serde_json::to_value(spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
-    v["plant"] = serde_json::json!({ "data": {
-        "steady_state": { "file": "steady.csv", "u": "u", "y": "y", "t": "t" },
-        "dynamic": { "file": "train.csv", "u": "u", "y": "y" },
-    }});
-    let spec: Spec =
-        serde_json::from_value(v).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
-    let text =
-        serde_norway::to_string(&spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
-    std::fs::write(dir.join("spec.yaml"), text).map_err(io)?;
+    let spec = crate::simulate::write_experiment(spec, training, holdout, dir)?.spec;
     // As measured steady states come: the sign of ū says the direction (`rising = ū > 0`), no
     // step heights (the allowance α then assumes the paper's 2|ū|).
     let data = pipeline::load_data(&spec, dir)?;

@@ -30,9 +30,17 @@ enum Command {
     },
     /// Run the spec's dynamic experiment (PRBS) through its plant (simulator or FMU) without
     /// identifying; add the spec's bounded noise; write `DIR/NAME.csv` with columns t, u, y, w
-    /// (y = w + noise, w noise-free), readable by a diagnosis spec.
+    /// (y = w + noise, w noise-free), readable by a diagnosis spec. With --experiment: the
+    /// spec's whole training experiment and held-out records as measured data (CSV files and a
+    /// spec that reads them).
     Simulate {
         spec: PathBuf,
+        /// Write the spec's whole training experiment instead: `steady.csv` (the designed
+        /// steady-state points, columns u, y, t), `train.csv` (its dynamic record),
+        /// `holdout0.csv`, `holdout1.csv` (the records `smid diagnose` holds out by default)
+        /// and `spec.yaml` (the spec with `plant.data` reading them).
+        #[arg(long, conflicts_with_all = ["name", "length", "seed"])]
+        experiment: bool,
         /// Output directory (default: out/<spec name>).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -180,8 +188,8 @@ enum Command {
         /// `<plugin>@output`; the matrix is generated from the registries).
         #[arg(long, value_delimiter = ',')]
         only: Vec<String>,
-        /// Give the diagnosis every record through CSV files (steady-state points with a time
-        /// column, the dynamic records), as measured data.
+        /// Give the diagnosis every record through CSV files (steady-state points with time
+        /// and step-height columns, the dynamic records), as measured data.
         #[arg(long)]
         csv: bool,
         /// Keep each trial's records and spec, as measured data, in `DIR/<case>-<seed>/` (rerun
@@ -586,6 +594,27 @@ fn real_main() -> Result<()> {
         }
         Command::Simulate {
             spec,
+            experiment: true,
+            out,
+            ..
+        } => {
+            let dir = out.unwrap_or_else(|| out_dir(&spec, "experiment"));
+            let src = smid::closeloop::load_source(&spec)
+                .with_context(|| format!("reading {}", spec.display()))?;
+            let e = smid::simulate::export_experiment(&src.spec, &src.base, 2, &dir)
+                .with_context(|| format!("simulating {}", spec.display()))?;
+            println!("wrote {}", join(&e.files));
+            let held = |k: usize| dir.join(format!("holdout{k}.csv")).display().to_string();
+            println!(
+                "diagnose them as measured data: smid diagnose {} --holdout {} --holdout {}",
+                dir.join("spec.yaml").display(),
+                held(0),
+                held(1)
+            );
+        }
+        Command::Simulate {
+            spec,
+            experiment: false,
             out,
             name,
             length,

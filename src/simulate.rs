@@ -4,15 +4,19 @@
 //! bound Δη) added to the noise-free output. The record is written as CSV with the columns
 //! `t, u, y, w` (`y = w + η`, `w` the plant's noise-free output), the layout a diagnosis spec
 //! (`smid diagnose`) or a measured-data spec reads by column name.
+//!
+//! `smid simulate --experiment` writes the spec's whole training experiment instead (the
+//! designed steady-state points with their sample times, and the dynamic record) and held-out
+//! records, with a spec that reads them as measured data ([`export_experiment`]).
 use rand::SeedableRng;
 use smid_core::experiment;
 use smid_core::noise;
-use smid_core::pipeline;
+use smid_core::pipeline::{self, ExperimentData, Record};
 use smid_core::plant::Plant;
 use smid_core::spec::Spec;
 use smid_core::{Result, SmidError};
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// One simulated record of the dynamic experiment.
 #[derive(Debug, Clone, PartialEq)]
@@ -114,4 +118,115 @@ pub fn write_csv(r: &SimulatedRecord, path: &Path) -> Result<()> {
         std::fs::create_dir_all(dir).map_err(io)?;
     }
     std::fs::write(path, to_csv(r)).map_err(io)
+}
+
+/// What [`write_experiment`] wrote: the measured-data spec that reads the files (also written
+/// as `spec.yaml`), and every file's path.
+#[derive(Debug)]
+pub struct Exported {
+    /// The spec with its plant replaced by `plant.data` reading the files.
+    pub spec: Spec,
+    /// `steady.csv` (when the experiment has steady-state points), `train.csv`,
+    /// `holdout<k>.csv`, `spec.yaml`.
+    pub files: Vec<PathBuf>,
+}
+
+/// Write the training data and held-out records as CSV files in `dir` (created), with
+/// `spec.yaml`: `spec` with its plant replaced by `plant.data` reading them, as measured data
+/// come. Steady-state points: columns `u, y, t` (each point's sample time, which a drift
+/// needs) and `step` (the height of the step that led to it, which scales α); records: `u, y`. Numbers in shortest round-trip form, so the files read back to
+/// the same values.
+pub fn write_experiment(
+    spec: &Spec,
+    training: &ExperimentData,
+    holdout: &[Record],
+    dir: &Path,
+) -> Result<Exported> {
+    let write = |name: &str, text: String| -> Result<PathBuf> {
+        let path = dir.join(name);
+        std::fs::write(&path, text).map_err(|source| SmidError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        Ok(path)
+    };
+    std::fs::create_dir_all(dir).map_err(|source| SmidError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let mut files = Vec::new();
+    let mut data = serde_json::json!({ "dynamic": { "file": "train.csv", "u": "u", "y": "y" } });
+    if let Some(steady) = &training.steady {
+        let mut ss = String::from("u,y,t,step\n");
+        for (k, p) in steady.points.iter().enumerate() {
+            let t = p.time.ok_or_else(|| {
+                SmidError::invalid(
+                    format!("steady-state point {k}"),
+                    "has no sample time: the CSV's `t` column needs one",
+                )
+            })?;
+            let _ = writeln!(ss, "{:e},{:e},{t},{:e}", p.u, p.y, p.step_height());
+        }
+        files.push(write("steady.csv", ss)?);
+        data["steady_state"] = serde_json::json!({ "file": "steady.csv", "u": "u", "y": "y", "t": "t", "step": "step" });
+    }
+    let rec_csv = |r: &Record| {
+        let mut d = String::from("u,y\n");
+        for (u, y) in r.u.iter().zip(&r.y) {
+            let _ = writeln!(d, "{u:e},{y:e}");
+        }
+        d
+    };
+    let train = training
+        .records
+        .first()
+        .ok_or_else(|| SmidError::invalid("training data", "no dynamic record"))?;
+    files.push(write("train.csv", rec_csv(train))?);
+    for (k, r) in holdout.iter().enumerate() {
+        files.push(write(&format!("holdout{k}.csv"), rec_csv(r))?);
+    }
+    let mut v =
+        serde_json::to_value(spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
+    v["plant"] = serde_json::json!({ "data": data });
+    let spec: Spec =
+        serde_json::from_value(v).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
+    let text =
+        serde_norway::to_string(&spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
+    files.push(write("spec.yaml", text)?);
+    Ok(Exported { spec, files })
+}
+
+/// Simulate the spec's whole training experiment through its plant (built-in simulator or
+/// FMU, relative paths against `base`) and `holdouts` fresh records (the spec's dynamic length,
+/// seeds `experiment.seed + 1000 + k`: the records `smid diagnose` draws when no `--holdout`
+/// is given), and write them with [`write_experiment`].
+pub fn export_experiment(
+    spec: &Spec,
+    base: &Path,
+    holdouts: usize,
+    dir: &Path,
+) -> Result<Exported> {
+    let run = |plant: &mut dyn Plant| -> Result<(ExperimentData, Vec<Record>)> {
+        let training = pipeline::simulate_experiments(spec, plant)?;
+        let seed = spec.experiment.seed + 1000;
+        let n = spec.experiment.dynamic.length;
+        let held = (0..holdouts as u64)
+            .map(|k| pipeline::fresh_record(spec, plant, seed + k, n))
+            .collect::<Result<Vec<_>>>()?;
+        Ok((training, held))
+    };
+    let (training, held) = if spec.plant.fmu.is_some() {
+        crate::with_fmu_plant(spec, base, run)?
+    } else {
+        match pipeline::builtin_plant(spec) {
+            Some(mut plant) => run(&mut plant)?,
+            None => {
+                return Err(SmidError::invalid(
+                    "plant",
+                    "measured data cannot be simulated; give a `simulator` or an `fmu` plant",
+                ))
+            }
+        }
+    };
+    write_experiment(spec, &training, &held, dir)
 }

@@ -60,3 +60,104 @@ fn off_grid_times_are_errors_naming_the_row_and_column() {
         .to_string();
     assert!(e.contains("dyn.csv") && e.contains("evenly spaced"), "{e}");
 }
+
+/// `smid simulate --experiment` (`simulate::export_experiment`) writes a simulated spec's
+/// training experiment and held-out records as measured data: read back through the spec it
+/// writes, every steady-state point (value and sample time) and every record sample is the
+/// simulated one to the bit, and the held-out records are the ones `smid diagnose` draws by
+/// default (seeds `experiment.seed + 1000 + k`, the dynamic length). The steady-state points
+/// keep the height of the step that led to each (a shuffled design's), so α and the
+/// identification are the simulator's: the same verdict, the same bounds to the bit.
+#[test]
+fn an_exported_experiment_reads_back_as_the_simulated_data() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    // The 12-bit offset: at 2|ū| for every step, α lets the declared model through (consistent);
+    // with the design's heights the data falsify it, as from the simulator.
+    for name in [
+        "paper-drift.yaml",
+        "paper-delay.yaml",
+        "12bit/paper-offset.yaml",
+    ] {
+        let path = root.join("examples/diagnose").join(name);
+        let spec = smid::load_spec(&path).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let e = smid::simulate::export_experiment(&spec, root, 2, dir.path()).unwrap();
+        assert_eq!(e.files.len(), 5, "{name}: {:?}", e.files);
+        let read = pipeline::load_data(&e.spec, dir.path()).unwrap();
+        let mut plant = pipeline::builtin_plant(&spec).unwrap();
+        let sim = pipeline::simulate_experiments(&spec, &mut plant).unwrap();
+        let (a, b) = (read.steady.unwrap(), sim.steady.unwrap());
+        assert_eq!(a.points.len(), b.points.len(), "{name}");
+        for (p, q) in a.points.iter().zip(&b.points) {
+            assert_eq!((p.u, p.y, p.time), (q.u, q.y, q.time), "{name}");
+            assert_eq!(p.rising, q.u > 0.0, "{name}");
+        }
+        assert_eq!(read.records[0].u, sim.records[0].u, "{name}");
+        assert_eq!(read.records[0].y, sim.records[0].y, "{name}");
+        let held = smid::closeloop::fresh_records(
+            &spec,
+            root,
+            &[],
+            spec.experiment.seed + 1000,
+            spec.experiment.dynamic.length,
+            2,
+        )
+        .unwrap();
+        let files: Vec<_> = (0..2)
+            .map(|k| dir.path().join(format!("holdout{k}.csv")))
+            .collect();
+        let back = smid::closeloop::fresh_records(&e.spec, dir.path(), &files, 0, 0, 0).unwrap();
+        for (h, r) in held.iter().zip(&back) {
+            assert_eq!((&h.u, &h.y), (&r.u, &r.y), "{name}");
+        }
+        let verdict = |o: smid_core::outcome::Outcome<pipeline::Identification>| match o {
+            smid_core::outcome::Outcome::Consistent(id) => format!(
+                "{:?}",
+                id.model
+                    .parameters
+                    .iter()
+                    .map(|p| (p.name.clone(), p.lower, p.upper))
+                    .collect::<Vec<_>>()
+            ),
+            smid_core::outcome::Outcome::Falsified(f) => f.to_string(),
+        };
+        let from_csv = smid::run_spec(&e.spec, dir.path(), &|_| {}).unwrap();
+        let simulated = smid::run_spec(&spec, root, &|_| {}).unwrap();
+        assert_eq!(verdict(from_csv), verdict(simulated), "{name}");
+    }
+}
+
+/// A step column is read for steady-state points only, and its heights must be positive; the
+/// errors name the file, the column and the row.
+#[test]
+fn step_columns_are_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), &[0.0, 10.0, 20.0, 30.0], 0.5);
+    let with = |ss: &str, dy: &str| {
+        let text = std::fs::read_to_string(&p)
+            .unwrap()
+            .replace(
+                "t: time }\n    dynamic",
+                &format!("t: time{ss} }}\n    dynamic"),
+            )
+            .replace("t: time }\nnoise", &format!("t: time{dy} }}\nnoise"));
+        let q = dir.path().join("with-step.yaml");
+        std::fs::write(&q, text).unwrap();
+        let spec = smid::load_spec(&q).unwrap();
+        pipeline::load_data(&spec, dir.path())
+    };
+    // Other columns stand in for heights: the times start at 0 (no height), `u` is positive.
+    let e = with(", step: time", "").unwrap_err().to_string();
+    assert!(
+        e.contains("steady.csv") && e.contains("data row 0") && e.contains("`time`"),
+        "{e}"
+    );
+    let ok = with(", step: u", "").unwrap();
+    let steady = ok.steady.unwrap();
+    assert!(steady.points.iter().all(|p| p.step == Some(p.u)));
+    let e = with("", ", step: u").unwrap_err().to_string();
+    assert!(
+        e.contains("dyn.csv") && e.contains("steady-state points only"),
+        "{e}"
+    );
+}

@@ -118,6 +118,13 @@ pub fn read_record(
     dt: f64,
 ) -> Result<crate::model::Record> {
     let file = base.join(&c.file);
+    if let Some(sc) = &c.step {
+        return Err(SmidError::Data {
+            file,
+            location: format!("column `{sc}` (`step`)"),
+            message: "a step column is read for steady-state points only (`plant.data.steady_state.step`); a dynamic record has none: remove it".into(),
+        });
+    }
     let (mut u, mut y) = read_columns(&file, &c.u, &c.y, c.part.as_deref())?;
     if let Some(tc) = &c.t {
         // A time column: the samples must be evenly spaced by the declared sample time.

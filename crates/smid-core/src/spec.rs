@@ -123,6 +123,12 @@ pub struct CsvColumns {
     /// by `dt`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub t: Option<String>,
+    /// Step column (steady-state points only, optional): the height of the square-wave step
+    /// that led to each point (`|ū_k - ū_(k-1)|`, finite and > 0). It scales the overshoot
+    /// allowance α of eqs (14)-(15); without it α assumes the paper's ascending order, a step
+    /// of `2|ū|`, which is looser for points reached by a smaller step (a shuffled design).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub step: Option<String>,
     /// Keep only rows whose `part` column equals this.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub part: Option<String>,

@@ -195,6 +195,14 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
     let steady = match &d.steady_state {
         None => None,
         Some(ss) => {
+            // Row ranges and block means are a dynamic record's; steady-state points are
+            // read whole (select them with `part`), never silently cut.
+            if ss.rows.is_some() || ss.decimate.is_some() {
+                return Err(SmidError::invalid(
+                    "plant.data.steady_state",
+                    "`rows` and `decimate` apply to dynamic records only: give the steady-state points as their own file (or select them with `part`)",
+                ));
+            }
             let (us, ys) =
                 crate::data::read_columns(&base.join(&ss.file), &ss.u, &ss.y, ss.part.as_deref())?;
             if us.len() < 4 {
@@ -222,6 +230,26 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
                     )?)
                 }
             };
+            let steps: Option<Vec<f64>> = match &ss.step {
+                None => None,
+                Some(sc) => {
+                    let file = base.join(&ss.file);
+                    let h = crate::data::read_table(&file, &[sc], ss.part.as_deref())?
+                        .pop()
+                        .expect("one column");
+                    if let Some(k) = h.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+                        return Err(SmidError::Data {
+                            file,
+                            location: format!("data row {k}, column `{sc}`"),
+                            message: format!(
+                                "a step height must be finite and > 0 (the height of the step that led to the point), got {}",
+                                h[k]
+                            ),
+                        });
+                    }
+                    Some(h)
+                }
+            };
             Some(SteadyStateData {
                 points: us
                     .iter()
@@ -235,7 +263,7 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
                         rising: u > 0.0,
                         index: i,
                         time: times.as_ref().map(|t| t[i]),
-                        step: None,
+                        step: steps.as_ref().map(|h| h[i]),
                         du: 0.0,
                     })
                     .collect(),
