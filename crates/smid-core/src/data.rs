@@ -16,6 +16,11 @@ pub fn read_columns(
     Ok((us, ys))
 }
 
+/// One numeric column of a CSV file (rows whose `part` column equals `part`, when given).
+pub fn read_column(file: &Path, name: &str, part: Option<&str>) -> Result<Vec<f64>> {
+    Ok(read_table(file, &[name], part)?.pop().expect("one column"))
+}
+
 /// The numeric columns `names` of a CSV file (rows whose `part` column equals `part`, when
 /// given); errors name the file, row and column.
 pub fn read_table(file: &Path, names: &[&str], part: Option<&str>) -> Result<Vec<Vec<f64>>> {
@@ -128,9 +133,7 @@ pub fn read_record(
     let (mut u, mut y) = read_columns(&file, &c.u, &c.y, c.part.as_deref())?;
     if let Some(tc) = &c.t {
         // A time column: the samples must be evenly spaced by the declared sample time.
-        let t = read_table(&file, &[tc], c.part.as_deref())?
-            .pop()
-            .expect("one column");
+        let t = read_column(&file, tc, c.part.as_deref())?;
         if let Some(k) = (1..t.len()).find(|&k| ((t[k] - t[k - 1]) - dt).abs() > 1e-6 * dt) {
             return Err(SmidError::Data {
                 file: file.clone(),

@@ -219,9 +219,7 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
                 None => None,
                 Some(tc) => {
                     let file = base.join(&ss.file);
-                    let t = crate::data::read_table(&file, &[tc], ss.part.as_deref())?
-                        .pop()
-                        .expect("one column");
+                    let t = crate::data::read_column(&file, tc, ss.part.as_deref())?;
                     Some(crate::data::sample_indices(
                         &file,
                         tc,
@@ -234,9 +232,7 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
                 None => None,
                 Some(sc) => {
                     let file = base.join(&ss.file);
-                    let h = crate::data::read_table(&file, &[sc], ss.part.as_deref())?
-                        .pop()
-                        .expect("one column");
+                    let h = crate::data::read_column(&file, sc, ss.part.as_deref())?;
                     if let Some(k) = h.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
                         return Err(SmidError::Data {
                             file,
