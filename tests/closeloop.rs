@@ -908,3 +908,33 @@ fn a_quantiser_declared_or_identified_through_the_spec_holds_the_truth() {
         step.upper
     );
 }
+
+/// A model whose cells leave stage 2's intervals wider than the noise on a fresh record (a
+/// sensor drift: `offset + drift·t` over each cell) is not contradicted by the record at any
+/// bound: the smallest consistent bound is then `(0, 0)`, said at once instead of halving
+/// towards 0 cell after cell, and the record is, checked on its own, consistent with the set
+/// at a vanishing bound.
+#[test]
+fn records_a_cell_admits_at_any_bound_give_a_smallest_bound_of_zero() {
+    let text = std::fs::read_to_string(root().join("examples/diagnose/paper-drift.yaml"))
+        .unwrap()
+        .replace(
+            "  fixed: { b0: 0.0 }\nmethod:",
+            "  fixed: { b0: 0.0 }\n  effects: [ { type: drift } ]\n  prior: { drift: [-3.0e-5, 3.0e-5], offset: [-1.0, 1.0] }\nmethod:",
+        );
+    let mut spec = smid::parse_spec(&text, Path::new("paper-drift+drift")).unwrap();
+    spec.method.member.search = false;
+    let base = root().join("examples/diagnose");
+    let id = smid::run_spec(&spec, &base, &|_| {}).unwrap().unwrap();
+    let fresh = closeloop::fresh_records(&spec, &base, &[], 1001, 200, 1).unwrap();
+    let fresh: Vec<_> = fresh.iter().map(|r| r.with_bound(id.model.delta)).collect();
+    assert_eq!(
+        validate::smallest_bound(&id.model, &fresh, 0.02, None).unwrap(),
+        Some((0.0, 0.0))
+    );
+    let tiny: Vec<_> = fresh
+        .iter()
+        .map(|r| r.with_bound(1e-12 * id.model.delta))
+        .collect();
+    assert!(validate::consistency(&id.model, &tiny).unwrap().consistent);
+}

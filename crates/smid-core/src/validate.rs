@@ -352,10 +352,18 @@ pub fn consistency(model: &ModelSet, fresh: &[Record]) -> Result<Consistency> {
     })
 }
 
+/// Below this fraction of the model's bound, a cell that still admits the fresh records is
+/// taken to admit them at any bound ([`smallest_bound`] answers `(0, 0)`).
+pub const VACUOUS_BELOW: f64 = 1e-9;
+
 /// The smallest noise bound of the fresh records for which they are consistent with the
 /// model set, as a bracket `[lo, hi]` (relative width `resolution`): the data provably
 /// contradict every cell below `lo`, and some cell admits them at `hi`. `None` when even
-/// `2^30` times the model's bound is inconsistent.
+/// `2^30` times the model's bound is inconsistent. `(0, 0)` when some cell admits them below
+/// [`VACUOUS_BELOW`] of the model's bound: that cell's check (stage 2's intervals over the
+/// cell, e.g. a sensor drift's `offset + drift·t` over its cell, then stage 3) is wider than
+/// any noise, so the records test nothing there; the search stops at once instead of halving
+/// towards 0 cell after cell.
 ///
 /// It is the smallest of the cells' own smallest bounds: the cells are visited centre first;
 /// a cell is bisected only when it admits the data just below the best bound found so far
@@ -433,6 +441,11 @@ pub fn smallest_bound(
                     a = mid;
                 }
                 n += 1;
+                if a == 0.0 && b < VACUOUS_BELOW * d0 {
+                    // Never contradicted down to a vanishing bound: this cell's stage-2
+                    // intervals are wider than any noise, and the records test nothing.
+                    return Ok(Some((0.0, 0.0)));
+                }
             }
             hi = b;
         }
