@@ -272,7 +272,7 @@ pub fn format_validation(v: &Validation, records: &[Record]) -> String {
         smid_core::model::BoundSource::Estimated => "estimated from the training data",
     };
     match v.smallest_bound {
-        Some((_, hi)) if hi == 0.0 => {
+        Some((_, 0.0)) => {
             let _ = writeln!(
                 s,
                 "smallest consistent noise bound: 0 (a cell of the set admits these records at any bound: its stage-2 intervals over the cell are wider than the noise, so the records test nothing there); bound {:.4e} ({src}): {}",
@@ -547,7 +547,7 @@ pub fn format_table(before: &Column, after: &Column) -> String {
     };
     row(&mut s, "verdict", verdict(before), verdict(after));
     let smallest = |c: &Column| match c.validation.as_ref().map(|v| (v.smallest_bound, v.pass)) {
-        Some((Some((_, hi)), pass)) if hi == 0.0 => format!(
+        Some((Some((_, 0.0)), pass)) => format!(
             "0 ({}; a cell admits them at any bound)",
             if pass { "PASS" } else { "FAIL" }
         ),
