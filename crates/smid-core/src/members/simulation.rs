@@ -1017,25 +1017,31 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
         // ([`Search::uncertified_from`]). Refining every probed cell (up to 64) made four
         // any-record trials of `dead_zone_output` take 197 s instead of 52 s. A refined cell keeps the better of its two points, so the
         // ranking only decides where the effort goes.
-        let mut quick: Vec<(f64, &CellSpace, SimulationMember)> = Vec::new();
-        for (_, sp) in &spaces {
-            let found = search.best_uncertified(sp, opts, &centre_values, false);
-            log::debug!(target: "smid::members", "cell {}: best uncertified point {:?} after {} evaluations", sp.k, found.as_ref().map(|f| f.0), search.evaluations.load(Relaxed));
-            if let Some((e2, m)) = found {
-                quick.push((e2, sp, m));
-            }
-        }
+        //
+        // The cells are independent, so both passes run side by side, each kept in the
+        // cells' order (the stand-in does not depend on the thread timing).
+        use rayon::prelude::*;
+        let mut quick: Vec<(f64, &CellSpace, SimulationMember)> = spaces
+            .par_iter()
+            .filter_map(|(_, sp)| {
+                let found = search.best_uncertified(sp, opts, &centre_values, false);
+                log::debug!(target: "smid::members", "cell {}: best uncertified point {:?}", sp.k, found.as_ref().map(|f| f.0));
+                found.map(|(e2, m)| (e2, sp, m))
+            })
+            .collect();
         quick.sort_by(|a, b| a.0.total_cmp(&b.0));
         let refine = if opts.gives_up_early() {
             0
         } else {
-            opts.cells.max(1)
+            opts.cells.max(1).min(quick.len())
         };
-        for (i, (e2, sp, m)) in quick.into_iter().enumerate() {
-            let (e2, m) = match (i < refine)
-                .then(|| search.best_uncertified(sp, opts, &centre_values, true))
-                .flatten()
-            {
+        let refined: Vec<Option<(f64, SimulationMember)>> = quick[..refine]
+            .par_iter()
+            .map(|(_, sp, _)| search.best_uncertified(sp, opts, &centre_values, true))
+            .collect();
+        let mut refined = refined.into_iter();
+        for (e2, _, m) in quick {
+            let (e2, m) = match refined.next().flatten() {
                 Some((er, mr)) if er < e2 => (er, mr),
                 _ => (e2, m),
             };
