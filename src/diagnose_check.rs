@@ -408,7 +408,7 @@ fn through_csv(
     holdout: &[Record],
     dir: &std::path::Path,
 ) -> Result<(Spec, ExperimentData, Vec<Record>)> {
-    let spec = crate::simulate::write_experiment(spec, training, holdout, dir)?.spec;
+    let spec = crate::simulate::write_experiment(spec, training, holdout, &[], dir)?.spec;
     // As measured steady states come: the sign of ū says the direction (`rising = ū > 0`), no
     // step heights (the allowance α then assumes the paper's 2|ū|).
     let data = pipeline::load_data(&spec, dir)?;

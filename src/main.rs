@@ -604,6 +604,9 @@ fn real_main() -> Result<()> {
             let e = smid::simulate::export_experiment(&src.spec, &src.base, 2, &dir)
                 .with_context(|| format!("simulating {}", spec.display()))?;
             println!("wrote {}", join(&e.files));
+            for n in &e.notes {
+                println!("the spec states {n}");
+            }
             let held = |k: usize| dir.join(format!("holdout{k}.csv")).display().to_string();
             println!(
                 "diagnose them as measured data: smid diagnose {} --holdout {} --holdout {}",

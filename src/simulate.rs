@@ -129,17 +129,21 @@ pub struct Exported {
     /// `steady.csv` (when the experiment has steady-state points), `train.csv`,
     /// `holdout<k>.csv`, `spec.yaml`.
     pub files: Vec<PathBuf>,
+    /// What the measured-data spec had to state or change that the simulated one left to the
+    /// plant (a designed filter pole, the `design` α), one line each.
+    pub notes: Vec<String>,
 }
 
 /// Write the training data and held-out records as CSV files in `dir` (created), with
-/// `spec.yaml`: `spec` with its plant replaced by `plant.data` reading them, as measured data
-/// come. Steady-state points: columns `u, y, t` (each point's sample time, which a drift
+/// `spec.yaml`: `spec` with its plant replaced by `plant.data` reading them (and `truth`, when
+/// given, as `plant.truth`), as measured data come. Steady-state points: columns `u, y, t` (each point's sample time, which a drift
 /// needs) and `step` (the height of the step that led to it, which scales α); records: `u, y`. Numbers in shortest round-trip form, so the files read back to
 /// the same values.
 pub fn write_experiment(
     spec: &Spec,
     training: &ExperimentData,
     holdout: &[Record],
+    truth: &[(String, f64)],
     dir: &Path,
 ) -> Result<Exported> {
     let write = |name: &str, text: String| -> Result<PathBuf> {
@@ -188,34 +192,58 @@ pub fn write_experiment(
     let mut v =
         serde_json::to_value(spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
     v["plant"] = serde_json::json!({ "data": data });
+    if !truth.is_empty() {
+        let t: serde_json::Map<String, serde_json::Value> = truth
+            .iter()
+            .map(|(k, x)| (k.clone(), serde_json::json!(x)))
+            .collect();
+        v["plant"]["truth"] = serde_json::Value::Object(t);
+    }
+    let mut notes = Vec::new();
+    // A pole the Appendix search found on the plant is written down: files have no plant to
+    // search on. The `design` α needs the plant's measured overshoot, which files do not
+    // carry either: the paper's α (`bias`) stands in, and the note says so.
+    if let (None, Some(f)) = (spec.experiment.filter.pole, &training.filter) {
+        v["experiment"]["filter"]["pole"] = serde_json::json!(f.pole);
+        notes.push(format!(
+            "experiment.filter.pole: {} (found by the Appendix search on the plant)",
+            f.pole
+        ));
+    }
+    if spec.method.alpha == smid_core::spec::AlphaSpec::Design {
+        v["method"]["alpha"] = serde_json::json!("bias");
+        notes.push("method.alpha: bias (the spec's `design` needs the plant's measured overshoot, which the files do not carry; `bias` is the paper's α = 2Δη|ū|/r̄_F)".into());
+    }
     let spec: Spec =
         serde_json::from_value(v).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
     let text =
         serde_norway::to_string(&spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
     files.push(write("spec.yaml", text)?);
-    Ok(Exported { spec, files })
+    Ok(Exported { spec, files, notes })
 }
 
 /// Simulate the spec's whole training experiment through its plant (built-in simulator or
 /// FMU, relative paths against `base`) and `holdouts` fresh records (the spec's dynamic length,
 /// seeds `experiment.seed + 1000 + k`: the records `smid diagnose` draws when no `--holdout`
-/// is given), and write them with [`write_experiment`].
+/// is given), and write them with [`write_experiment`], the plant's true parameters in the
+/// model's names as `plant.truth`.
 pub fn export_experiment(
     spec: &Spec,
     base: &Path,
     holdouts: usize,
     dir: &Path,
 ) -> Result<Exported> {
-    let run = |plant: &mut dyn Plant| -> Result<(ExperimentData, Vec<Record>)> {
+    type Drawn = (ExperimentData, Vec<Record>, Vec<(String, f64)>);
+    let run = |plant: &mut dyn Plant| -> Result<Drawn> {
         let training = pipeline::simulate_experiments(spec, plant)?;
         let seed = spec.experiment.seed + 1000;
         let n = spec.experiment.dynamic.length;
         let held = (0..holdouts as u64)
             .map(|k| pipeline::fresh_record(spec, plant, seed + k, n))
             .collect::<Result<Vec<_>>>()?;
-        Ok((training, held))
+        Ok((training, held, pipeline::plant_truth(spec, plant)?))
     };
-    let (training, held) = if spec.plant.fmu.is_some() {
+    let (training, held, truth) = if spec.plant.fmu.is_some() {
         crate::with_fmu_plant(spec, base, run)?
     } else {
         match pipeline::builtin_plant(spec) {
@@ -228,5 +256,5 @@ pub fn export_experiment(
             }
         }
     };
-    write_experiment(spec, &training, &held, dir)
+    write_experiment(spec, &training, &held, &truth, dir)
 }

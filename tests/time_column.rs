@@ -161,3 +161,29 @@ fn step_columns_are_checked() {
         "{e}"
     );
 }
+
+/// Exporting a spec whose filter pole the Appendix search finds on the plant, with the
+/// `design` α that needs the plant's overshoot: the exported spec states the designed pole and
+/// the paper's α (`bias`) and says so in its notes, carries the plant's truth, and its
+/// identification from the files holds that truth.
+#[test]
+fn an_exported_designed_experiment_states_its_pole_and_alpha() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let spec = smid::load_spec(&root.join("examples/paper.yaml")).unwrap();
+    assert!(spec.experiment.filter.pole.is_none());
+    let dir = tempfile::tempdir().unwrap();
+    let e = smid::simulate::export_experiment(&spec, root, 1, dir.path()).unwrap();
+    let mut plant = pipeline::builtin_plant(&spec).unwrap();
+    let sim = pipeline::simulate_experiments(&spec, &mut plant).unwrap();
+    assert_eq!(
+        e.spec.experiment.filter.pole,
+        Some(sim.filter.unwrap().pole)
+    );
+    assert_eq!(e.spec.method.alpha, smid_core::spec::AlphaSpec::Bias);
+    assert_eq!(e.notes.len(), 2, "{:?}", e.notes);
+    assert_eq!(e.spec.plant.truth.get("m_l"), Some(&0.248));
+    let id = smid::run_spec(&e.spec, dir.path(), &|_| {})
+        .unwrap()
+        .unwrap();
+    assert_eq!(id.all_contain_truth(), Some(true));
+}
