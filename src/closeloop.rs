@@ -275,7 +275,7 @@ pub fn format_validation(v: &Validation, records: &[Record]) -> String {
         Some((_, 0.0)) => {
             let _ = writeln!(
                 s,
-                "smallest consistent noise bound: 0 (a cell of the set admits these records at any bound: its stage-2 intervals over the cell are wider than the noise, so the records test nothing there); bound {:.4e} ({src}): {}",
+                "smallest consistent noise bound: 0 (a cell of the set admits these records down to 1e-9 of the bound, reported as 0: noise-free records in a cell holding the truth, or stage-2 intervals over the cell wider than the noise, where the records test little); bound {:.4e} ({src}): {}",
                 v.bound,
                 if v.pass { "PASS" } else { "FAIL" }
             );
@@ -548,7 +548,7 @@ pub fn format_table(before: &Column, after: &Column) -> String {
     row(&mut s, "verdict", verdict(before), verdict(after));
     let smallest = |c: &Column| match c.validation.as_ref().map(|v| (v.smallest_bound, v.pass)) {
         Some((Some((_, 0.0)), pass)) => format!(
-            "0 ({}; a cell admits them at any bound)",
+            "0 ({}; a cell admits them down to 1e-9 of the bound)",
             if pass { "PASS" } else { "FAIL" }
         ),
         Some((Some((_, hi)), pass)) => format!("{hi:.3e} ({})", if pass { "PASS" } else { "FAIL" }),

@@ -409,8 +409,8 @@ fn through_csv(
     dir: &std::path::Path,
 ) -> Result<(Spec, ExperimentData, Vec<Record>)> {
     let spec = crate::simulate::write_experiment(spec, training, holdout, &[], dir)?.spec;
-    // As measured steady states come: the sign of ū says the direction (`rising = ū > 0`), no
-    // step heights (the allowance α then assumes the paper's 2|ū|).
+    // As measured steady states come: the sign of ū says the direction (`rising = ū > 0`), the
+    // `step` column each point's step height.
     let data = pipeline::load_data(&spec, dir)?;
     let delta = spec.noise.delta()?;
     let held = (0..holdout.len())

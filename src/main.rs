@@ -36,12 +36,15 @@ enum Command {
     Simulate {
         spec: PathBuf,
         /// Write the spec's whole training experiment instead: `steady.csv` (the designed
-        /// steady-state points, columns u, y, t), `train.csv` (its dynamic record),
+        /// steady-state points, columns u, y, t, step), `train.csv` (its dynamic record),
         /// `holdout0.csv`, `holdout1.csv` (the records `smid diagnose` holds out by default)
-        /// and `spec.yaml` (the spec with `plant.data` reading them).
+        /// and `spec.yaml` (the spec with `plant.data` reading them, the plant's truth as
+        /// `plant.truth`, a designed filter pole written down and a `design` α as `bias`),
+        /// in `--out` (default: out/<spec name>/experiment).
         #[arg(long, conflicts_with_all = ["name", "length", "seed"])]
         experiment: bool,
-        /// Output directory (default: out/<spec name>).
+        /// Output directory (default: out/<spec name>; with --experiment
+        /// out/<spec name>/experiment).
         #[arg(long)]
         out: Option<PathBuf>,
         /// File name without `.csv` (default: `seed-<S>` with --seed, else `dynamic`).

@@ -136,9 +136,10 @@ pub struct Exported {
 
 /// Write the training data and held-out records as CSV files in `dir` (created), with
 /// `spec.yaml`: `spec` with its plant replaced by `plant.data` reading them (and `truth`, when
-/// given, as `plant.truth`), as measured data come. Steady-state points: columns `u, y, t` (each point's sample time, which a drift
-/// needs) and `step` (the height of the step that led to it, which scales α); records: `u, y`. Numbers in shortest round-trip form, so the files read back to
-/// the same values.
+/// given, as `plant.truth`), as measured data come. Steady-state points: columns `u, y, t`
+/// (each point's sample index, which a drift needs; the simulator's sample time is 1) and
+/// `step` (the height of the step that led to it, which scales α); records: `u, y`. Numbers
+/// in shortest round-trip form, so the files read back to the same values.
 pub fn write_experiment(
     spec: &Spec,
     training: &ExperimentData,
@@ -193,8 +194,10 @@ pub fn write_experiment(
         serde_json::to_value(spec).map_err(|e| SmidError::invalid("spec", e.to_string()))?;
     v["plant"] = serde_json::json!({ "data": data });
     if !truth.is_empty() {
+        // A true value JSON cannot hold (not finite) is left out rather than written as null.
         let t: serde_json::Map<String, serde_json::Value> = truth
             .iter()
+            .filter(|(_, x)| x.is_finite())
             .map(|(k, x)| (k.clone(), serde_json::json!(x)))
             .collect();
         v["plant"]["truth"] = serde_json::Value::Object(t);
@@ -210,7 +213,7 @@ pub fn write_experiment(
             f.pole
         ));
     }
-    if spec.method.alpha == smid_core::spec::AlphaSpec::Design {
+    if spec.method.alpha == smid_core::spec::AlphaSpec::Design && training.steady.is_some() {
         v["method"]["alpha"] = serde_json::json!("bias");
         notes.push("method.alpha: bias (the spec's `design` needs the plant's measured overshoot, which the files do not carry; `bias` is the paper's α = 2Δη|ū|/r̄_F)".into());
     }

@@ -458,7 +458,8 @@ def _ends(values: Sequence[Any], fill: float) -> "np.ndarray":
 
 class Validation:
     """What ``smid validate`` reports on fresh records: the set-membership verdict, the
-    smallest consistent noise bound (PASS when within the declared one), free-run / one-step /
+    smallest consistent noise bound (PASS when within the declared one; 0 when a cell admits
+    the records down to 1e-9 of it), free-run / one-step /
     k-step fits next to the least-squares ARX baseline, residual correlations, warnings, and
     per record the series (numpy arrays) for plots. ``data`` is the whole report as a dict."""
 

@@ -163,11 +163,12 @@ fn cell(v: Option<f64>) -> String {
     v.map(|x| format!("{x:.17e}")).unwrap_or_default()
 }
 
-/// `data.csv`: rows `part,index,t,u,y,w,x` for the steady-state samples (`part = steady`,
-/// `u = ū`, `y = ȳ`) and the dynamic records (`part = dynamic` for the first, `dynamic_k` for
-/// record `k > 0`). Rerun with a `plant.data` spec selecting `part: steady` and `part: dynamic`.
+/// `data.csv`: rows `part,index,t,u,y,w,x,step` for the steady-state samples (`part = steady`,
+/// `u = ū`, `y = ȳ`, `step` the height of the step that led to the point) and the dynamic
+/// records (`part = dynamic` for the first, `dynamic_k` for record `k > 0`; no step). Rerun
+/// with a `plant.data` spec selecting `part: steady` (with `step: step`) and `part: dynamic`.
 pub fn data_csv(id: &Identification) -> String {
-    let mut s = String::from("part,index,t,u,y,w,x\n");
+    let mut s = String::from("part,index,t,u,y,w,x,step\n");
     let d = &id.data;
     let none = crate::nonlinearity::SteadyStateData::default();
     for p in &d.steady.as_ref().unwrap_or(&none).points {
@@ -180,12 +181,13 @@ pub fn data_csv(id: &Identification) -> String {
         };
         let _ = writeln!(
             s,
-            "steady,{},{},{:.17e},{:.17e},{},",
+            "steady,{},{},{:.17e},{:.17e},{},,{:.17e}",
             p.index,
             t,
             p.u,
             p.y,
-            cell(w)
+            cell(w),
+            p.step_height()
         );
     }
     for (k, r) in d.records.iter().enumerate() {
@@ -199,7 +201,7 @@ pub fn data_csv(id: &Identification) -> String {
             let x = r.x.as_ref().map(|x| x[t]);
             let _ = writeln!(
                 s,
-                "{part},{t},{t},{:.17e},{:.17e},{},{}",
+                "{part},{t},{t},{:.17e},{:.17e},{},{},",
                 r.u[t],
                 r.y[t],
                 cell(w),

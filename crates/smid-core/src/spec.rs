@@ -132,10 +132,12 @@ pub struct CsvColumns {
     /// Keep only rows whose `part` column equals this.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub part: Option<String>,
-    /// Keep the data rows `[start, end)` (0-based, after `part`).
+    /// Keep the data rows `[start, end)` (0-based, after `part`). Dynamic records only: an
+    /// error on steady-state points.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rows: Option<[usize; 2]>,
-    /// Replace each block of `decimate` samples by its mean (1: none).
+    /// Replace each block of `decimate` samples by its mean (1: none). Dynamic records only:
+    /// an error on steady-state points.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub decimate: Option<usize>,
 }

@@ -219,7 +219,8 @@ pub struct Validation {
     pub bound: f64,
     pub bound_source: BoundSource,
     /// Smallest noise bound of the fresh records for which they are consistent, as a bracket
-    /// `[lo, hi]`: provably inconsistent below `lo`, consistent at `hi`.
+    /// `[lo, hi]`: provably inconsistent below `lo`, consistent at `hi`; `(0, 0)` when a cell
+    /// admits them down to [`VACUOUS_BELOW`] of the bound ([`smallest_bound`]).
     pub smallest_bound: Option<(f64, f64)>,
     /// The smallest consistent bound is within the declared one.
     pub pass: bool,
@@ -359,11 +360,11 @@ pub const VACUOUS_BELOW: f64 = 1e-9;
 /// The smallest noise bound of the fresh records for which they are consistent with the
 /// model set, as a bracket `[lo, hi]` (relative width `resolution`): the data provably
 /// contradict every cell below `lo`, and some cell admits them at `hi`. `None` when even
-/// `2^30` times the model's bound is inconsistent. `(0, 0)` when some cell admits them below
-/// [`VACUOUS_BELOW`] of the model's bound: that cell's check (stage 2's intervals over the
-/// cell, e.g. a sensor drift's `offset + drift·t` over its cell, then stage 3) is wider than
-/// any noise, so the records test nothing there; the search stops at once instead of halving
-/// towards 0 cell after cell.
+/// `2^30` times the model's bound is inconsistent. `(0, 0)` when some cell admits them down
+/// to [`VACUOUS_BELOW`] of the model's bound (0 itself is never checked): noise-free records
+/// in a cell that holds the truth, or a cell whose stage-2 intervals (a sensor drift's
+/// `offset + drift·t` over its cell) are wider than the noise, where the records test little;
+/// the search stops at once instead of halving towards 0 cell after cell.
 ///
 /// It is the smallest of the cells' own smallest bounds: the cells are visited centre first;
 /// a cell is bisected only when it admits the data just below the best bound found so far
@@ -442,8 +443,7 @@ pub fn smallest_bound(
                 }
                 n += 1;
                 if a == 0.0 && b < VACUOUS_BELOW * d0 {
-                    // Never contradicted down to a vanishing bound: this cell's stage-2
-                    // intervals are wider than any noise, and the records test nothing.
+                    // Never contradicted down to a vanishing bound: reported as 0.
                     return Ok(Some((0.0, 0.0)));
                 }
             }

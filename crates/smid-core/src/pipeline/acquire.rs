@@ -236,7 +236,7 @@ pub fn load_data(spec: &Spec, base: &Path) -> Result<ExperimentData> {
                     if let Some(k) = h.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
                         return Err(SmidError::Data {
                             file,
-                            location: format!("data row {k}, column `{sc}`"),
+                            location: format!("steady-state point {k} (from 0, after `part`), column `{sc}`"),
                             message: format!(
                                 "a step height must be finite and > 0 (the height of the step that led to the point), got {}",
                                 h[k]
