@@ -268,6 +268,21 @@ impl Polygon {
                 (v[0] - z[0]).abs() <= pad(v[0]) * 10.0 && (v[1] - z[1]).abs() <= pad(v[1]) * 10.0
             }
             _ => {
+                // Inside the vertices' bounding box first (to the edge test's relative
+                // tolerance): a polygon flattened to a segment (a fixed slope, `m.lo == m.hi`)
+                // has only collinear edges, which bound nothing along the segment itself.
+                let tol = 1e-10 * (1.0 + z[0].abs() + z[1].abs());
+                for (i, zi) in z.iter().enumerate() {
+                    let (lo, hi) = self
+                        .vertices
+                        .iter()
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                            (a.min(v[i]), b.max(v[i]))
+                        });
+                    if *zi < lo - tol || *zi > hi + tol {
+                        return false;
+                    }
+                }
                 // Orientation-agnostic: z is inside when it is on the same side of every edge.
                 // Clipping can leave edges of ~1e-15 between near-duplicate vertices; their
                 // direction is rounding noise, so edges negligible against the polygon's size
@@ -303,6 +318,19 @@ impl Polygon {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// A fixed slope flattens a slope-offset box to a segment: its collinear edges bound
+    /// nothing along it, the bounding box does.
+    #[test]
+    fn a_segment_holds_its_own_extent_only() {
+        let seg = Polygon::from_slope_offset_box(Interval::new(1.0, 1.0), Interval::new(0.2, 0.4))
+            .unwrap();
+        assert!(seg.contains([1.0, 0.3]));
+        assert!(seg.contains([1.0, 0.4]));
+        assert!(!seg.contains([1.0, 0.45]));
+        assert!(!seg.contains([1.0, 0.15]));
+        assert!(!seg.contains([1.01, 0.3]));
+    }
 
     #[test]
     fn two_strips_make_a_parallelogram() {

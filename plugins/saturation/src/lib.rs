@@ -196,9 +196,15 @@ impl Staircase {
         })
     }
 
-    /// Whether `(m, s)` lies in the set (up to the rounding pads).
+    /// Whether `(m, s)` lies in the set (up to the rounding pads): above the lower ends, below
+    /// the upper ends of the hull (a box set, from a prior cell, has no steps to say so), and
+    /// on the allowed side of every step.
     pub fn contains(&self, m: f64, s: f64) -> bool {
-        m >= self.lo_m && s >= self.lo_s && self.steps.iter().all(|&(r, mm)| s <= r || m <= mm)
+        m >= self.lo_m
+            && s >= self.lo_s
+            && m <= self.m.hi
+            && s <= self.s.hi
+            && self.steps.iter().all(|&(r, mm)| s <= r || m <= mm)
     }
 }
 
@@ -470,6 +476,30 @@ mod tests {
         }
         assert!(set.contains(&[0.8, 1.0, 1.2, 1.5]));
         assert!(!set.contains(&[0.8, 1.0, 1.3, 1.5]));
+    }
+
+    /// A prior cell's set holds its box and nothing beyond it, on every side: the member
+    /// search moves points by this test (seed 565 of the any-record check reported a certified
+    /// member with `m_l` above its cell before the upper ends were checked).
+    #[test]
+    fn a_box_set_contains_its_box_only() {
+        let i = Interval::new;
+        let set = SaturationModel {}
+            .set_from_box(&[i(0.7, 0.9), i(0.9, 1.1), i(1.1, 1.3), i(1.4, 1.6)])
+            .unwrap();
+        assert!(set.contains(&[0.8, 1.0, 1.2, 1.5]));
+        assert!(set.contains(&[0.9, 1.1, 1.3, 1.6]));
+        for k in 0..4 {
+            for (d, hi) in [(-0.11, false), (0.11, true)] {
+                let mut p = [0.8, 1.0, 1.2, 1.5];
+                p[k] += d;
+                assert!(
+                    !set.contains(&p),
+                    "coordinate {k} {}: {p:?}",
+                    if hi { "above" } else { "below" }
+                );
+            }
+        }
     }
 
     #[test]
