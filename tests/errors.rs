@@ -1,6 +1,7 @@
 //! Bad input gets a clear error naming the file, line, field or sample; an empty feasible set is
 //! reported as "the data are inconsistent with the model and noise bound" with the stage and the
 //! first offending sample, never as a panic; `smid run` exits 2 on such a finding.
+mod common;
 use smid_core::spec::Spec;
 use smid_core::{Outcome, SmidError, Stage};
 use std::path::{Path, PathBuf};
@@ -333,13 +334,7 @@ fn cli_run_writes_results_and_rerun_on_its_data_gives_the_same_bounds() {
     let first = smid_core::pipeline::run(&orig, Path::new("."))
         .unwrap()
         .unwrap();
-    for (a, b) in first.parameters().iter().zip(again.parameters()) {
-        assert_eq!(a.name, b.name);
-        assert!(
-            (a.lower - b.lower).abs() < 1e-12 && (a.upper - b.upper).abs() < 1e-12,
-            "{a:?} vs {b:?}"
-        );
-    }
+    common::assert_same_bounds(&first, &again);
 }
 
 /// `noise.estimate` on data no bound falsifies (here a noise-free record of a linear plant,

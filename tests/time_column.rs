@@ -1,6 +1,7 @@
 //! Time columns in CSV records: steady-state points take their sample time from one (so a
 //! drift can be identified from measured steady-state points), a dynamic record's must be
 //! evenly spaced by `dt`, and a point off the grid is an error naming the file, row and column.
+mod common;
 use smid_core::pipeline;
 use std::fmt::Write as _;
 
@@ -228,11 +229,5 @@ fn a_rerun_from_data_csv_keeps_the_step_heights() {
     let again = smid::run_spec(&rerun, dir.path(), &|_| {})
         .unwrap()
         .unwrap();
-    for (a, b) in id.parameters().iter().zip(again.parameters()) {
-        assert_eq!(a.name, b.name);
-        assert!(
-            (a.lower - b.lower).abs() < 1e-12 && (a.upper - b.upper).abs() < 1e-12,
-            "{a:?} vs {b:?}"
-        );
-    }
+    common::assert_same_bounds(&id, &again);
 }

@@ -66,3 +66,16 @@ pub fn yaml_files(dir: &Path) -> Vec<std::path::PathBuf> {
     v.sort();
     v
 }
+
+/// The two runs' parameters have the same names and bounds (within 1e-12).
+#[allow(dead_code)] // not every test file uses every helper
+pub fn assert_same_bounds(a: &pipeline::Identification, b: &pipeline::Identification) {
+    assert_eq!(a.parameters().len(), b.parameters().len());
+    for (p, q) in a.parameters().iter().zip(b.parameters()) {
+        assert_eq!(p.name, q.name);
+        assert!(
+            (p.lower - q.lower).abs() < 1e-12 && (p.upper - q.upper).abs() < 1e-12,
+            "{p:?} vs {q:?}"
+        );
+    }
+}
