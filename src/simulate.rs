@@ -246,18 +246,6 @@ pub fn export_experiment(
             .collect::<Result<Vec<_>>>()?;
         Ok((training, held, pipeline::plant_truth(spec, plant)?))
     };
-    let (training, held, truth) = if spec.plant.fmu.is_some() {
-        crate::with_fmu_plant(spec, base, run)?
-    } else {
-        match pipeline::builtin_plant(spec) {
-            Some(mut plant) => run(&mut plant)?,
-            None => {
-                return Err(SmidError::invalid(
-                    "plant",
-                    "measured data cannot be simulated; give a `simulator` or an `fmu` plant",
-                ))
-            }
-        }
-    };
+    let (training, held, truth) = crate::closeloop::with_plant(spec, base, run)?;
     write_experiment(spec, &training, &held, &truth, dir)
 }
