@@ -113,7 +113,7 @@ pub fn with_plant<T>(
         Some(mut p) => f(&mut p),
         None => Err(SmidError::invalid(
             "plant",
-            "measured data have no plant to draw fresh records from: give them with --data / --holdout",
+            "measured data (`plant.data`) have no plant to simulate or draw fresh records from: give a `simulator` or an `fmu` plant, or the records with --data / --holdout",
         )),
     }
 }
@@ -133,19 +133,7 @@ pub fn fresh_records(
     if !csvs.is_empty() {
         let (template, dt) = match &spec.plant.data {
             Some(d) => (d.dynamic.items()[0].clone(), d.dt.unwrap_or(1.0)),
-            None => (
-                smid_core::spec::CsvColumns {
-                    file: PathBuf::new(),
-                    u: "u".into(),
-                    y: "y".into(),
-                    part: None,
-                    rows: None,
-                    decimate: None,
-                    t: None,
-                    step: None,
-                },
-                1.0,
-            ),
+            None => (smid_core::spec::CsvColumns::uy(PathBuf::new()), 1.0),
         };
         return csvs
             .iter()

@@ -415,10 +415,7 @@ fn through_csv(
     let delta = spec.noise.delta()?;
     let held = (0..holdout.len())
         .map(|k| {
-            let c: smid_core::spec::CsvColumns = serde_json::from_value(serde_json::json!({
-                "file": format!("holdout{k}.csv"), "u": "u", "y": "y"
-            }))
-            .expect("columns parse");
+            let c = smid_core::spec::CsvColumns::uy(format!("holdout{k}.csv"));
             smid_core::data::read_record(dir, &c, delta, 1.0)
         })
         .collect::<Result<Vec<_>>>()?;

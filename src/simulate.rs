@@ -84,19 +84,15 @@ pub fn simulate_spec(
     length: Option<usize>,
     seed: Option<u64>,
 ) -> Result<SimulatedRecord> {
-    if spec.plant.fmu.is_some() {
-        let step = spec.plant.step.unwrap_or(1.0);
-        return crate::with_fmu_plant(spec, base, |plant| {
-            simulate_with_plant(spec, plant, length, seed, step)
-        });
-    }
-    match pipeline::builtin_plant(spec) {
-        Some(mut plant) => simulate_with_plant(spec, &mut plant, length, seed, 1.0),
-        None => Err(SmidError::invalid(
-            "plant",
-            "measured data cannot be simulated; give a `simulator` or an `fmu` plant",
-        )),
-    }
+    // An FMU's outputs are sampled every `plant.step` seconds; the built-in simulators count
+    // samples.
+    let step = match spec.plant.fmu {
+        Some(_) => spec.plant.step.unwrap_or(1.0),
+        None => 1.0,
+    };
+    crate::closeloop::with_plant(spec, base, |plant| {
+        simulate_with_plant(spec, plant, length, seed, step)
+    })
 }
 
 /// The record as CSV text: header `t,u,y,w`, one row per sample, shortest round-trip numbers.

@@ -142,6 +142,22 @@ pub struct CsvColumns {
     pub decimate: Option<usize>,
 }
 
+impl CsvColumns {
+    /// Columns `u` and `y` of `file`, every row, as `smid simulate` writes a record.
+    pub fn uy(file: impl Into<PathBuf>) -> Self {
+        CsvColumns {
+            file: file.into(),
+            u: "u".into(),
+            y: "y".into(),
+            t: None,
+            step: None,
+            part: None,
+            rows: None,
+            decimate: None,
+        }
+    }
+}
+
 /// One record or a list of records.
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(untagged)]
