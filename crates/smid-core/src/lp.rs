@@ -52,6 +52,9 @@ pub const ROW_PAD: f64 = 1e-9;
 pub const RESULT_PAD: f64 = 1e-8;
 /// Factor on tolerances and pads when a numerical failure forced the sturdier retry.
 const STURDY: f64 = 100.0;
+/// Outward relaxations (relative, as [`ROW_PAD`]) tried in turn when neither the simplex nor
+/// the interior-point path concludes on a polytope ([`Polytope::bound`]).
+const RELAXED_PADS: [f64; 2] = [1e-7, 1e-5];
 /// The artificial box of the simplex, `|θ_j| <= THETA_MAX`: an optimum on it is reported
 /// unbounded, and emptiness is proven for the θ inside it.
 pub const THETA_MAX: f64 = 1e9;
@@ -117,6 +120,14 @@ enum Simplex {
     Unbounded,
     /// No conclusion (cap, singular basis, unproven emptiness): use the interior-point path.
     Unknown,
+}
+
+impl Simplex {
+    /// [`Simplex::Unknown`], saying why at debug level (`SMID_LOG=debug`).
+    fn unknown(why: &str) -> Simplex {
+        log::debug!("dual simplex: no conclusion ({why}); the interior-point path takes over");
+        Simplex::Unknown
+    }
 }
 
 /// One certified side: `c·θ >= value - Σ_j resid_j |θ_j|` for every θ of the polytope.
@@ -227,13 +238,13 @@ impl Polytope {
                 r += 1;
             }
             if r < q {
-                return Simplex::Unknown; // dependent equalities
+                return Simplex::unknown("dependent equalities");
             }
             basis.extend((0..n).filter(|&k| !pivoted[k]).map(|k| Row::Box(k, false)));
         }
         // Box signs so that the starting multipliers are >= 0.
         let Some(mut u) = Self::multipliers_lu(&self.lu_t(&basis), c) else {
-            return Simplex::Unknown;
+            return Simplex::unknown("singular starting basis");
         };
         for (b, ub) in basis.iter_mut().zip(u.iter_mut()) {
             if let Row::Box(k, neg) = *b {
@@ -252,7 +263,7 @@ impl Polytope {
         let mut factors: Option<LuT> = None;
         for _ in 0..cap {
             let Some(x) = self.vertex(&basis) else {
-                return Simplex::Unknown;
+                return Simplex::unknown("singular basis (vertex)");
             };
             // The most violated row (normalised), data rows and then the box.
             let mut best: Option<(Row, f64)> = None;
@@ -300,7 +311,7 @@ impl Polytope {
             let (ge, _) = self.row(enter);
             let lu = factors.take().unwrap_or_else(|| self.lu_t(&basis));
             let Some(v) = Self::solve_lu_t(&lu, &ge) else {
-                return Simplex::Unknown;
+                return Simplex::unknown("singular basis (entering row)");
             };
             // Ratio test over the inequality rows of the basis.
             let vmax = v.iter().fold(0.0f64, |a, b| a.max(b.abs()));
@@ -324,7 +335,7 @@ impl Polytope {
                     return if self.farkas_proves(&basis, &v, enter) {
                         Simplex::Infeasible
                     } else {
-                        Simplex::Unknown
+                        Simplex::unknown("an emptiness the Farkas combination cannot prove")
                     };
                 }
                 Some((idx, _, _)) => {
@@ -332,7 +343,7 @@ impl Polytope {
                     let lu = self.lu_t(&basis);
                     match Self::multipliers_lu(&lu, c) {
                         Some(nu) => u = nu,
-                        None => return Simplex::Unknown,
+                        None => return Simplex::unknown("singular basis (multipliers)"),
                     }
                     factors = Some(lu);
                     // Rounding may leave tiny negative multipliers: they are clamped in the
@@ -340,7 +351,7 @@ impl Polytope {
                 }
             }
         }
-        Simplex::Unknown
+        Simplex::unknown("iteration cap")
     }
 
     /// `n = 0`: the polytope is `{()}` when every row holds, else empty.
@@ -691,7 +702,28 @@ impl Polytope {
         match self.simplex(&vec![0.0; self.n]) {
             Simplex::Optimal { .. } | Simplex::Unbounded => Ok(true),
             Simplex::Infeasible => Ok(false),
-            Simplex::Unknown => Ok(!matches!(self.clarabel(None)?, Ipm::Empty)),
+            Simplex::Unknown => match self.clarabel(None) {
+                Ok(ipm) => Ok(!matches!(ipm, Ipm::Empty)),
+                // Last resort: the simplex on the polytope relaxed outward. Its emptiness is a
+                // proof for this one (a superset is empty); "non-empty" only keeps the cell.
+                Err(SmidError::Solver(msg)) => RELAXED_PADS
+                    .iter()
+                    .find_map(|&pad| {
+                        let out = match self.relaxed(pad).simplex(&vec![0.0; self.n]) {
+                            Simplex::Infeasible => Some(false),
+                            Simplex::Optimal { .. } | Simplex::Unbounded => Some(true),
+                            Simplex::Unknown => None,
+                        };
+                        if let Some(f) = out {
+                            log::debug!(
+                                "LP: feasible = {f} on the polytope relaxed outward by {pad:e}"
+                            );
+                        }
+                        out
+                    })
+                    .ok_or(SmidError::Solver(msg)),
+                Err(e) => Err(e),
+            },
         }
     }
 
@@ -700,7 +732,40 @@ impl Polytope {
         if let Some(out) = self.simplex_bounds()? {
             return Ok(out);
         }
-        self.clarabel_bounds()
+        match self.clarabel_bounds() {
+            Err(SmidError::Solver(msg)) => self.relaxed_bounds().ok_or_else(|| {
+                SmidError::Solver(format!(
+                    "{msg}; the dual simplex on the polytope relaxed outward by {RELAXED_PADS:?} did not conclude either"
+                ))
+            }),
+            other => other,
+        }
+    }
+
+    /// The last resort when the simplex and both interior-point attempts fail (a polytope so
+    /// thin, or so nearly empty, that neither concludes): the dual simplex on the polytope with
+    /// every inequality relaxed outward by [`RELAXED_PADS`] in turn (relative, as
+    /// [`ROW_PAD`]). The relaxed polytope contains this one, so its certified bounds hold here
+    /// (looser by about the pad) and its emptiness proves this one empty. An answer that the
+    /// relaxed polytope is unbounded says nothing of this one: `None`, as a failure.
+    fn relaxed_bounds(&self) -> Option<LpOutcome> {
+        RELAXED_PADS.iter().find_map(|&pad| {
+            let out = self.relaxed(pad).simplex_bounds().ok().flatten();
+            if out.is_some() {
+                log::debug!("LP: concluded on the polytope relaxed outward by {pad:e}");
+            }
+            out
+        })
+    }
+
+    /// This polytope with every inequality's right-hand side raised by `pad·(1 + |h|)`: a
+    /// superset of it (the equalities stay).
+    fn relaxed(&self, pad: f64) -> Polytope {
+        let mut p = self.clone();
+        for h in &mut p.h {
+            *h += pad * (1.0 + h.abs());
+        }
+        p
     }
 
     /// Bounds by the interior-point path (good_lp + clarabel), for what the simplex cannot
@@ -986,6 +1051,46 @@ mod tests {
             // Clarabel's emptiness is proven by its Farkas multipliers too.
             prop_assert!(matches!(p.clarabel(None).unwrap(), Ipm::Empty));
             prop_assert_eq!(p.clarabel_bounds().unwrap(), LpOutcome::Infeasible);
+        }
+
+        /// The last resort's relaxed polytope is a superset: its certified bounds contain the
+        /// exact ones (and the point), and it proves emptiness only where there is some.
+        #[test]
+        fn relaxed_bounds_contain_the_exact_ones(
+            seed in any::<u64>(), n in 1usize..6, m in 4usize..60,
+        ) {
+            use rand::{Rng, SeedableRng};
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let x0: Vec<f64> = (0..n).map(|_| rng.gen_range(-2.0..2.0)).collect();
+            let mut p = Polytope::new(n);
+            for _ in 0..m {
+                let g: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+                let h = g.iter().zip(&x0).map(|(a, b)| a * b).sum::<f64>() + rng.gen_range(0.0..0.5);
+                p.push_le(&g, h, 0);
+            }
+            for k in 0..n {
+                let mut g = vec![0.0; n];
+                g[k] = 1.0;
+                p.push_le(&g, x0[k] + 3.0, 0);
+                g[k] = -1.0;
+                p.push_le(&g, -x0[k] + 3.0, 0);
+            }
+            let (Some(LpOutcome::Bounds(exact)), Some(LpOutcome::Bounds(relaxed))) =
+                (p.simplex_bounds().unwrap(), p.relaxed_bounds())
+            else {
+                panic!("feasible and bounded by construction");
+            };
+            for k in 0..n {
+                prop_assert!(relaxed[k].contains(x0[k]));
+                prop_assert!(relaxed[k].lo <= exact[k].lo && exact[k].hi <= relaxed[k].hi,
+                    "θ{}: relaxed {:?} inside exact {:?}", k, relaxed[k], exact[k]);
+                let tol = 1e-3 * (1.0 + exact[k].lo.abs().max(exact[k].hi.abs()));
+                prop_assert!(exact[k].lo - relaxed[k].lo < tol && relaxed[k].hi - exact[k].hi < tol);
+            }
+            let mut g = vec![0.0; n];
+            g[0] = 1.0;
+            p.push_le(&g, x0[0] - 10.0, 0);
+            prop_assert_eq!(p.relaxed_bounds(), Some(LpOutcome::Infeasible));
         }
     }
 }
