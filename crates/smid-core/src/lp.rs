@@ -35,8 +35,12 @@
 //! sturdier settings. Clarabel's answer is never read as a number: its multipliers `z` go
 //! through the same certificates (weak duality with the residual carried for a bound, a
 //! Farkas combination for emptiness), so its bounds are as guaranteed as the simplex's.
-//! Multipliers that certify nothing, or a second failure, are a [`SmidError::Solver`]; the
-//! branch and bound then halves the cell (a solver failure never discards one).
+//! When both interior-point attempts fail too (a polytope so thin or so nearly empty that no
+//! path concludes), the dual simplex runs once more on the polytope with every inequality
+//! relaxed outward by 1e-7, then 1e-5 (relative): a superset, so its certified bounds hold for
+//! the polytope (looser by about the pad) and its emptiness proves the polytope empty.
+//! Multipliers that certify nothing, or a failure of every path, are a [`SmidError::Solver`];
+//! the branch and bound then halves the cell (a solver failure never discards one).
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
 use good_lp::{solvers::clarabel::clarabel, Expression, ProblemVariables, SolverModel, Variable};
