@@ -1006,6 +1006,41 @@ mod tests {
         assert!(p.feasible().unwrap());
     }
 
+    /// A random polytope around a known point `x0` (returned): `m` random rows that `x0`
+    /// satisfies with a random slack, a box of half-width 3 around it (every LP bounded), and
+    /// with `eq` (and `n > 1`) a random equality through it; everything times `scale`.
+    fn random_polytope(
+        seed: u64,
+        n: usize,
+        m: usize,
+        eq: bool,
+        scale: f64,
+    ) -> (Polytope, Vec<f64>) {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let x0: Vec<f64> = (0..n).map(|_| rng.gen_range(-2.0..2.0)).collect();
+        let mut p = Polytope::new(n);
+        for _ in 0..m {
+            let g: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            let h = g.iter().zip(&x0).map(|(a, b)| a * b).sum::<f64>() + rng.gen_range(0.0..0.5);
+            p.push_le(&g, h * scale, 0);
+        }
+        let x0: Vec<f64> = x0.iter().map(|v| v * scale).collect();
+        for k in 0..n {
+            let mut g = vec![0.0; n];
+            g[k] = 1.0;
+            p.push_le(&g, x0[k] + 3.0 * scale, 0);
+            g[k] = -1.0;
+            p.push_le(&g, -x0[k] + 3.0 * scale, 0);
+        }
+        if eq && n > 1 {
+            let e: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            let f = e.iter().zip(&x0).map(|(a, b)| a * b).sum::<f64>();
+            p.push_eq(&e, f);
+        }
+        (p, x0)
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
         /// Random polytopes around a known point: the simplex's certified bounds contain the
@@ -1014,28 +1049,7 @@ mod tests {
         fn simplex_bounds_contain_the_point_and_agree_with_clarabel(
             seed in any::<u64>(), n in 1usize..6, m in 4usize..60, eq in any::<bool>(),
         ) {
-            use rand::{Rng, SeedableRng};
-            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-            let x0: Vec<f64> = (0..n).map(|_| rng.gen_range(-2.0..2.0)).collect();
-            let mut p = Polytope::new(n);
-            for _ in 0..m {
-                let g: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
-                let h = g.iter().zip(&x0).map(|(a, b)| a * b).sum::<f64>() + rng.gen_range(0.0..0.5);
-                p.push_le(&g, h, 0);
-            }
-            // A bounding box so every LP is bounded.
-            for k in 0..n {
-                let mut g = vec![0.0; n];
-                g[k] = 1.0;
-                p.push_le(&g, x0[k] + 3.0, 0);
-                g[k] = -1.0;
-                p.push_le(&g, -x0[k] + 3.0, 0);
-            }
-            if eq && n > 1 {
-                let e: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
-                let f = e.iter().zip(&x0).map(|(a, b)| a * b).sum::<f64>();
-                p.push_eq(&e, f);
-            }
+            let (mut p, x0) = random_polytope(seed, n, m, eq, 1.0);
             // The simplex itself concludes (no fallback).
             let (Some(LpOutcome::Bounds(s)), LpOutcome::Bounds(c)) =
                 (p.simplex_bounds().unwrap(), p.clarabel_bounds().unwrap())
@@ -1068,28 +1082,7 @@ mod tests {
             seed in any::<u64>(), n in 1usize..6, m in 4usize..60, eq in any::<bool>(),
             scale in prop_oneof![Just(1.0), Just(1e4)],
         ) {
-            use rand::{Rng, SeedableRng};
-            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-            let x0: Vec<f64> = (0..n).map(|_| rng.gen_range(-2.0..2.0)).collect();
-            let mut p = Polytope::new(n);
-            for _ in 0..m {
-                let g: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
-                let h = g.iter().zip(&x0).map(|(a, b)| a * b).sum::<f64>() + rng.gen_range(0.0..0.5);
-                p.push_le(&g, h * scale, 0);
-            }
-            let x0: Vec<f64> = x0.iter().map(|v| v * scale).collect();
-            for k in 0..n {
-                let mut g = vec![0.0; n];
-                g[k] = 1.0;
-                p.push_le(&g, x0[k] + 3.0 * scale, 0);
-                g[k] = -1.0;
-                p.push_le(&g, -x0[k] + 3.0 * scale, 0);
-            }
-            if eq && n > 1 {
-                let e: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
-                let f = e.iter().zip(&x0).map(|(a, b)| a * b).sum::<f64>();
-                p.push_eq(&e, f);
-            }
+            let (p, x0) = random_polytope(seed, n, m, eq, scale);
             let (Some(LpOutcome::Bounds(exact)), Some(LpOutcome::Bounds(relaxed))) =
                 (p.simplex_bounds().unwrap(), p.relaxed_bounds())
             else {
