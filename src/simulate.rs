@@ -13,7 +13,7 @@ use smid_core::experiment;
 use smid_core::noise;
 use smid_core::pipeline::{self, ExperimentData, Record};
 use smid_core::plant::Plant;
-use smid_core::spec::Spec;
+use smid_core::spec::{CsvColumns, Spec};
 use smid_core::{Result, SmidError};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -156,7 +156,10 @@ pub fn write_experiment(
         source,
     })?;
     let mut files = Vec::new();
-    let mut data = serde_json::json!({ "dynamic": { "file": "train.csv", "u": "u", "y": "y" } });
+    // The columns as `smid simulate` writes them (`CsvColumns::uy`), the steady-state points'
+    // with their time and step-height columns.
+    let columns = |c: CsvColumns| serde_json::to_value(c).expect("columns serialise");
+    let mut data = serde_json::json!({ "dynamic": columns(CsvColumns::uy("train.csv")) });
     if let Some(steady) = &training.steady {
         let mut ss = String::from("u,y,t,step\n");
         for (k, p) in steady.points.iter().enumerate() {
@@ -169,7 +172,11 @@ pub fn write_experiment(
             let _ = writeln!(ss, "{:e},{:e},{t},{:e}", p.u, p.y, p.step_height());
         }
         files.push(write("steady.csv", ss)?);
-        data["steady_state"] = serde_json::json!({ "file": "steady.csv", "u": "u", "y": "y", "t": "t", "step": "step" });
+        data["steady_state"] = columns(CsvColumns {
+            t: Some("t".into()),
+            step: Some("step".into()),
+            ..CsvColumns::uy("steady.csv")
+        });
     }
     let rec_csv = |r: &Record| {
         let mut d = String::from("u,y\n");

@@ -56,6 +56,14 @@ pub const ROW_PAD: f64 = 1e-9;
 pub const RESULT_PAD: f64 = 1e-8;
 /// Factor on tolerances and pads when a numerical failure forced the sturdier retry.
 const STURDY: f64 = 100.0;
+/// The solver error when every path failed, the last resort included (`msg`: the
+/// interior-point path's).
+fn relaxed_failed(msg: &str) -> SmidError {
+    SmidError::Solver(format!(
+        "{msg}; the dual simplex on the polytope relaxed outward by {RELAXED_PADS:?} did not conclude either (an unbounded relaxation says nothing of the polytope)"
+    ))
+}
+
 /// Outward relaxations (relative, as [`ROW_PAD`]) tried in turn when neither the simplex nor
 /// the interior-point path concludes on a polytope ([`Polytope::bound`]).
 const RELAXED_PADS: [f64; 2] = [1e-7, 1e-5];
@@ -708,28 +716,9 @@ impl Polytope {
             Simplex::Infeasible => Ok(false),
             Simplex::Unknown => match self.clarabel(None) {
                 Ok(ipm) => Ok(!matches!(ipm, Ipm::Empty)),
-                // Last resort: the simplex on the polytope relaxed outward. Its emptiness is a
-                // proof for this one (a superset is empty); "non-empty" only keeps the cell.
-                Err(SmidError::Solver(msg)) => RELAXED_PADS
-                    .iter()
-                    .find_map(|&pad| {
-                        let out = match self.relaxed(pad).simplex(&vec![0.0; self.n]) {
-                            Simplex::Infeasible => Some(false),
-                            Simplex::Optimal { .. } | Simplex::Unbounded => Some(true),
-                            Simplex::Unknown => None,
-                        };
-                        if let Some(f) = out {
-                            log::debug!(
-                                "LP: feasible = {f} on the polytope relaxed outward by {pad:e}"
-                            );
-                        }
-                        out
-                    })
-                    .ok_or_else(|| {
-                        SmidError::Solver(format!(
-                            "{msg}; the dual simplex on the polytope relaxed outward by {RELAXED_PADS:?} did not conclude either"
-                        ))
-                    }),
+                Err(SmidError::Solver(msg)) => {
+                    self.relaxed_feasible().ok_or_else(|| relaxed_failed(&msg))
+                }
                 Err(e) => Err(e),
             },
         }
@@ -741,13 +730,28 @@ impl Polytope {
             return Ok(out);
         }
         match self.clarabel_bounds() {
-            Err(SmidError::Solver(msg)) => self.relaxed_bounds().ok_or_else(|| {
-                SmidError::Solver(format!(
-                    "{msg}; the dual simplex on the polytope relaxed outward by {RELAXED_PADS:?} did not conclude either (or found it unbounded, which says nothing of this polytope)"
-                ))
-            }),
+            Err(SmidError::Solver(msg)) => {
+                self.relaxed_bounds().ok_or_else(|| relaxed_failed(&msg))
+            }
             other => other,
         }
+    }
+
+    /// The last resort of [`Self::feasible`] ([`Self::relaxed_bounds`]'s, for feasibility):
+    /// `Some(false)` proves this polytope empty (a superset is); `Some(true)` only keeps the
+    /// cell, as the interior-point path's "not empty" does; `None` when no relaxation concludes.
+    fn relaxed_feasible(&self) -> Option<bool> {
+        RELAXED_PADS.iter().find_map(|&pad| {
+            let out = match self.relaxed(pad).simplex(&vec![0.0; self.n]) {
+                Simplex::Infeasible => Some(false),
+                Simplex::Optimal { .. } | Simplex::Unbounded => Some(true),
+                Simplex::Unknown => None,
+            };
+            if let Some(f) = out {
+                log::debug!("LP: feasible = {f} on the polytope relaxed outward by {pad:e}");
+            }
+            out
+        })
     }
 
     /// The last resort when the simplex and both interior-point attempts fail (a polytope so
