@@ -49,6 +49,7 @@ fn bench(c: &mut Criterion) {
         .collect();
     let fixed = spec.fixed_theta().expect("fixed");
     let prob = |band: bool| EivProblem {
+        locate: true,
         na: 2,
         nb: 2,
         fixed: fixed.clone(),

@@ -43,6 +43,7 @@ fn bench(c: &mut Criterion) {
             }
             // As `smid run` sets it: band-bounded samples for every method but the classical.
             let prob = EivProblem {
+                locate: true,
                 na: 2,
                 nb: 2,
                 fixed: fixed.clone(),

@@ -47,6 +47,7 @@ fn main() {
             .map(|&v| Interval::new(v, v))
             .collect();
         let prob = EivProblem {
+            locate: true,
             na: 2,
             nb: 2,
             fixed: spec.fixed_theta().unwrap(),

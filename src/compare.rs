@@ -107,6 +107,7 @@ pub fn compare(
             let fixed = spec.fixed_theta()?;
             for (mi, &m) in methods.iter().enumerate() {
                 let prob = EivProblem {
+                    locate: true,
                     na,
                     nb,
                     fixed: fixed.clone(),

@@ -60,6 +60,13 @@ impl SmidError {
     pub fn inconsistent(stage: Stage, sample: usize, detail: impl Into<String>) -> Self {
         SmidError::Inconsistent(crate::finding::Falsification::new(stage, sample, detail))
     }
+    /// [`SmidError::Inconsistent`] by the data up to `sample` of record 0, the first offending
+    /// sample not looked for ([`crate::finding::Falsification::unlocated`]).
+    pub fn inconsistent_unlocated(stage: Stage, sample: usize, detail: impl Into<String>) -> Self {
+        SmidError::Inconsistent(crate::finding::Falsification::unlocated(
+            stage, sample, detail,
+        ))
+    }
     /// A falsification found in record `record` says so; any other error is returned as is.
     pub fn in_record(self, record: usize) -> Self {
         match self {

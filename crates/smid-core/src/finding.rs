@@ -26,15 +26,21 @@ impl std::fmt::Display for Stage {
     }
 }
 
-/// Where and why the data falsify the model: the first offending sample of the record.
+/// Where and why the data falsify the model: the first offending sample of the record, or,
+/// when the proof did not look for it (`located: false`: a verdict that only needs to know
+/// *whether* the data are inconsistent), a sample by which they are.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Falsification {
     pub stage: Stage,
     /// Index of the record (training records in identification, fresh records in validation;
     /// 0 for stage 1, whose sample is a steady-state point).
     pub record: usize,
-    /// The first offending sample within that record (or steady-state point).
+    /// The first offending sample within that record (or steady-state point); with
+    /// `located: false`, a sample up to which the data are inconsistent (the first offending
+    /// one lies at or before it).
     pub sample: usize,
+    /// Whether `sample` is the first offending one.
+    pub located: bool,
     pub detail: String,
 }
 
@@ -46,7 +52,16 @@ impl Falsification {
             stage,
             record: 0,
             sample,
+            located: true,
             detail: detail.into(),
+        }
+    }
+    /// A falsification by the data up to `sample` of record 0, the first offending sample not
+    /// looked for.
+    pub fn unlocated(stage: Stage, sample: usize, detail: impl Into<String>) -> Self {
+        Falsification {
+            located: false,
+            ..Falsification::new(stage, sample, detail)
         }
     }
     /// The finding as a sentence (what the CLI prints, the error's message inside the
@@ -63,7 +78,15 @@ impl Falsification {
 
 impl std::fmt::Display for Falsification {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}: first offending sample {}", self.stage, self.sample)?;
+        if self.located {
+            write!(f, "{}: first offending sample {}", self.stage, self.sample)?;
+        } else {
+            write!(
+                f,
+                "{}: inconsistent up to sample {}",
+                self.stage, self.sample
+            )?;
+        }
         if self.record > 0 {
             write!(f, " of record {}", self.record)?;
         }

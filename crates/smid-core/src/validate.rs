@@ -255,8 +255,14 @@ fn centre_out(model: &ModelSet) -> Vec<usize> {
 }
 
 /// One cell against the training records plus `fresh`: `None` when consistent, else where
-/// the fresh data contradict it.
-fn check_cell(model: &ModelSet, k: usize, records: &[Record]) -> Result<Option<Falsification>> {
+/// the fresh data contradict it (the first offending sample with `locate`; a verdict alone
+/// does not look for it).
+fn check_cell(
+    model: &ModelSet,
+    k: usize,
+    records: &[Record],
+    locate: bool,
+) -> Result<Option<Falsification>> {
     let layout = model.layout()?;
     let nt = model.training.records.len();
     let c = &model.cells[k];
@@ -268,7 +274,7 @@ fn check_cell(model: &ModelSet, k: usize, records: &[Record]) -> Result<Option<F
             &c.cell,
             records,
         )?;
-        match stage3(&model.model, layout, &model.method, &sig, None) {
+        match stage3(&model.model, layout, &model.method, &sig, None, locate) {
             // Unbounded is not a contradiction.
             Ok(_) | Err(SmidError::Unbounded { .. }) => Ok(()),
             Err(e) => Err(relabel(e, &sig)),
@@ -303,6 +309,11 @@ fn joint(model: &ModelSet, fresh: &[Record]) -> Vec<Record> {
 /// some cell admits one `θ` for the training and fresh equations together. Cells are checked in
 /// parallel, centre first; the search stops at the first consistent cell.
 pub fn consistency(model: &ModelSet, fresh: &[Record]) -> Result<Consistency> {
+    consistency_located(model, fresh, true)
+}
+
+/// [`consistency`], with the first offending sample of each cell looked for only with `locate`.
+fn consistency_located(model: &ModelSet, fresh: &[Record], locate: bool) -> Result<Consistency> {
     let records = joint(model, fresh);
     let found = AtomicBool::new(false);
     let results: Vec<Result<Option<Falsification>>> = centre_out(model)
@@ -311,7 +322,7 @@ pub fn consistency(model: &ModelSet, fresh: &[Record]) -> Result<Consistency> {
             if found.load(Ordering::Relaxed) {
                 return Ok(None);
             }
-            let r = check_cell(model, k, &records);
+            let r = check_cell(model, k, &records, locate);
             if matches!(r, Ok(None)) {
                 found.store(true, Ordering::Relaxed);
             }
@@ -382,7 +393,7 @@ pub fn smallest_bound(
     };
     let ok_set = |d: f64| -> Result<bool> {
         let recs: Vec<Record> = fresh.iter().map(|r| r.with_bound(d)).collect();
-        Ok(consistency(model, &recs)?.consistent)
+        Ok(consistency_located(model, &recs, false)?.consistent)
     };
     // A bound at which some cell admits the data.
     let d0 = model.delta;
@@ -414,7 +425,7 @@ pub fn smallest_bound(
         // A cell the solver cannot check is skipped here (its own bound stays unknown).
         let pass: Vec<Result<bool>> = chunk
             .par_iter()
-            .map(|&k| match check_cell(model, k, &recs) {
+            .map(|&k| match check_cell(model, k, &recs, false) {
                 Ok(r) => Ok(r.is_none()),
                 Err(SmidError::Solver(_)) => Ok(false),
                 Err(e) => Err(e),
@@ -430,13 +441,13 @@ pub fn smallest_bound(
                 continue;
             }
             // The best bound may have dropped since the chunk was checked: check again.
-            if b < target && !matches!(check_cell(model, k, &with(b)), Ok(None)) {
+            if b < target && !matches!(check_cell(model, k, &with(b), false), Ok(None)) {
                 continue;
             }
             let mut n = 0;
             while b - a > res * b && n < 40 {
                 let mid = 0.5 * (a + b);
-                if matches!(check_cell(model, k, &with(mid)), Ok(None)) {
+                if matches!(check_cell(model, k, &with(mid), false), Ok(None)) {
                     b = mid;
                 } else {
                     a = mid;

@@ -535,7 +535,9 @@ fn searched(
         &scale,
     );
     let test = |cell: &[Interval]| test_cell(model, &layout, method, &training, cell);
-    let eval = |cell: &[Interval]| evaluate_cell(model, &layout, method, &training, cell);
+    // A verdict (`first_value`) does not locate the first offending sample of a cell.
+    let eval =
+        |cell: &[Interval]| evaluate_cell(model, &layout, method, &training, cell, !first_value);
     let budget = Budget {
         resolution,
         depth: method.cells.depth,

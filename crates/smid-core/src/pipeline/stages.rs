@@ -432,6 +432,7 @@ pub fn eiv_problem<'a>(
     prior: Option<&'a [Interval]>,
 ) -> EivProblem<'a> {
     EivProblem {
+        locate: true,
         na: layout.orders.na,
         nb: layout.orders.nb,
         fixed: layout.fixed.clone(),
@@ -445,15 +446,20 @@ pub fn eiv_problem<'a>(
 }
 
 /// Stage 3 on stage-2 signals, with an optional prior box on `θ`. An inconsistency names the
-/// sample in the concatenation (see [`relabel`]).
+/// sample in the concatenation (see [`relabel`]): the first offending one with `locate`, else
+/// the last equation, marked not located ([`EivProblem::locate`]: a verdict saves the search).
 pub fn stage3(
     model: &ModelSpec,
     layout: &Layout,
     method: &MethodSpec,
     sig: &StageSignals,
     prior: Option<&[Interval]>,
+    locate: bool,
 ) -> Result<EivResult> {
-    let problem = eiv_problem(model, layout, method, sig, prior);
+    let problem = EivProblem {
+        locate,
+        ..eiv_problem(model, layout, method, sig, prior)
+    };
     let chosen = crate::stage3::configured(method.eiv, &method.options)?;
     match chosen.solve(&problem) {
         // Solver trouble: another method's outer bound is as guaranteed.
@@ -484,6 +490,7 @@ pub fn relabel(e: SmidError, sig: &StageSignals) -> SmidError {
                 stage: f.stage,
                 record: r,
                 sample: t,
+                located: f.located,
                 detail,
             })
         }
@@ -492,21 +499,23 @@ pub fn relabel(e: SmidError, sig: &StageSignals) -> SmidError {
 }
 
 /// Stages 1-3 over one cell: `Infeasible` when a stage proves the cell inconsistent (located
-/// in its record), `Undecided` when stage 3 leaves a parameter unbounded over a bisected cell
-/// or its solvers fail there (the search then halves the cell further). Without bisected
-/// parameters every error is returned as is (the paper's three stages).
+/// in its record; stage 3's first offending sample only with `locate`), `Undecided` when
+/// stage 3 leaves a parameter unbounded over a bisected cell or its solvers fail there (the
+/// search then halves the cell further). Without bisected parameters every error is returned
+/// as is (the paper's three stages).
 pub fn evaluate_cell(
     model: &ModelSpec,
     layout: &Layout,
     method: &MethodSpec,
     training: &Training,
     cell: &[Interval],
+    locate: bool,
 ) -> Result<Verdict<CellSet>> {
     let bisected = !layout.dims.is_empty();
     let outcome = (|| {
         let set = stage1(model, layout, training.steady.as_ref(), cell)?;
         let sig = stage2(model, layout, set.as_ref(), cell, &training.records)?;
-        let r = stage3(model, layout, method, &sig, None).map_err(|e| relabel(e, &sig))?;
+        let r = stage3(model, layout, method, &sig, None, locate).map_err(|e| relabel(e, &sig))?;
         Ok(CellSet {
             cell: cell.to_vec(),
             nonlinearity: set,
@@ -539,9 +548,9 @@ pub fn test_cell(
         if crate::stage3::feasible(&problem)? {
             Ok(())
         } else {
-            Err(SmidError::inconsistent(
+            Err(SmidError::inconsistent_unlocated(
                 crate::error::Stage::Linear,
-                sig.output.len(),
+                sig.output.len().saturating_sub(1),
                 "no θ fits the equations of this cell (classical outer set empty)",
             ))
         }

@@ -290,9 +290,10 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
         }
     }
     if feasible == 0 {
-        // Locate the first equation whose addition empties the set (bisection on prefixes).
+        // Locate the first equation whose addition empties the set (bisection on prefixes),
+        // unless only the verdict is asked for (then the last equation is named, not located).
         let (mut good, mut bad) = (0usize, times.len());
-        while bad - good > 1 {
+        while prob.locate && bad - good > 1 {
             let mid = (good + bad) / 2;
             if any_feasible(prob, &times[..mid], &unc)? {
                 good = mid;
@@ -302,7 +303,12 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
         }
         // No equation at all: the prior box and the unit gain alone are empty.
         let sample = times.get(bad.saturating_sub(1)).copied().unwrap_or(0);
-        return Err(SmidError::inconsistent(
+        let inconsistent = if prob.locate {
+            SmidError::inconsistent
+        } else {
+            SmidError::inconsistent_unlocated
+        };
+        return Err(inconsistent(
             Stage::Linear,
             sample,
             format!(
@@ -371,6 +377,7 @@ mod tests {
         for dx in [1e-6, 1e-3] {
             let out = bounds_from(&x, dx);
             let prob = EivProblem {
+                locate: true,
                 na: 2,
                 nb: 2,
                 fixed: vec![None, None, Some(0.0), None, None],
@@ -404,6 +411,7 @@ mod tests {
         let out = bounds_from(&x, 1e-4);
         let input: Vec<Interval> = u.iter().map(|&v| Interval::new(v, v)).collect();
         let prob = EivProblem {
+            locate: true,
             na: 1,
             nb: 1,
             fixed: vec![None, Some(0.0), None],

@@ -56,6 +56,11 @@ pub struct EivProblem<'a> {
     pub input: &'a [Interval],
     /// Also use equations whose samples are only band-bounded (wide but valid).
     pub use_band_samples: bool,
+    /// When the data are inconsistent, name the first offending equation (a bisection on
+    /// prefixes of the record: about `log2 N` more LPs). `false` for a verdict that only needs
+    /// to know *whether* they are (a noise-bound bracket): the error then names the last
+    /// equation, marked not located ([`SmidError::inconsistent_unlocated`]).
+    pub locate: bool,
     /// Extra regressors: θ gains one coefficient c_k per column, appended after b_nb.
     pub extra: &'a [Regressor],
     /// Optional prior box on θ (all coefficients, in θ order incl. extras); None = unbounded.
@@ -378,6 +383,7 @@ impl schemars::JsonSchema for EivMethod {
 ///     output: &output,
 ///     input: &input,
 ///     use_band_samples: false,
+///     locate: true,
 ///     extra: &[],
 ///     prior: None,
 /// };
@@ -603,6 +609,88 @@ pub fn solve(m: EivMethod, prob: &EivProblem) -> Result<EivResult> {
 mod tests {
     use super::*;
     use crate::stage3::testutil::random_extra_case;
+
+    /// A verdict without the search for the first offending equation (`locate: false`) agrees
+    /// with the located one, for every runnable method, on random records with an outlier at a
+    /// random sample: both find them inconsistent (or both not); located, the classical and
+    /// shared methods never name an equation before the outlier (one it enters when it is far
+    /// out); not located, every method marks its finding so, at the last equation. Some
+    /// outliers are seen by the shared relaxation only (its own search, not its classical
+    /// start's).
+    #[test]
+    fn an_unlocated_verdict_agrees_and_says_it_is_not_located() {
+        use crate::stage3::testutil::{problem, random_case};
+        use rand::{Rng, SeedableRng};
+        let mut shared_only = 0;
+        for seed in 0..16u64 {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x10ca7e);
+            let n = rng.gen_range(40..120);
+            let (_, mut out, input) = random_case(seed, n);
+            let t0 = rng.gen_range(10..n - 5);
+            let w = out[t0].interval;
+            // Some outliers far out (the classical outer set is empty), some just past the
+            // bound (only the tighter relaxation sees them).
+            let jump = if seed % 2 == 0 {
+                0.5 + 40.0 * w.radius()
+            } else {
+                rng.gen_range(2.5..6.0) * w.radius()
+            };
+            out[t0].interval = Interval::new(w.lo + jump, w.hi + jump);
+            let located = problem(&out, &input, false);
+            let last = *located.equation_times().last().unwrap();
+            let quick = EivProblem {
+                locate: false,
+                ..located.clone()
+            };
+            for (m, imp) in all() {
+                if !imp.available() {
+                    continue;
+                }
+                let a = imp.solve(&located);
+                let b = imp.solve(&quick);
+                let name = m.name();
+                match (&a, &b) {
+                    (Err(SmidError::Inconsistent(fa)), Err(SmidError::Inconsistent(fb))) => {
+                        if [EivMethod::Classical, EivMethod::Shared].contains(&m) {
+                            assert!(fa.located, "seed {seed} {name}: {fa:?}");
+                            // Never before the outlier; with one far out, at an equation it
+                            // enters (a small one needs later data to be seen).
+                            let reach = if seed % 2 == 0 { t0 + 2 } else { last };
+                            assert!(
+                                (t0..=reach).contains(&fa.sample),
+                                "seed {seed} {name}: outlier at {t0}, located {}",
+                                fa.sample
+                            );
+                        }
+                        if !fb.located || fb.sample != fa.sample {
+                            assert!(
+                                !fb.located && fb.sample == last,
+                                "seed {seed} {name}: {fb:?}"
+                            );
+                        }
+                    }
+                    (Ok(_), Ok(_)) => {}
+                    (Err(SmidError::Solver(_)), _) | (_, Err(SmidError::Solver(_))) => {}
+                    _ => panic!("seed {seed} {name}: located {a:?}, not located {b:?}"),
+                }
+                if m == EivMethod::Shared && classical::solve(&located).is_ok() {
+                    shared_only += 1;
+                }
+                if [EivMethod::Classical, EivMethod::Shared].contains(&m) && a.is_err() {
+                    match b {
+                        Err(SmidError::Inconsistent(f)) => {
+                            assert!(!f.located && f.sample == last, "seed {seed} {name}: {f:?}")
+                        }
+                        other => panic!("seed {seed} {name}: {other:?}"),
+                    }
+                }
+            }
+        }
+        assert!(
+            shared_only > 0,
+            "no outlier was left to the shared relaxation alone"
+        );
+    }
 
     /// The one parser of user-given method names: every method by its name (blanks and the
     /// `_` spelling of `exact-grid` accepted); an unknown name lists every valid one.

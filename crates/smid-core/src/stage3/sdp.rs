@@ -497,7 +497,13 @@ mod imp {
                 let hi = solver.bound(c, true)?;
                 let Some((new, g)) = tighten(old, lo, hi) else {
                     // Two guaranteed bounds that do not meet: no θ is consistent.
-                    return Err(inconsistent(*model.times.last().unwrap_or(&0)));
+                    // (The first offending equation is not looked for: named the last one.)
+                    let t = *model.times.last().unwrap_or(&0);
+                    return Err(SmidError::inconsistent_unlocated(
+                        Stage::Linear,
+                        t,
+                        message(t),
+                    ));
                 };
                 gain = gain.max(g);
                 tb[k] = new;
@@ -514,7 +520,11 @@ mod imp {
     }
 
     fn inconsistent(t: usize) -> SmidError {
-        SmidError::inconsistent(Stage::Linear, t, format!( "the moment relaxation admits no θ and inner-signal errors within their bounds (equations up to t = {t})" ))
+        SmidError::inconsistent(Stage::Linear, t, message(t))
+    }
+
+    fn message(t: usize) -> String {
+        format!("the moment relaxation admits no θ and inner-signal errors within their bounds (equations up to t = {t})")
     }
 
     #[cfg(test)]
@@ -566,6 +576,7 @@ mod tests {
     #[test]
     fn selecting_sdp_names_the_feature() {
         let prob = crate::stage3::EivProblem {
+            locate: true,
             na: 0,
             nb: 0,
             fixed: vec![None],

@@ -124,7 +124,7 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
             None => (bound_free(&model, &tb, &db, &model.times)?, true),
         };
         let Some(found) = found else {
-            return Err(inconsistent(locate(&model, &tb, &db)?));
+            return Err(emptied(prob, &model, &tb, &db)?);
         };
         let mut gain: f64 = 0.0;
         for (c, &k) in model.free.iter().enumerate() {
@@ -132,7 +132,7 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
             let (lo, hi) = found[c];
             let Some((new, g)) = tighten(old, lo, hi) else {
                 // Two guaranteed bounds that do not meet: no θ is consistent.
-                return Err(inconsistent(locate(&model, &tb, &db)?));
+                return Err(emptied(prob, &model, &tb, &db)?);
             };
             gain = gain.max(g);
             tb[k] = new;
@@ -158,13 +158,31 @@ pub fn solve(prob: &EivProblem, opts: &SharedOptions) -> Result<EivResult> {
 }
 
 fn inconsistent(t: usize) -> SmidError {
-    SmidError::inconsistent(
-        Stage::Linear,
-        t,
-        format!(
-            "no θ and inner-signal errors satisfy the equations up to t = {t} within their bounds"
-        ),
-    )
+    SmidError::inconsistent(Stage::Linear, t, message(t))
+}
+
+fn message(t: usize) -> String {
+    format!("no θ and inner-signal errors satisfy the equations up to t = {t} within their bounds")
+}
+
+/// The error for a relaxation the equations empty: at the first equation whose addition
+/// empties it (bisection on prefixes), or at the last equation, not located, when only the
+/// verdict is asked for ([`EivProblem::locate`]).
+fn emptied(
+    prob: &EivProblem,
+    model: &SharedModel,
+    tb: &[Interval],
+    db: &[Interval],
+) -> Result<SmidError> {
+    if !prob.locate {
+        let t = model.times.last().copied().unwrap_or(0);
+        return Ok(SmidError::inconsistent_unlocated(
+            Stage::Linear,
+            t,
+            message(t),
+        ));
+    }
+    Ok(inconsistent(locate(model, tb, db)?))
 }
 
 /// The first equation whose addition empties the relaxation (bisection on prefixes).

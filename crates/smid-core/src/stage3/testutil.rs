@@ -67,6 +67,7 @@ pub(crate) fn problem<'a>(
     band: bool,
 ) -> EivProblem<'a> {
     EivProblem {
+        locate: true,
         na: 2,
         nb: 2,
         fixed: vec![None, None, Some(0.0), None, None],
