@@ -99,7 +99,8 @@ fn parse_json<T: serde::de::DeserializeOwned>(text: &str, what: &str) -> PyResul
 /// relative paths in it resolve against `base`. With `out`, the CLI's files are written there
 /// too (`result.json`, `data.csv`, SVG plots). Returns JSON: `{"status": "identified",
 /// "result": <result.json>, "table": <the CLI's table>, "files": [...]}` or `{"status":
-/// "falsified", "stage", "record", "sample", "detail", "message"}`.
+/// "falsified", "stage", "record", "sample", "located", "detail", "message"}` (`located`:
+/// whether `sample` is the first offending one, or one by which the data are inconsistent).
 #[pyfunction]
 #[pyo3(signature = (spec_text, label, base, out=None))]
 fn identify(
@@ -121,6 +122,7 @@ fn identify(
                 "stage": f.stage.to_string(),
                 "record": f.record,
                 "sample": f.sample,
+                "located": f.located,
                 "detail": f.detail,
                 "message": f.message(),
             }));
