@@ -58,6 +58,25 @@ pub const RESULT_PAD: f64 = 1e-8;
 const STURDY: f64 = 100.0;
 /// The solver error when every path failed, the last resort included (`msg`: the
 /// interior-point path's).
+/// The engine's order of paths, for bounds and for feasibility alike: the dual simplex; where
+/// it cannot conclude (`None`), the interior-point path; where that fails as a solver
+/// ([`SmidError::Solver`]), the simplex on the relaxed polytope; where that cannot conclude
+/// either, the interior-point path's failure, extended. Any other error (an unbounded
+/// coordinate) is returned as is.
+fn first_conclusive<T>(
+    simplex: impl FnOnce() -> Result<Option<T>>,
+    ipm: impl FnOnce() -> Result<T>,
+    relaxed: impl FnOnce() -> Option<T>,
+) -> Result<T> {
+    if let Some(out) = simplex()? {
+        return Ok(out);
+    }
+    match ipm() {
+        Err(SmidError::Solver(msg)) => relaxed().ok_or_else(|| relaxed_failed(&msg)),
+        other => other,
+    }
+}
+
 fn relaxed_failed(msg: &str) -> SmidError {
     SmidError::Solver(format!(
         "{msg}; the dual simplex on the polytope relaxed outward by {RELAXED_PADS:?} did not conclude either (an unbounded relaxation says nothing of the polytope)"
@@ -711,30 +730,26 @@ impl Polytope {
 
     /// Whether the polytope is non-empty: `false` is a proof (over the artificial box).
     pub fn feasible(&self) -> Result<bool> {
-        match self.simplex(&vec![0.0; self.n]) {
-            Simplex::Optimal { .. } | Simplex::Unbounded => Ok(true),
-            Simplex::Infeasible => Ok(false),
-            Simplex::Unknown => match self.clarabel(None) {
-                Ok(ipm) => Ok(!matches!(ipm, Ipm::Empty)),
-                Err(SmidError::Solver(msg)) => {
-                    self.relaxed_feasible().ok_or_else(|| relaxed_failed(&msg))
-                }
-                Err(e) => Err(e),
+        first_conclusive(
+            || {
+                Ok(match self.simplex(&vec![0.0; self.n]) {
+                    Simplex::Optimal { .. } | Simplex::Unbounded => Some(true),
+                    Simplex::Infeasible => Some(false),
+                    Simplex::Unknown => None,
+                })
             },
-        }
+            || self.clarabel(None).map(|ipm| !matches!(ipm, Ipm::Empty)),
+            || self.relaxed_feasible(),
+        )
     }
 
     /// Guaranteed bounds of every coordinate, or [`LpOutcome::Infeasible`].
     pub fn bound(&self) -> Result<LpOutcome> {
-        if let Some(out) = self.simplex_bounds()? {
-            return Ok(out);
-        }
-        match self.clarabel_bounds() {
-            Err(SmidError::Solver(msg)) => {
-                self.relaxed_bounds().ok_or_else(|| relaxed_failed(&msg))
-            }
-            other => other,
-        }
+        first_conclusive(
+            || self.simplex_bounds(),
+            || self.clarabel_bounds(),
+            || self.relaxed_bounds(),
+        )
     }
 
     /// The last resort of [`Self::feasible`] ([`Self::relaxed_bounds`]'s, for feasibility):
@@ -951,6 +966,54 @@ mod tests {
     /// after padding: the float combination's slack over the artificial box is about 1e-6):
     /// only the exact combination proves it empty, and the simplex does so without the
     /// interior-point path.
+    #[test]
+    fn paths_are_tried_in_order_and_the_relaxed_one_only_after_a_solver_failure() {
+        use std::cell::Cell;
+        let solver = || Err(SmidError::Solver("ipm trouble".into()));
+        // Each later path runs only where every earlier one did not conclude.
+        let called = Cell::new(0);
+        let relaxed = |v: Option<u8>| {
+            called.set(called.get() + 1);
+            v
+        };
+        assert_eq!(
+            first_conclusive(|| Ok(Some(1)), solver, || relaxed(Some(3))).unwrap(),
+            1
+        );
+        assert_eq!(
+            first_conclusive(|| Ok(None), || Ok(2), || relaxed(Some(3))).unwrap(),
+            2
+        );
+        assert_eq!(called.get(), 0);
+        assert_eq!(
+            first_conclusive(|| Ok(None), solver, || relaxed(Some(3))).unwrap(),
+            3
+        );
+        assert_eq!(called.get(), 1);
+        // Nothing concludes: the interior-point path's failure, extended, still a solver error.
+        match first_conclusive(|| Ok(None), solver, || relaxed(None)) {
+            Err(SmidError::Solver(m)) => {
+                assert!(
+                    m.starts_with("ipm trouble") && m.contains("relaxed outward"),
+                    "{m}"
+                )
+            }
+            other => panic!("{other:?}"),
+        }
+        // An unbounded coordinate is an answer of its own, never sent to the relaxation (whose
+        // "unbounded" says nothing), from either path.
+        let unb = || Err::<u8, _>(unbounded(0));
+        assert!(matches!(
+            first_conclusive(|| Err(unbounded(0)), solver, || relaxed(Some(3))),
+            Err(SmidError::Unbounded { .. })
+        ));
+        assert!(matches!(
+            first_conclusive(|| Ok(None), unb, || relaxed(Some(3))),
+            Err(SmidError::Unbounded { .. })
+        ));
+        assert_eq!(called.get(), 2);
+    }
+
     #[test]
     fn a_nearly_empty_polytope_is_proven_empty_exactly() {
         let mut p = Polytope::new(1);
