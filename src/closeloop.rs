@@ -248,9 +248,14 @@ pub fn format_validation(v: &Validation, records: &[Record]) -> String {
             );
         }
         Some(f) => {
+            let at = if f.located {
+                "first offending sample"
+            } else {
+                "inconsistent up to sample"
+            };
             let _ = writeln!(
                 s,
-                "verdict: FALSIFIED: fresh record {}, first offending sample {} ({}: {})",
+                "verdict: FALSIFIED: fresh record {}, {at} {} ({}: {})",
                 f.record, f.sample, f.stage, f.detail
             );
         }

@@ -548,10 +548,14 @@ pub fn test_cell(
         if crate::stage3::feasible(&problem)? {
             Ok(())
         } else {
-            Err(SmidError::inconsistent_unlocated(
-                crate::error::Stage::Linear,
-                sig.output.len().saturating_sub(1),
-                "no θ fits the equations of this cell (classical outer set empty)",
+            // Named in its record (the concatenation's last sample).
+            Err(relabel(
+                SmidError::inconsistent_unlocated(
+                    crate::error::Stage::Linear,
+                    sig.output.len().saturating_sub(1),
+                    "no θ fits the equations of this cell (classical outer set empty)",
+                ),
+                &sig,
             ))
         }
     })();

@@ -292,18 +292,23 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
     if feasible == 0 {
         // Locate the first equation whose addition empties the set (bisection on prefixes),
         // unless only the verdict is asked for (then the last equation is named, not located).
+        // Solver trouble on a prefix leaves the proven emptiness unlocated, never undecided.
         let (mut good, mut bad) = (0usize, times.len());
-        while prob.locate && bad - good > 1 {
+        let mut located = prob.locate;
+        while located && bad - good > 1 {
             let mid = (good + bad) / 2;
-            if any_feasible(prob, &times[..mid], &unc)? {
-                good = mid;
-            } else {
-                bad = mid;
+            match any_feasible(prob, &times[..mid], &unc) {
+                Ok(true) => good = mid,
+                Ok(false) => bad = mid,
+                Err(SmidError::Solver(_)) => {
+                    (located, bad) = (false, times.len());
+                }
+                Err(e) => return Err(e),
             }
         }
         // No equation at all: the prior box and the unit gain alone are empty.
         let sample = times.get(bad.saturating_sub(1)).copied().unwrap_or(0);
-        let inconsistent = if prob.locate {
+        let inconsistent = if located {
             SmidError::inconsistent
         } else {
             SmidError::inconsistent_unlocated
@@ -333,7 +338,7 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
                 let (l, h) = (lo[k].max(start[k].lo), hi[k].min(start[k].hi));
                 if l > h {
                     let sample = times.last().copied().unwrap_or(0);
-                    return Err(SmidError::inconsistent(Stage::Linear, sample, format!( "the equations up to t = {sample} leave `{}` outside its prior [{}, {}]", names[k], start[k].lo, start[k].hi )));
+                    return Err(SmidError::inconsistent_unlocated(Stage::Linear, sample, format!( "the equations up to t = {sample} leave `{}` outside its prior [{}, {}]", names[k], start[k].lo, start[k].hi )));
                 }
                 Interval::new(l, h)
             }

@@ -841,7 +841,7 @@ pub fn solve_from(
                 }
             }
             let Some(b) = bound else {
-                return Err(SmidError::inconsistent(
+                return Err(SmidError::inconsistent_unlocated(
                     Stage::Linear,
                     model.times.last().copied().unwrap_or(0),
                     "no cell of the a-grid admits b and inner-signal errors within their bounds",

@@ -167,22 +167,27 @@ fn message(t: usize) -> String {
 
 /// The error for a relaxation the equations empty: at the first equation whose addition
 /// empties it (bisection on prefixes), or at the last equation, not located, when only the
-/// verdict is asked for ([`EivProblem::locate`]).
+/// verdict is asked for ([`EivProblem::locate`]) or a prefix's LP fails.
 fn emptied(
     prob: &EivProblem,
     model: &SharedModel,
     tb: &[Interval],
     db: &[Interval],
 ) -> Result<SmidError> {
-    if !prob.locate {
+    let unlocated = || {
         let t = model.times.last().copied().unwrap_or(0);
-        return Ok(SmidError::inconsistent_unlocated(
-            Stage::Linear,
-            t,
-            message(t),
-        ));
+        SmidError::inconsistent_unlocated(Stage::Linear, t, message(t))
+    };
+    if !prob.locate {
+        return Ok(unlocated());
     }
-    Ok(inconsistent(locate(model, tb, db)?))
+    match locate(model, tb, db) {
+        Ok(t) => Ok(inconsistent(t)),
+        // The emptiness is proven already: solver trouble on a prefix only leaves it unlocated
+        // (the verdict never depends on `locate`).
+        Err(SmidError::Solver(_)) => Ok(unlocated()),
+        Err(e) => Err(e),
+    }
 }
 
 /// The first equation whose addition empties the relaxation (bisection on prefixes).
