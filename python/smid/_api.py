@@ -126,7 +126,8 @@ class Parameter:
 class Verdict:
     """Consistent, or falsified: the data contradict the model and noise bound, at ``stage``
     and first offending ``sample`` of ``record`` (the training record in an identification, the
-    fresh record in a validation)."""
+    fresh record in a validation). ``located`` is False when ``sample`` is only one by which
+    the data are inconsistent (the first offending one was not looked for)."""
 
     consistent: bool
     stage: Optional[str] = None
@@ -134,6 +135,7 @@ class Verdict:
     detail: Optional[str] = None
     message: Optional[str] = None
     record: Optional[int] = None
+    located: Optional[bool] = None
 
 
 @dataclass(frozen=True)
@@ -302,6 +304,7 @@ class Identification:
                 detail=raw["detail"],
                 message=raw["message"],
                 record=raw.get("record"),
+                located=raw.get("located"),
             )
             self.table = raw["message"] + "\n"
             self.files = []
@@ -495,11 +498,11 @@ class Validation:
     @property
     def verdict(self) -> Verdict:
         c = self.data["consistency"]
-        f = c.get("falsified")
+        f = c.get("falsified_at")
         if c["consistent"] or not f:
             return Verdict(consistent=bool(c["consistent"]))
         return Verdict(consistent=False, stage=f.get("stage"), sample=f.get("sample"), detail=f.get("detail"),
-                       record=f.get("record"),
+                       record=f.get("record"), located=f.get("located"),
                        message=f"record {f.get('record')}, sample {f.get('sample')}: {f.get('detail')}")
 
     @property

@@ -198,7 +198,11 @@ def test_validate_equals_the_cli_and_simulate_gives_centre_and_envelope(tmp_path
     # A record that contradicts the model is a verdict, not an exception.
     bad = y.copy()
     bad[50] += 1.0
-    assert not smid.validate(model, [("bad", u, bad)]).verdict.consistent
+    verdict = smid.validate(model, [("bad", u, bad)]).verdict
+    assert not verdict.consistent
+    # Where: the fresh record, at or after the sample moved (stage 3 of the paper's one cell).
+    assert verdict.record == 0 and verdict.stage is not None, verdict
+    assert verdict.located and 50 <= verdict.sample <= 55, verdict
 
 
 def test_the_simulation_member_is_certified_inside_the_bounds_and_used(tmp_path):
