@@ -56,8 +56,6 @@ pub const ROW_PAD: f64 = 1e-9;
 pub const RESULT_PAD: f64 = 1e-8;
 /// Factor on tolerances and pads when a numerical failure forced the sturdier retry.
 const STURDY: f64 = 100.0;
-/// The solver error when every path failed, the last resort included (`msg`: the
-/// interior-point path's).
 /// The engine's order of paths, for bounds and for feasibility alike: the dual simplex; where
 /// it cannot conclude (`None`), the interior-point path; where that fails as a solver
 /// ([`SmidError::Solver`]), the simplex on the relaxed polytope; where that cannot conclude
@@ -77,6 +75,8 @@ fn first_conclusive<T>(
     }
 }
 
+/// The solver error when every path failed, the last resort included (`msg`: the
+/// interior-point path's).
 fn relaxed_failed(msg: &str) -> SmidError {
     SmidError::Solver(format!(
         "{msg}; the dual simplex on the polytope relaxed outward by {RELAXED_PADS:?} did not conclude either (an unbounded relaxation says nothing of the polytope)"
@@ -154,6 +154,15 @@ enum Simplex {
 }
 
 impl Simplex {
+    /// Whether a zero-objective run found the polytope non-empty (`None`: no conclusion).
+    fn feasibility(&self) -> Option<bool> {
+        match self {
+            Simplex::Optimal { .. } | Simplex::Unbounded => Some(true),
+            Simplex::Infeasible => Some(false),
+            Simplex::Unknown => None,
+        }
+    }
+
     /// [`Simplex::Unknown`], saying why at debug level (`SMID_LOG=debug`).
     fn unknown(why: &str) -> Simplex {
         log::debug!("dual simplex: no conclusion ({why})");
@@ -731,13 +740,7 @@ impl Polytope {
     /// Whether the polytope is non-empty: `false` is a proof (over the artificial box).
     pub fn feasible(&self) -> Result<bool> {
         first_conclusive(
-            || {
-                Ok(match self.simplex(&vec![0.0; self.n]) {
-                    Simplex::Optimal { .. } | Simplex::Unbounded => Some(true),
-                    Simplex::Infeasible => Some(false),
-                    Simplex::Unknown => None,
-                })
-            },
+            || Ok(self.simplex(&vec![0.0; self.n]).feasibility()),
             || self.clarabel(None).map(|ipm| !matches!(ipm, Ipm::Empty)),
             || self.relaxed_feasible(),
         )
@@ -757,11 +760,7 @@ impl Polytope {
     /// cell, as the interior-point path's "not empty" does; `None` when no relaxation concludes.
     fn relaxed_feasible(&self) -> Option<bool> {
         RELAXED_PADS.iter().find_map(|&pad| {
-            let out = match self.relaxed(pad).simplex(&vec![0.0; self.n]) {
-                Simplex::Infeasible => Some(false),
-                Simplex::Optimal { .. } | Simplex::Unbounded => Some(true),
-                Simplex::Unknown => None,
-            };
+            let out = self.relaxed(pad).simplex(&vec![0.0; self.n]).feasibility();
             if let Some(f) = out {
                 log::debug!("LP: feasible = {f} on the polytope relaxed outward by {pad:e}");
             }
@@ -962,10 +961,7 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// An interval emptier than the rounding of the float certificate (`1 <= x <= 1 - 1e-7`
-    /// after padding: the float combination's slack over the artificial box is about 1e-6):
-    /// only the exact combination proves it empty, and the simplex does so without the
-    /// interior-point path.
+    /// The engine's fallback order, driven with stand-in paths.
     #[test]
     fn paths_are_tried_in_order_and_the_relaxed_one_only_after_a_solver_failure() {
         use std::cell::Cell;
@@ -1014,6 +1010,10 @@ mod tests {
         assert_eq!(called.get(), 2);
     }
 
+    /// An interval emptier than the rounding of the float certificate (`1 <= x <= 1 - 1e-7`
+    /// after padding: the float combination's slack over the artificial box is about 1e-6):
+    /// only the exact combination proves it empty, and the simplex does so without the
+    /// interior-point path.
     #[test]
     fn a_nearly_empty_polytope_is_proven_empty_exactly() {
         let mut p = Polytope::new(1);

@@ -290,41 +290,16 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
         }
     }
     if feasible == 0 {
-        // Locate the first equation whose addition empties the set (bisection on prefixes),
-        // unless only the verdict is asked for (then the last equation is named, not located).
-        // Solver trouble on a prefix leaves the proven emptiness unlocated, never undecided.
-        let (mut good, mut bad) = (0usize, times.len());
-        let mut located = prob.locate;
-        while located && bad - good > 1 {
-            let mid = (good + bad) / 2;
-            match any_feasible(prob, &times[..mid], &unc) {
-                Ok(true) => good = mid,
-                Ok(false) => bad = mid,
-                Err(SmidError::Solver(_)) => {
-                    (located, bad) = (false, times.len());
-                }
-                Err(e) => return Err(e),
-            }
-        }
-        // No equation at all: the prior box and the unit gain alone are empty.
-        let sample = times.get(bad.saturating_sub(1)).copied().unwrap_or(0);
-        let inconsistent = if located {
-            SmidError::inconsistent
+        let and_prior = if prob.prior.is_some() {
+            " and the prior box"
         } else {
-            SmidError::inconsistent_unlocated
+            ""
         };
-        return Err(inconsistent(
-            Stage::Linear,
-            sample,
-            format!(
-                "no θ satisfies the equations up to t = {sample} within their error bounds{}",
-                if prob.prior.is_some() {
-                    " and the prior box"
-                } else {
-                    ""
-                }
-            ),
-        ));
+        return Err(prob.emptied(
+            &times,
+            |prefix| any_feasible(prob, prefix, &unc),
+            |t| format!("no θ satisfies the equations up to t = {t} within their error bounds{and_prior}"),
+        )?);
     }
     // Fixed entries at their values; the others inside the prior (the LP's pads may reach past
     // it, and the truth is inside it by assumption).

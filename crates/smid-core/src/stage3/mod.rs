@@ -112,6 +112,44 @@ pub fn theta_names(na: usize, nb: usize) -> Vec<String> {
 }
 
 impl EivProblem<'_> {
+    /// The finding of a method whose equations `times` are proven inconsistent: with
+    /// [`Self::locate`], at the first equation whose addition empties the set (bisection on
+    /// prefixes, `feasible` deciding each prefix); otherwise, or when a prefix's LP fails (the
+    /// emptiness is proven already, so the verdict never depends on `locate`), at the last
+    /// equation, marked not located. `message(t)` says what is empty up to `t`.
+    pub(crate) fn emptied(
+        &self,
+        times: &[usize],
+        mut feasible: impl FnMut(&[usize]) -> Result<bool>,
+        message: impl Fn(usize) -> String,
+    ) -> Result<SmidError> {
+        // No equation at all (the prior box and the unit gain alone are empty): sample 0.
+        let at = |n: usize| times.get(n.saturating_sub(1)).copied().unwrap_or(0);
+        let (mut good, mut bad) = (0usize, times.len());
+        while self.locate && bad - good > 1 {
+            let mid = (good + bad) / 2;
+            match feasible(&times[..mid]) {
+                Ok(true) => good = mid,
+                Ok(false) => bad = mid,
+                Err(SmidError::Solver(_)) => {
+                    let t = at(times.len());
+                    return Ok(SmidError::inconsistent_unlocated(
+                        Stage::Linear,
+                        t,
+                        message(t),
+                    ));
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        let t = at(bad);
+        Ok(if self.locate {
+            SmidError::inconsistent(Stage::Linear, t, message(t))
+        } else {
+            SmidError::inconsistent_unlocated(Stage::Linear, t, message(t))
+        })
+    }
+
     /// Number of `a`'s and `b`'s (`na + nb + 1`): the θ index of the first extra coefficient.
     pub fn n_ab(&self) -> usize {
         self.na + self.nb + 1
@@ -609,6 +647,60 @@ pub fn solve(m: EivMethod, prob: &EivProblem) -> Result<EivResult> {
 mod tests {
     use super::*;
     use crate::stage3::testutil::random_extra_case;
+
+    /// The one location of an emptiness, with stand-in prefix tests (the first `k` equations
+    /// feasible): the bisection finds equation `k`; without `locate`, or when a prefix's LP
+    /// fails, the last equation is named, marked not located, and the emptiness is kept.
+    #[test]
+    fn an_emptiness_is_located_by_bisection_or_named_at_the_last_equation() {
+        use crate::stage3::testutil::{problem, random_case};
+        let (_, out, input) = random_case(1, 40);
+        let located = problem(&out, &input, false);
+        let quick = EivProblem {
+            locate: false,
+            ..located.clone()
+        };
+        let times: Vec<usize> = (5..45).collect();
+        let msg = |t: usize| format!("up to t = {t}");
+        for k in [0, 1, 17, 39] {
+            let mut calls = 0;
+            let prefix = |p: &[usize]| {
+                calls += 1;
+                Ok(p.len() <= k)
+            };
+            match located.emptied(&times, prefix, msg).unwrap() {
+                SmidError::Inconsistent(f) => {
+                    assert!(f.located && f.sample == times[k], "k = {k}: {f:?}")
+                }
+                e => panic!("{e:?}"),
+            }
+            assert!(calls > 0 && calls <= 7, "k = {k}: {calls} prefix tests");
+            let mut calls = 0;
+            match quick
+                .emptied(
+                    &times,
+                    |_| {
+                        calls += 1;
+                        Ok(true)
+                    },
+                    msg,
+                )
+                .unwrap()
+            {
+                SmidError::Inconsistent(f) => assert!(!f.located && f.sample == 44, "{f:?}"),
+                e => panic!("{e:?}"),
+            }
+            assert_eq!(calls, 0);
+        }
+        let trouble = |_: &[usize]| Err(SmidError::Solver("prefix LP".into()));
+        match located.emptied(&times, trouble, msg).unwrap() {
+            SmidError::Inconsistent(f) => assert!(!f.located && f.sample == 44, "{f:?}"),
+            e => panic!("{e:?}"),
+        }
+        // Any other error is passed on.
+        let bad = |_: &[usize]| Err(SmidError::invalid("x", "y"));
+        assert!(located.emptied(&times, bad, msg).is_err());
+    }
 
     /// A verdict without the search for the first offending equation (`locate: false`) agrees
     /// with the located one, for every runnable method, on random records with an outlier at a

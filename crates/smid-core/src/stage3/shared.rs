@@ -165,45 +165,19 @@ fn message(t: usize) -> String {
     format!("no θ and inner-signal errors satisfy the equations up to t = {t} within their bounds")
 }
 
-/// The error for a relaxation the equations empty: at the first equation whose addition
-/// empties it (bisection on prefixes), or at the last equation, not located, when only the
-/// verdict is asked for ([`EivProblem::locate`]) or a prefix's LP fails.
+/// The finding for a relaxation the equations empty ([`EivProblem::emptied`]: located by
+/// bisection on prefixes when asked for).
 fn emptied(
     prob: &EivProblem,
     model: &SharedModel,
     tb: &[Interval],
     db: &[Interval],
 ) -> Result<SmidError> {
-    let unlocated = || {
-        let t = model.times.last().copied().unwrap_or(0);
-        SmidError::inconsistent_unlocated(Stage::Linear, t, message(t))
-    };
-    if !prob.locate {
-        return Ok(unlocated());
-    }
-    match locate(model, tb, db) {
-        Ok(t) => Ok(inconsistent(t)),
-        // The emptiness is proven already: solver trouble on a prefix only leaves it unlocated
-        // (the verdict never depends on `locate`).
-        Err(SmidError::Solver(_)) => Ok(unlocated()),
-        Err(e) => Err(e),
-    }
-}
-
-/// The first equation whose addition empties the relaxation (bisection on prefixes).
-fn locate(model: &SharedModel, tb: &[Interval], db: &[Interval]) -> Result<usize> {
-    let times = &model.times;
-    let (mut good, mut bad) = (0usize, times.len());
-    while bad - good > 1 {
-        let mid = (good + bad) / 2;
-        let feasible = feasible_free(model, tb, db, &times[..mid])?;
-        if feasible {
-            good = mid;
-        } else {
-            bad = mid;
-        }
-    }
-    Ok(times.get(bad.saturating_sub(1)).copied().unwrap_or(0))
+    prob.emptied(
+        &model.times,
+        |prefix| feasible_free(model, tb, db, prefix),
+        message,
+    )
 }
 
 #[cfg(test)]
