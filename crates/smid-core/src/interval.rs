@@ -54,9 +54,13 @@ impl Interval {
     pub fn is_finite(&self) -> bool {
         self.lo.is_finite() && self.hi.is_finite()
     }
-    /// Widen by `rel * max(|lo|,|hi|) + abs` on both sides.
+    /// Widen by `rel * max(|lo|,|hi|) + abs` on both sides, the max over the finite ends: a
+    /// half-line `[a, ∞)` stays one (`[a - rel |a| - abs, ∞)`), not the whole line.
     pub fn widen(&self, rel: f64, abs: f64) -> Self {
-        let m = self.lo.abs().max(self.hi.abs());
+        let m = [self.lo, self.hi]
+            .into_iter()
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, |m, v| m.max(v.abs()));
         let pad = rel * m + abs;
         Interval::new(self.lo - pad, self.hi + pad)
     }
@@ -103,6 +107,25 @@ mod tests {
         assert!(Interval::new(0.0, 1.0)
             .intersect(&Interval::new(2.0, 3.0))
             .is_none());
+    }
+
+    #[test]
+    fn a_half_line_widens_to_a_half_line() {
+        for (lo, hi) in [(2.0, f64::INFINITY), (f64::NEG_INFINITY, -3.0)] {
+            let o = Interval::new(lo, hi).outward();
+            assert!(o.lo <= lo && o.hi >= hi, "{o:?}");
+            // The finite end moves by its rounding pad only.
+            let (end, widened) = if lo.is_finite() {
+                (lo, o.lo)
+            } else {
+                (hi, o.hi)
+            };
+            assert!(
+                (widened - end).abs() < 1e-6,
+                "{o:?} lost its finite end {end}"
+            );
+        }
+        assert_eq!(Interval::entire().outward(), Interval::entire());
     }
 
     #[test]

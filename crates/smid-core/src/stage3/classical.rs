@@ -110,49 +110,65 @@ fn polytope(
         col[k] = c;
     }
     let mut poly = Polytope::new(n);
-    let mut e = vec![0.0; n];
-    let mut s = vec![0.0; n];
-    let mut up = vec![0.0; n];
-    let mut dn = vec![0.0; n];
+    // Each row's sum `x_t + Σ a_i x_{t-i} - Σ b_j v_{t-j} - Σ c_k φ_k(t)` ranges, for θ in the
+    // orthant, over [lo0 + lo·θ, hi0 + hi·θ]; the equation holds for some samples in their
+    // bounds iff 0 lies in it. With centres and radii (eqs 28-30) these ends are
+    // `e_t(θ) ∓ slack(θ)`, `e_t = x^c_t + Σ a_i x^c_{t-i} - Σ b_j v^c_{t-j} - Σ c_k φ^c_k(t)`,
+    // `slack = Δx_t + Σ |a_i| Δx_{t-i} + Σ |b_j| Δv_{t-j} + Σ |c_k| Δφ_k(t)`, `|a| = s a` in the
+    // orthant. A sample known from one side only (a clipped one) leaves one end infinite: that
+    // row gives one half-space, or none.
+    let mut lo = vec![0.0; n];
+    let mut hi = vec![0.0; n];
     for &t in times {
-        // e_t(θ) = x^c_t + Σ a_i x^c_{t-i} - Σ b_j v^c_{t-j} - Σ c_k φ^c_k(t);
-        // slack(θ) = Δx_t + Σ |a_i| Δx_{t-i} + Σ |b_j| Δv_{t-j} + Σ |c_k| Δφ_k(t),
-        // |a| = s a in the orthant.
-        e.iter_mut().for_each(|v| *v = 0.0);
-        s.iter_mut().for_each(|v| *v = 0.0);
-        let mut e0 = prob.output[t].interval.center();
-        let mut s0 = prob.output[t].interval.radius();
-        let mut term =
-            |k: usize, sign: f64, iv: crate::interval::Interval, e0: &mut f64, s0: &mut f64| {
-                match prob.fixed[k] {
-                    Some(v) => {
-                        *e0 += sign * v * iv.center();
-                        *s0 += v.abs() * iv.radius();
-                    }
-                    None => {
-                        e[col[k]] += sign * iv.center();
-                        if iv.radius() > 0.0 {
-                            s[col[k]] += sign_of(k).unwrap_or(1.0) * iv.radius();
-                        }
-                    }
-                }
+        lo.iter_mut().for_each(|v| *v = 0.0);
+        hi.iter_mut().for_each(|v| *v = 0.0);
+        let xt = prob.output[t].interval;
+        let (mut lo0, mut hi0) = (xt.lo, xt.hi);
+        // θ_k times `sign · iv`: its ends in the orthant.
+        let mut term = |k: usize, sign: f64, iv: Interval, lo0: &mut f64, hi0: &mut f64| {
+            let j = if sign > 0.0 {
+                iv
+            } else {
+                Interval::new(-iv.hi, -iv.lo)
             };
+            match prob.fixed[k] {
+                Some(v) if v == 0.0 => {}
+                Some(v) => {
+                    let (a, b) = (v * j.lo, v * j.hi);
+                    *lo0 += a.min(b);
+                    *hi0 += a.max(b);
+                }
+                None if j.lo == j.hi => {
+                    lo[col[k]] += j.lo;
+                    hi[col[k]] += j.lo;
+                }
+                None if sign_of(k).unwrap_or(1.0) > 0.0 => {
+                    lo[col[k]] += j.lo;
+                    hi[col[k]] += j.hi;
+                }
+                None => {
+                    lo[col[k]] += j.hi;
+                    hi[col[k]] += j.lo;
+                }
+            }
+        };
         for i in 1..=prob.na {
-            term(i - 1, 1.0, prob.output[t - i].interval, &mut e0, &mut s0);
+            term(i - 1, 1.0, prob.output[t - i].interval, &mut lo0, &mut hi0);
         }
         for j in 0..=prob.nb {
-            term(prob.na + j, -1.0, prob.input[t - j], &mut e0, &mut s0);
+            term(prob.na + j, -1.0, prob.input[t - j], &mut lo0, &mut hi0);
         }
         for (ex, r) in prob.extra.iter().enumerate() {
-            term(prob.n_ab() + ex, -1.0, r.values[t], &mut e0, &mut s0);
+            term(prob.n_ab() + ex, -1.0, r.values[t], &mut lo0, &mut hi0);
         }
-        // e0 + e·θ <= s0 + s·θ  and  -(e0 + e·θ) <= s0 + s·θ
-        for c in 0..n {
-            up[c] = e[c] - s[c];
-            dn[c] = -e[c] - s[c];
+        // lo0 + lo·θ <= 0 and -(hi0 + hi·θ) <= 0, each where its end is finite.
+        if lo0.is_finite() && lo.iter().all(|v| v.is_finite()) {
+            poly.push_le(&lo, -lo0, t);
         }
-        poly.push_le(&up, s0 - e0, t);
-        poly.push_le(&dn, s0 + e0, t);
+        if hi0.is_finite() && hi.iter().all(|v| v.is_finite()) {
+            hi.iter_mut().for_each(|v| *v = -*v);
+            poly.push_le(&hi, hi0, t);
+        }
     }
     let mut g = vec![0.0; n];
     let unit = |c: usize, v: f64, g: &mut Vec<f64>| {
@@ -221,9 +237,21 @@ fn any_feasible(prob: &EivProblem, times: &[usize], unc: &[usize]) -> Result<boo
 /// nothing. Far cheaper than the bounds (no objective), for pruning in a branch and bound.
 pub fn feasible(prob: &EivProblem) -> Result<bool> {
     prob.validate()?;
-    let times = prob.equation_times();
+    let times = row_times(prob);
     let unc = uncertain_coefficients(prob, &times);
     any_feasible(prob, &times, &unc)
+}
+
+/// The times of the rows: every equation of [`EivProblem::equation_times`] (two half-spaces
+/// each) and of [`EivProblem::one_sided_times`] (one), in time order.
+fn row_times(prob: &EivProblem) -> Vec<usize> {
+    with_one_sided(prob, prob.equation_times())
+}
+
+fn with_one_sided(prob: &EivProblem, mut times: Vec<usize>) -> Vec<usize> {
+    times.extend(prob.one_sided_times());
+    times.sort_unstable();
+    times
 }
 
 /// The free θ entries, in θ order (the columns of the orthant polytopes).
@@ -235,8 +263,14 @@ fn free_of(prob: &EivProblem) -> Vec<usize> {
 pub fn solve(prob: &EivProblem) -> Result<EivResult> {
     let p = prob.p();
     let start = prob.start_box()?;
-    let times = prob.equation_times();
+    // The two-sided equations are the result's (a start for the methods that refine it).
+    let equations = prob.equation_times();
+    let times = with_one_sided(prob, equations.clone());
     let free = free_of(prob);
+    let counted = match times.len() - equations.len() {
+        0 => format!("{} usable equations", equations.len()),
+        half => format!("{} usable equations and {half} one-sided", equations.len()),
+    };
     // Parameters the prior does not bound need the equations.
     let open = free.iter().filter(|&&k| !start[k].is_finite()).count();
     let n_eq = open.saturating_sub(usize::from(prob.unit_gain));
@@ -244,8 +278,7 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
         return Err(SmidError::Unbounded {
             parameter: "θ".into(),
             message: format!(
-                "only {} usable equations for {} free parameters: lengthen the dynamic experiment or enable band samples",
-                times.len(),
+                "only {counted} for {} free parameters: lengthen the dynamic experiment or enable band samples",
                 free.len()
             ),
         });
@@ -272,8 +305,7 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
                     .and_then(|c| free.get(c).and_then(|&k| names.get(k)).cloned())
                     .unwrap_or(parameter),
                 message: format!(
-                    "{message} ({} usable equations; a longer or richer dynamic experiment helps)",
-                    times.len()
+                    "{message} ({counted}; a longer or richer dynamic experiment helps)"
                 ),
             },
             other => other,
@@ -321,7 +353,7 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
     }
     Ok(EivResult {
         bounds,
-        equations: times,
+        equations,
         feasible_orthants: feasible,
     })
 }
@@ -550,5 +582,81 @@ mod tests {
             }
         }
         assert!(narrower > 0, "{:?} vs {:?}", r.bounds, free.bounds);
+    }
+
+    /// Samples clipped at a level (known only to lie above it, as a saturation's inversion
+    /// gives them) add half-spaces: the bounds still hold the truth and never widen against the
+    /// same samples taken as unknown; where the unclipped equations alone leave θ unbounded
+    /// (clipped records rarely separate `b1` from `b2`), the half-spaces mostly bound it.
+    #[test]
+    fn one_sided_samples_add_half_spaces_that_hold_the_truth_and_bound_clipped_records() {
+        let (mut unbounded, mut rescued) = (0, 0);
+        let runs = 24;
+        for seed in 0..runs {
+            let (m, mut out, input) = random_case(7000 + seed, 150);
+            // Clip above the median of the centres (from below for odd seeds).
+            let flip = if seed % 2 == 0 { 1.0 } else { -1.0 };
+            let mut c: Vec<f64> = out.iter().map(|b| flip * b.interval.center()).collect();
+            c.sort_by(f64::total_cmp);
+            let level = c[c.len() / 2];
+            let mut unknown = out.clone();
+            let mut clipped = 0;
+            for (t, b) in out.iter_mut().enumerate() {
+                let (lo, hi) = (b.interval.lo, b.interval.hi);
+                let above = if flip > 0.0 { lo > level } else { -hi > level };
+                if above {
+                    b.interval = if flip > 0.0 {
+                        Interval::new(level, f64::INFINITY)
+                    } else {
+                        Interval::new(f64::NEG_INFINITY, -level)
+                    };
+                    b.kind = InnerKind::Band;
+                    unknown[t] = InnerBound::unknown();
+                    clipped += 1;
+                }
+            }
+            assert!(clipped > 10, "seed {seed}: only {clipped} samples clipped");
+            let with = problem(&out, &input, false);
+            assert!(!with.one_sided_times().is_empty(), "seed {seed}");
+            let base = solve(&problem(&unknown, &input, false));
+            unbounded += usize::from(matches!(base, Err(SmidError::Unbounded { .. })));
+            let r = match solve(&with) {
+                Ok(r) => r,
+                Err(SmidError::Unbounded { .. }) => {
+                    // More rows never unbound what fewer rows bound.
+                    assert!(
+                        base.is_err(),
+                        "seed {seed}: unbounded with the half-spaces only"
+                    );
+                    continue;
+                }
+                Err(e) => panic!("seed {seed}: {e}"),
+            };
+            for (k, (b, t)) in r.bounds.iter().zip(truth(&m)).enumerate() {
+                assert!(b.contains(t), "seed {seed}: θ[{k}] = {t} outside {b:?}");
+            }
+            match &base {
+                Ok(base) => {
+                    assert_eq!(
+                        r.equations, base.equations,
+                        "seed {seed}: the two-sided equations"
+                    );
+                    for (k, (b, u)) in r.bounds.iter().zip(&base.bounds).enumerate() {
+                        let slack = 1e-9 * (1.0 + u.lo.abs().max(u.hi.abs()));
+                        assert!(
+                            b.lo >= u.lo - slack && b.hi <= u.hi + slack,
+                            "seed {seed}: θ[{k}] {b:?} wider than {u:?}"
+                        );
+                    }
+                }
+                // Bounded only thanks to the half-spaces.
+                Err(SmidError::Unbounded { .. }) => rescued += 1,
+                Err(e) => panic!("seed {seed}: {e}"),
+            }
+        }
+        assert!(
+            unbounded > 0 && rescued * 2 > unbounded,
+            "bounded {rescued} of the {unbounded} records the unclipped equations leave unbounded"
+        );
     }
 }

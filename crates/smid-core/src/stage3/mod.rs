@@ -212,6 +212,38 @@ impl EivProblem<'_> {
             .collect()
     }
 
+    /// Time indices whose equation holds a sample known from **one side only** (exactly one
+    /// endpoint finite, as a sample clipped by a saturation: `x >= s`) and otherwise only
+    /// usable samples as in [`equation_times`](Self::equation_times) (one-sided ones may be
+    /// several). Such an equation gives at most one half-space in θ instead of two: where the
+    /// sum `x_t + Σ a_i x_{t-i} - Σ b_j v_{t-j} - Σ c_k φ_k(t)` keeps a finite end for θ of one
+    /// sign pattern, `0` must lie on its side of that end. A method may use these rows or not:
+    /// leaving them out only loosens its bounds.
+    pub fn one_sided_times(&self) -> Vec<usize> {
+        let n = self
+            .extra
+            .iter()
+            .map(|r| r.values.len())
+            .fold(self.output.len().min(self.input.len()), usize::min);
+        let one_sided = |b: &InnerBound| {
+            b.kind != InnerKind::Unknown
+                && b.interval.lo <= b.interval.hi
+                && (b.interval.lo.is_finite() != b.interval.hi.is_finite())
+        };
+        let start = self.na.max(self.nb);
+        (start..n)
+            .filter(|&t| (0..=self.na).any(|i| one_sided(&self.output[t - i])))
+            .filter(|&t| {
+                (0..=self.na).all(|i| {
+                    let b = &self.output[t - i];
+                    self.usable(b) || one_sided(b)
+                })
+            })
+            .filter(|&t| (0..=self.nb).all(|j| self.input[t - j].is_finite()))
+            .filter(|&t| self.extra.iter().all(|r| r.values[t].is_finite()))
+            .collect()
+    }
+
     /// Check the shape of the problem: one `fixed` (and `prior`) entry per θ entry, a prior of
     /// closed intervals, regressor names distinct from each other and from the `a`'s and `b`'s.
     pub fn validate(&self) -> Result<()> {
