@@ -460,8 +460,19 @@ fn verdict_text(t: &diagnose::TrainVerdict) -> String {
             "consistent at bound {bound:.3e}, training free-run fit {}",
             pct(*fit_percent)
         ),
-        diagnose::TrainVerdict::Falsified { stage, sample, .. } => {
-            format!("falsified at sample {sample} ({stage})")
+        diagnose::TrainVerdict::Falsified {
+            stage,
+            record,
+            sample,
+            located,
+            ..
+        } => {
+            let at = if *located {
+                "falsified at sample"
+            } else {
+                "falsified (not located) up to sample"
+            };
+            format!("{at} {sample} of training record {record} ({stage})")
         }
         diagnose::TrainVerdict::AboveBar { bar, test, .. } => format!(
             "inconsistent at the bar {bar:.3e} ({test}): its bound would be above it, not bracketed further"

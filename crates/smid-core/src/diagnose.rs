@@ -84,7 +84,12 @@ pub enum TrainVerdict {
     /// The training data falsify the model.
     Falsified {
         stage: Stage,
+        /// The training record (in the order given).
+        record: usize,
+        /// The first offending sample of that record, or with `located: false` a sample up to
+        /// which the data are inconsistent ([`crate::Falsification::located`]).
         sample: usize,
+        located: bool,
         detail: String,
     },
     /// With an estimated bound: the training data are inconsistent at the largest bound the
@@ -103,20 +108,32 @@ impl TrainVerdict {
     pub fn admissible(&self) -> bool {
         matches!(self, TrainVerdict::Consistent { .. })
     }
-    /// How far into the data the model holds: later is better.
-    fn reach(&self) -> (u8, usize) {
+    /// How far into the data the model is proven to hold: later is better. A located finding
+    /// holds up to its record and sample; one not located proves no prefix (its sample is where
+    /// the search stopped, not where the model fails), so it ranks at the start of its stage.
+    fn reach(&self) -> (u8, usize, usize) {
         match self {
-            TrainVerdict::Consistent { .. } => (4, usize::MAX),
-            TrainVerdict::Falsified { stage, sample, .. } => (
-                match stage {
+            TrainVerdict::Consistent { .. } => (4, usize::MAX, usize::MAX),
+            TrainVerdict::Falsified {
+                stage,
+                record,
+                sample,
+                located,
+                ..
+            } => {
+                let stage = match stage {
                     Stage::SteadyState => 1,
                     Stage::InnerSignal => 2,
                     Stage::Linear => 3,
-                },
-                *sample,
-            ),
-            TrainVerdict::AboveBar { .. } => (3, 0),
-            TrainVerdict::Failed { .. } => (0, 0),
+                };
+                if *located {
+                    (stage, *record, *sample)
+                } else {
+                    (stage, 0, 0)
+                }
+            }
+            TrainVerdict::AboveBar { .. } => (3, 0, 0),
+            TrainVerdict::Failed { .. } => (0, 0, 0),
         }
     }
 }
@@ -740,13 +757,16 @@ fn try_model_with(
         }
         Ok(Outcome::Falsified(Falsification {
             stage,
+            record,
             sample,
+            located,
             detail,
-            ..
         })) => (
             TrainVerdict::Falsified {
                 stage,
+                record,
                 sample,
+                located,
                 detail,
             },
             None,
@@ -1661,6 +1681,31 @@ pub fn assess(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn reach_orders_located_findings_by_record_then_sample_and_proves_nothing_unlocated() {
+        let f = |stage, record, sample, located| TrainVerdict::Falsified {
+            stage,
+            record,
+            sample,
+            located,
+            detail: String::new(),
+        };
+        let lin = Stage::Linear;
+        // A later record beats a later sample of an earlier one.
+        assert!(f(lin, 1, 10, true).reach() > f(lin, 0, 300, true).reach());
+        assert!(f(lin, 0, 300, true).reach() > f(lin, 0, 10, true).reach());
+        // Not located: the sample is where the search stopped (the record's end), not a
+        // proven prefix; any located finding of the stage reaches further.
+        assert!(f(lin, 0, 1, true).reach() > f(lin, 2, 999, false).reach());
+        // Stages still come first, and a consistent model beats every finding.
+        assert!(f(lin, 0, 0, false).reach() > f(Stage::InnerSignal, 3, 999, true).reach());
+        let ok = TrainVerdict::Consistent {
+            fit_percent: 0.0,
+            bound: 1.0,
+        };
+        assert!(ok.reach() > f(lin, 9, 999, true).reach());
+    }
 
     fn evidence(label: &str, added: usize, fit: Option<f64>) -> Evidence {
         Evidence {
