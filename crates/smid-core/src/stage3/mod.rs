@@ -199,14 +199,19 @@ impl EivProblem<'_> {
     /// Time indices whose equation involves only usable samples (every extra regressor's value
     /// at `t` finite, too).
     pub fn equation_times(&self) -> Vec<usize> {
+        self.times_where(|t| (0..=self.na).all(|i| self.usable(&self.output[t - i])))
+    }
+
+    /// The equations' times `t` (every signal long enough) whose outputs pass `outputs`, every
+    /// input and extra regressor value finite.
+    fn times_where(&self, outputs: impl Fn(usize) -> bool) -> Vec<usize> {
         let n = self
             .extra
             .iter()
             .map(|r| r.values.len())
             .fold(self.output.len().min(self.input.len()), usize::min);
-        let start = self.na.max(self.nb);
-        (start..n)
-            .filter(|&t| (0..=self.na).all(|i| self.usable(&self.output[t - i])))
+        (self.na.max(self.nb)..n)
+            .filter(|&t| outputs(t))
             .filter(|&t| (0..=self.nb).all(|j| self.input[t - j].is_finite()))
             .filter(|&t| self.extra.iter().all(|r| r.values[t].is_finite()))
             .collect()
@@ -220,28 +225,15 @@ impl EivProblem<'_> {
     /// sign pattern, `0` must lie on its side of that end. A method may use these rows or not:
     /// leaving them out only loosens its bounds.
     pub fn one_sided_times(&self) -> Vec<usize> {
-        let n = self
-            .extra
-            .iter()
-            .map(|r| r.values.len())
-            .fold(self.output.len().min(self.input.len()), usize::min);
         let one_sided = |b: &InnerBound| {
             b.kind != InnerKind::Unknown
                 && b.interval.lo <= b.interval.hi
                 && (b.interval.lo.is_finite() != b.interval.hi.is_finite())
         };
-        let start = self.na.max(self.nb);
-        (start..n)
-            .filter(|&t| (0..=self.na).any(|i| one_sided(&self.output[t - i])))
-            .filter(|&t| {
-                (0..=self.na).all(|i| {
-                    let b = &self.output[t - i];
-                    self.usable(b) || one_sided(b)
-                })
-            })
-            .filter(|&t| (0..=self.nb).all(|j| self.input[t - j].is_finite()))
-            .filter(|&t| self.extra.iter().all(|r| r.values[t].is_finite()))
-            .collect()
+        self.times_where(|t| {
+            let outputs = &self.output[t - self.na..=t];
+            outputs.iter().any(one_sided) && outputs.iter().all(|b| self.usable(b) || one_sided(b))
+        })
     }
 
     /// Check the shape of the problem: one `fixed` (and `prior`) entry per θ entry, a prior of
