@@ -132,7 +132,7 @@ fn polytope(
                 Interval::new(-iv.hi, -iv.lo)
             };
             match prob.fixed[k] {
-                Some(v) if v == 0.0 => {}
+                Some(0.0) => {}
                 Some(v) => {
                     let (a, b) = (v * j.lo, v * j.hi);
                     *lo0 += a.min(b);
