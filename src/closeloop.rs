@@ -468,11 +468,16 @@ fn verdict_text(t: &diagnose::TrainVerdict) -> String {
             ..
         } => {
             let at = if *located {
-                "falsified at sample"
+                "falsified at"
             } else {
-                "falsified (not located) up to sample"
+                "falsified (not located) by"
             };
-            format!("{at} {sample} of training record {record} ({stage})")
+            match stage {
+                smid_core::error::Stage::SteadyState => {
+                    format!("{at} steady-state point {sample} ({stage})")
+                }
+                _ => format!("{at} sample {sample} of training record {record} ({stage})"),
+            }
         }
         diagnose::TrainVerdict::AboveBar { bar, test, .. } => format!(
             "inconsistent at the bar {bar:.3e} ({test}): its bound would be above it, not bracketed further"

@@ -435,7 +435,10 @@ fn depth_of(cell: &[Interval], prior: &[Interval]) -> Vec<u32> {
 }
 
 /// Whether finding `a` names a later point of the data than `b` (stage, then record and
-/// sample).
+/// sample). The latest cell finding is the union's: every cell is inconsistent by its sample,
+/// and when it was located, its cell is consistent before it, so the union's first offending
+/// sample is that one (an unlocated cell's first offending sample lies at or before its own),
+/// and `located` carries over as it is.
 fn later(a: &Falsification, b: &Falsification) -> bool {
     let key = |f: &Falsification| {
         let s = match f.stage {

@@ -54,7 +54,9 @@ pub struct EivProblem<'a> {
     pub output: &'a [InnerBound],
     /// Input-side signal bounds `v_t` (exact for Wiener: degenerate intervals).
     pub input: &'a [Interval],
-    /// Also use equations whose samples are only band-bounded (wide but valid).
+    /// Also use equations whose samples are only band-bounded (wide but valid). The rows of
+    /// [`one_sided_times`](Self::one_sided_times) take their one-sided samples whatever their
+    /// kind (a plugin marks a half-line `Band`): the flag governs the finite samples only.
     pub use_band_samples: bool,
     /// When the data are inconsistent, name the first offending equation (a bisection on
     /// prefixes of the record: about `log2 N` more LPs). `false` for a verdict that only needs
