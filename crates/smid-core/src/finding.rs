@@ -30,6 +30,9 @@ impl std::fmt::Display for Stage {
 /// when the proof did not look for it (`located: false`: a verdict that only needs to know
 /// *whether* the data are inconsistent), a sample by which they are.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+// Out-of-tree plugins build one with `Falsification::new` (and `in_record`, `unlocated`):
+// fields may be added without breaking them.
+#[non_exhaustive]
 pub struct Falsification {
     pub stage: Stage,
     /// Index of the record (training records in identification, fresh records in validation;

@@ -237,18 +237,16 @@ fn any_feasible(prob: &EivProblem, times: &[usize], unc: &[usize]) -> Result<boo
 /// nothing. Far cheaper than the bounds (no objective), for pruning in a branch and bound.
 pub fn feasible(prob: &EivProblem) -> Result<bool> {
     prob.validate()?;
-    let times = row_times(prob);
+    let times = row_times(prob, &prob.equation_times());
     let unc = uncertain_coefficients(prob, &times);
     any_feasible(prob, &times, &unc)
 }
 
-/// The times of the rows: every equation of [`EivProblem::equation_times`] (two half-spaces
-/// each) and of [`EivProblem::one_sided_times`] (one), in time order.
-fn row_times(prob: &EivProblem) -> Vec<usize> {
-    with_one_sided(prob, prob.equation_times())
-}
-
-fn with_one_sided(prob: &EivProblem, mut times: Vec<usize>) -> Vec<usize> {
+/// The times of the rows: every equation of `equations` (the two-sided ones,
+/// [`EivProblem::equation_times`]: two half-spaces each) and of [`EivProblem::one_sided_times`]
+/// (one), in time order.
+fn row_times(prob: &EivProblem, equations: &[usize]) -> Vec<usize> {
+    let mut times = equations.to_vec();
     times.extend(prob.one_sided_times());
     times.sort_unstable();
     times
@@ -265,7 +263,7 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
     let start = prob.start_box()?;
     // The two-sided equations are the result's (a start for the methods that refine it).
     let equations = prob.equation_times();
-    let times = with_one_sided(prob, equations.clone());
+    let times = row_times(prob, &equations);
     let free = free_of(prob);
     let counted = match times.len() - equations.len() {
         0 => format!("{} usable equations", equations.len()),
