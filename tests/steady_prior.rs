@@ -210,3 +210,144 @@ method:
         Err(e) => panic!("{e}"),
     }
 }
+
+/// The registered input-side plugins whose set over the default prior (for inputs seen in
+/// `[-a, a]`) keeps the designed step over a small range around 0 but not everywhere
+/// (`keeps_steady_design_over` without `keeps_steady_design`: a saturation below its limits).
+fn partly_design_keeping_plugins(a: f64) -> Vec<(&'static str, Vec<(f64, f64)>)> {
+    use smid_core::interval::Interval;
+    smid::link_plugins();
+    let s = smid_core::nonlinearity::Structure::Hammerstein;
+    let mut v = Vec::new();
+    for m in registry::models() {
+        let names = registry::parameter_names(m.tag);
+        let ex = (m.example)();
+        if names.is_empty() || !ex.supports(s) {
+            continue;
+        }
+        let Some(p) = ex.default_prior(s, (-a, a)) else {
+            continue;
+        };
+        let Ok(set) = ex.set_from_box(&p) else {
+            continue;
+        };
+        let small = Interval::new(-1e-3 * a, 1e-3 * a);
+        if p.len() == names.len()
+            && !set.keeps_steady_design()
+            && set.keeps_steady_design_over(small)
+        {
+            v.push((m.tag, p.iter().map(|i| (i.lo, i.hi)).collect()));
+        }
+    }
+    v
+}
+
+/// Behind an input block that bends some designed steps but passes others as one gain (a
+/// saturation whose smaller steps stay below its limits), stage 1 keeps the polygons of the
+/// points whose step it passes over the whole cell and leaves the others out, so the backlash
+/// needs no prior box (it did: "give the nonlinearity's parameters a prior box"). Generated
+/// from the registry: every such plugin, its truth drawn in the middle half of its default
+/// prior, random amplitude ranges (some steps above the true limits, some below the prior's
+/// smallest), shuffled or ascending, binary or multilevel records. Every bound must hold the
+/// drawn truth.
+#[test]
+fn steady_points_give_polygons_through_a_block_that_passes_their_steps() {
+    let plugins = partly_design_keeping_plugins(3.0);
+    assert!(
+        plugins.iter().any(|(t, _)| *t == "saturation"),
+        "the registry offers a block that keeps the design only over part of its range: {:?}",
+        plugins.iter().map(|p| p.0).collect::<Vec<_>>()
+    );
+    for (k, (tag, _)) in plugins.iter().enumerate() {
+        for trial in 0..2u64 {
+            let seed = 70 + 10 * k as u64 + trial;
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let amax = rng.gen_range(2.5..3.5);
+            let ex = registry::models()
+                .into_iter()
+                .find(|m| m.tag == *tag)
+                .map(|m| (m.example)())
+                .unwrap();
+            let prior: Vec<(f64, f64)> = ex
+                .default_prior(
+                    smid_core::nonlinearity::Structure::Hammerstein,
+                    (-amax, amax),
+                )
+                .unwrap()
+                .iter()
+                .map(|i| (i.lo, i.hi))
+                .collect();
+            let names = registry::parameter_names(tag);
+            let mut block = None;
+            for _ in 0..50 {
+                let values: Vec<(String, f64)> = names
+                    .iter()
+                    .zip(&prior)
+                    .map(|(n, p)| (n.clone(), p.0 + rng.gen_range(0.25..0.75) * (p.1 - p.0)))
+                    .collect();
+                if registry::instantiate(tag, &values).is_ok_and(|b| b.validate().is_ok()) {
+                    block = Some(values);
+                    break;
+                }
+            }
+            let block = block.unwrap_or_else(|| panic!("no valid draw of `{tag}`"));
+            let block_prior: Vec<String> = names
+                .iter()
+                .zip(&prior)
+                .map(|(n, p)| format!("in1.{n}: [{:?}, {:?}]", p.0, p.1))
+                .collect();
+            let levels = if rng.gen_bool(0.5) { 2 } else { 8 };
+            let text = format!(
+                "name: steady-polygons-{tag}
+plant:
+  simulator:
+    a: [0.5, 0.7]
+    b: [0.0, 1.4, 0.8]
+    nonlinearity: {{ type: output_backlash, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 }}
+    input: [ {{ type: {tag}, {block} }} ]
+noise: {{ encoder_bits: 15 }}
+experiment:
+  seed: {seed}
+  filter: {{ pole: 0.8125 }}
+  steady_state: {{ amplitudes: {amps}, min: {amin:?}, max: {amax:?}, shuffle: {shuffle} }}
+  dynamic: {{ length: {length}, amplitude: {amplitude:?}, levels: {levels} }}
+model:
+  nonlinearity: {{ type: output_backlash }}
+  input: [ {{ type: {tag} }} ]
+  na: 2
+  nb: 2
+  fixed: {{ b0: 0.0 }}
+  prior: {{ {priors} }}
+method:
+  alpha: zero
+  eiv: classical
+  cells: {{ max_cells: 600, max_leaves: 32 }}
+  member: {{ search: false }}
+",
+                block = json_map(&block),
+                amps = rng.gen_range(20..40),
+                amin = rng.gen_range(0.3..0.7),
+                shuffle = rng.gen_bool(0.5),
+                length = rng.gen_range(200..320),
+                amplitude = rng.gen_range(1.0..2.0),
+                priors = block_prior.join(", "),
+            );
+            let spec = smid::parse_spec(&text, std::path::Path::new("<steady-polygons>"))
+                .unwrap_or_else(|e| panic!("{tag}: {e}\n{text}"));
+            let id = match smid::run_spec(&spec, std::path::Path::new("."), &|_| {}) {
+                Ok(Outcome::Consistent(id)) => id,
+                Ok(Outcome::Falsified(f)) => {
+                    panic!("{tag}: the true chain was falsified: {f:?}\n{text}")
+                }
+                Err(e) => panic!("{tag}: {e}\n{text}"),
+            };
+            let mut truth: Vec<(String, f64)> =
+                BACKLASH.iter().map(|(n, v)| (n.to_string(), *v)).collect();
+            truth.extend(block.iter().map(|(n, v)| (format!("in1.{n}"), *v)));
+            truth.extend(
+                [("a1", 0.5), ("a2", 0.7), ("b1", 1.4), ("b2", 0.8)].map(|(n, v)| (n.into(), v)),
+            );
+            common::assert_truth_inside(&id, &truth, &format!("{tag}\n{text}"));
+        }
+    }
+}

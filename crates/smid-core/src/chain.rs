@@ -234,6 +234,23 @@ pub fn forward_steady(
     Ok(Some(v))
 }
 
+/// Whether a designed step whose input stays inside `t` (at the chain's input) reaches the
+/// nonlinearity still designed: every input block keeps the design over the hull its input
+/// moves in ([`NonlinearitySet::keeps_steady_design_over`]), that hull carried forward
+/// through the blocks before it ([`forward_steady`]).
+pub fn keeps_design_forward(blocks: &[&dyn NonlinearitySet], mut t: Interval) -> Result<bool> {
+    for b in blocks {
+        if !b.keeps_steady_design_over(t) {
+            return Ok(false);
+        }
+        match forward_steady(&[*b], t)? {
+            Some(next) => t = next,
+            None => return Ok(false),
+        }
+    }
+    Ok(true)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

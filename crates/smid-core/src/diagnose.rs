@@ -1013,8 +1013,8 @@ fn candidates(
 }
 
 /// The prior box of a model's nonlinearity when the input block at `position` of candidate
-/// `m` breaks the designed steady-state experiment (`keeps_steady_design` is false over its
-/// prior) and the nonlinearity is not bisected yet: the polygons' hull as if the design held,
+/// `m` breaks the designed steady-state experiment at every point over its prior (stage 1
+/// over the prior fails) and the nonlinearity is not bisected yet: the polygons' hull as if the design held,
 /// with each point's input an interval over the blocks' priors, widened
 /// ([`crate::pipeline::design_prior`]). The nonlinearity is then bisected in
 /// that box and the steady-state points prune its cells with any history. `None`: nothing to
@@ -1029,18 +1029,18 @@ fn design_prior_for(
     if names.is_empty() || !layout.nonlinearity_cells.is_empty() {
         return Ok(None);
     }
-    let Some(b) = layout
+    if !layout
         .blocks
         .iter()
-        .find(|b| b.side == Side::Input && b.index == position)
-    else {
-        return Ok(None);
-    };
-    let cell: Vec<crate::interval::Interval> = layout.dims.iter().map(|d| d.prior).collect();
-    if m.input[position]
-        .set_from_box(&cell[b.cells.clone()])?
-        .keeps_steady_design()
+        .any(|b| b.side == Side::Input && b.index == position)
     {
+        return Ok(None);
+    }
+    let cell: Vec<crate::interval::Interval> = layout.dims.iter().map(|d| d.prior).collect();
+    // Stage 1 over the whole prior: when some points' designed steps pass every input block
+    // (`keeps_steady_design_over`), their polygons bound the nonlinearity in every cell (a
+    // smaller cell keeps at least those points), with no assumption.
+    if crate::pipeline::stage1(m, layout, Some(steady), &cell).is_ok() {
         return Ok(None);
     }
     let boxes = crate::pipeline::design_prior(m, layout, steady, &cell)?;

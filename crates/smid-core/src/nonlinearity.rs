@@ -127,6 +127,18 @@ impl SteadyPoint {
     pub fn step_height(&self) -> f64 {
         self.step.unwrap_or(2.0 * self.u.abs())
     }
+
+    /// The hull of the inputs the designed step to this point moves through: from the previous
+    /// level (`ū ∓` the step height, by [`SteadyPoint::rising`]) to `ū`, widened by `du`
+    /// (the first-order filter moves monotonically between the two).
+    pub fn step_hull(&self) -> Interval {
+        let from = if self.rising {
+            self.u - self.step_height()
+        } else {
+            self.u + self.step_height()
+        };
+        Interval::new(from.min(self.u) - self.du, from.max(self.u) + self.du).outward()
+    }
 }
 
 /// Steady-state data for stage 1.
@@ -454,6 +466,18 @@ pub trait NonlinearitySet: Debug + Send + Sync {
     /// the nonlinearity after it needs a prior box, not the polygons).
     fn keeps_steady_design(&self) -> bool {
         false
+    }
+    /// Whether one designed step whose input stays inside `t` (the filtered square wave moves
+    /// monotonically from the previous level to the point's, so `t` is their hull) still
+    /// reaches the next block as a designed step: for every member of the cell and any
+    /// history, the block acts on `t` as one positive gain (so the linear block's response
+    /// stays overshoot-free, as for [`NonlinearitySet::keeps_steady_design`]). A saturation is
+    /// such a gain below its smallest limit, though not over its whole range. Stage 1 keeps
+    /// the polygons of the steady-state points whose step passes every input block this way
+    /// and leaves the others out (fewer points only widen the set). Default:
+    /// [`NonlinearitySet::keeps_steady_design`], whatever `t`.
+    fn keeps_steady_design_over(&self, _t: Interval) -> bool {
+        self.keeps_steady_design()
     }
     /// The block's steady output for the steady input `u` (stage 1 of a chain whose input side
     /// holds this block before the nonlinearity that steady-state data bound). Contract: it

@@ -422,6 +422,19 @@ impl NonlinearitySet for SaturationSet {
     fn monotone(&self) -> bool {
         true
     }
+    /// A designed step inside `t` passes as one positive gain when every member is linear on
+    /// `t`: below the smallest limit on each side it reaches (`t.hi·m_r ≤ s_r` and
+    /// `-t.lo·m_l ≤ s_l` for the box hull, with a margin for rounding), and with one slope:
+    /// `t` on one side of 0, or both slopes known and equal (a kink at 0 bends the step).
+    fn keeps_steady_design_over(&self, t: Interval) -> bool {
+        let (r, l) = (&self.right, &self.left);
+        let below =
+            |x: f64, b: &Staircase| x <= 0.0 || x * b.m.hi <= b.s.lo * (1.0 - 8.0 * f64::EPSILON);
+        let one_slope = t.lo >= 0.0
+            || t.hi <= 0.0
+            || (l.m.lo == l.m.hi && r.m.lo == r.m.hi && l.m.lo == r.m.lo);
+        below(t.hi, r) && below(-t.lo, l) && one_slope
+    }
 
     fn contains(&self, truth: &[f64]) -> bool {
         truth.len() == 4
@@ -603,5 +616,63 @@ mod tests {
                 prop_assert!(v[k].interval.contains(x), "{:?} misses {}", v[k], x);
             }
         }
+
+        /// Where the set says a designed step inside `t` passes, every member of the box is
+        /// one gain on `t`: `w = k x` with the same `k` at every input of `t`. Equal unit
+        /// slopes (the diagnosis's prior) or different ones; `t` on both sides of 0 or one.
+        #[test]
+        fn a_step_passed_as_designed_meets_one_gain_in_every_member(
+            ml in 0.5f64..2.0, sl in 0.2f64..2.0, mr in 0.5f64..2.0, sr in 0.2f64..2.0,
+            w in 0.0f64..0.3, equal in proptest::bool::ANY, lo in -2.0f64..2.0, len in 0.0f64..2.0,
+            f in proptest::collection::vec((0.0f64..=1.0, 0.0f64..=1.0, 0.0f64..=1.0, 0.0f64..=1.0), 1..8),
+        ) {
+            let mr = if equal { ml } else { mr };
+            let b = |v: f64| if equal { Interval::new(v, v) } else { Interval::new(v, v * (1.0 + w)) };
+            let bs = |v: f64| Interval::new(v, v * (1.0 + w));
+            let set = SaturationModel {}
+                .set_from_box(&[b(ml), bs(sl), b(mr), bs(sr)])
+                .unwrap();
+            let t = Interval::new(lo, lo + len);
+            if set.keeps_steady_design_over(t) {
+                let at = |x: f64, v: f64| if equal { v } else { v * (1.0 + w * x) };
+                for &(a, c, d, e) in &f {
+                    let member = Saturation {
+                        m_l: at(a, ml),
+                        s_l: sl * (1.0 + w * c),
+                        m_r: at(d, mr),
+                        s_r: sr * (1.0 + w * e),
+                    };
+                    let xs: Vec<f64> = (0..=20).map(|i| t.lo + (t.hi - t.lo) * i as f64 / 20.0).collect();
+                    let ys = member.simulate(&xs);
+                    let gains: Vec<f64> = xs.iter().zip(&ys).filter(|(x, _)| x.abs() > 1e-9).map(|(x, y)| y / x).collect();
+                    for g in &gains {
+                        prop_assert!((g - gains[0]).abs() <= 1e-9 * gains[0].abs(), "{member:?} on {t:?}: gains {gains:?}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// The pass is not vacuous: below the smallest limits a step across 0 passes with equal
+    /// known slopes, and one reaching past a limit does not.
+    #[test]
+    fn a_step_below_the_limits_passes_and_one_past_them_does_not() {
+        let one = Interval::new(1.0, 1.0);
+        let set = SaturationModel {}
+            .set_from_box(&[one, Interval::new(1.0, 2.0), one, Interval::new(1.5, 3.0)])
+            .unwrap();
+        assert!(set.keeps_steady_design_over(Interval::new(-0.9, 1.4)));
+        assert!(!set.keeps_steady_design_over(Interval::new(-0.9, 1.6)));
+        assert!(!set.keeps_steady_design_over(Interval::new(-1.1, 1.0)));
+        let kinked = SaturationModel {}
+            .set_from_box(&[
+                one,
+                Interval::new(1.0, 2.0),
+                Interval::new(1.2, 1.2),
+                Interval::new(1.5, 3.0),
+            ])
+            .unwrap();
+        assert!(!kinked.keeps_steady_design_over(Interval::new(-0.5, 0.5)));
+        assert!(kinked.keeps_steady_design_over(Interval::new(0.1, 0.5)));
     }
 }

@@ -107,6 +107,24 @@ fn stage1_with(
     let outputs = blocks.refs(Side::Output);
     let inputs = blocks.refs(Side::Input);
     let mut data = steady.clone();
+    // A point whose designed step some input block may bend (a saturation clipping it) is
+    // left out: the polygons hold only where the design does. Without any such point left,
+    // the nonlinearity needs a prior box.
+    if !assume_design && !inputs.is_empty() {
+        let mut kept = Vec::with_capacity(data.points.len());
+        for p in data.points {
+            if chain::keeps_design_forward(&inputs, p.step_hull())? {
+                kept.push(p);
+            }
+        }
+        data.points = kept;
+        if data.points.is_empty() {
+            return Err(SmidError::invalid(
+                    "model.input",
+                "steady-state data reach the nonlinearity through an input block that may make the linear block overshoot under the designed square wave at every point (a clipped or kinked wave; see NonlinearitySet::keeps_steady_design_over): give the nonlinearity's parameters a prior box (`model.prior`; the steady-state points then prune its cells without the design's assumption), or identify from records without the steady-state experiment",
+            ));
+        }
+    }
     for p in &mut data.points {
         (p.y, p.dy) = effect::true_output(&model.effects, &slices, p.time, p.y, p.dy)?
             .ok_or_else(|| no_true_output(p.index))?;
@@ -115,12 +133,6 @@ fn stage1_with(
         }
         if !inputs.is_empty() {
             // The steady input through the input blocks over their cell: an interval.
-            if !assume_design && inputs.iter().any(|b| !b.keeps_steady_design()) {
-                return Err(SmidError::invalid(
-                    "model.input",
-                    "steady-state data reach the nonlinearity through an input block that may make the linear block overshoot under the designed square wave (a clipped or kinked wave; see NonlinearitySet::keeps_steady_design): give the nonlinearity's parameters a prior box (`model.prior`; the steady-state points then prune its cells without the design's assumption), or identify from records without the steady-state experiment",
-                ));
-            }
             let v = chain::forward_steady(&inputs, Interval::new(p.u - p.du, p.u + p.du))?
                 .ok_or_else(|| SmidError::invalid(
                     "model.input",
