@@ -84,10 +84,11 @@ fn input_side_cases(keeps: bool) -> Vec<smid::diagnose_check::Case> {
 }
 
 /// Input-side blocks against the designed experiment, generated from the registry: every
-/// plugin the diagnosis offers before the linear block whose set over its prior breaks the
-/// design (a dead zone, a play, a saturation: the polygons do not pass it) is one case of
-/// `smid diagnose-check`. The candidate bisects the backlash in a box from the points (an
-/// assumption, reported) and the points prune its cells with any history. Whenever a trial
+/// plugin the diagnosis offers before the linear block whose set over its prior does not keep
+/// the design everywhere (a dead zone, a play: no step passes; a saturation: the steps past its
+/// limits) is one case of `smid diagnose-check`. Where no point's step passes, the candidate
+/// bisects the backlash in a box from the points (an assumption, reported) and the points prune
+/// its cells with any history; otherwise the points whose steps pass give the polygons. Whenever a trial
 /// names the case, the after-model passes on held-out records and holds the truth; and the
 /// mechanism is not vacuous: at least one such case is named (the dead zone, on this seed).
 #[test]

@@ -32,7 +32,7 @@
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
 use crate::inversion::{InnerBound, InnerKind};
-use crate::nonlinearity::{NonlinearitySet, Structure};
+use crate::nonlinearity::{NonlinearitySet, SteadyPoint, Structure};
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
 
@@ -234,6 +234,40 @@ pub fn forward_steady(
     Ok(Some(v))
 }
 
+/// A steady-state point carried forward through the input blocks over their cell (stage 1 of
+/// a chain with input blocks that keep its design): the input `ū ± du` becomes the hull of the
+/// blocks' steady outputs ([`forward_steady`]), and the step height and the overshoot
+/// allowance α (eqs 14-15) grow with the step the linear block now sees: the step's range
+/// ([`SteadyPoint::step_hull`]) carried forward is at least `k` times as wide behind a gain
+/// `k` of the cell, and α, set for the raw step, is scaled by that ratio (never below it), so
+/// it still bounds the overshoot. `rising` stays: the blocks are monotone. `None`: a
+/// non-monotone block met an interval.
+pub fn forward_steady_point(
+    blocks: &[&dyn NonlinearitySet],
+    p: &SteadyPoint,
+) -> Result<Option<SteadyPoint>> {
+    let Some(v) = forward_steady(blocks, Interval::new(p.u - p.du, p.u + p.du))? else {
+        return Ok(None);
+    };
+    let Some(h) = forward_steady(blocks, p.step_hull())? else {
+        return Ok(None);
+    };
+    let mut q = p.clone();
+    (q.u, q.du) = centre_radius(v);
+    if v.lo == v.hi {
+        q.du = 0.0;
+    }
+    let (raw, seen) = (p.step_height(), h.hi - h.lo);
+    if !seen.is_finite() {
+        return Ok(None);
+    }
+    if raw > 0.0 {
+        q.alpha = p.alpha * (seen / raw) * (1.0 + 4.0 * f64::EPSILON);
+    }
+    q.step = Some(seen);
+    Ok(Some(q))
+}
+
 /// Whether a designed step whose input stays inside `t` (at the chain's input) reaches the
 /// nonlinearity still designed: every input block keeps the design over the hull its input
 /// moves in ([`NonlinearitySet::keeps_steady_design_over`]), that hull carried forward
@@ -291,6 +325,51 @@ mod tests {
         }
         fn monotone(&self) -> bool {
             true
+        }
+    }
+
+    /// A point carried forward through gains keeps an overshoot allowance at least `k` times
+    /// its own for every gain `k` of the cells (the linear block sees a step `k` times as
+    /// high), and its input is the hull of every member's: random gains, levels, steps and
+    /// directions.
+    #[test]
+    fn a_point_behind_gains_scales_its_overshoot_allowance_with_the_step() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for _ in 0..200 {
+            let gains: Vec<Gain> = (0..rng.gen_range(1..4))
+                .map(|_| {
+                    let k = rng.gen_range(0.2..4.0);
+                    Gain(Interval::new(k, k * rng.gen_range(1.0..1.5)))
+                })
+                .collect();
+            let blocks: Vec<&dyn NonlinearitySet> = gains.iter().map(|g| g as _).collect();
+            let mut p = SteadyPoint::new(0, rng.gen_range(-3.0..3.0), 0.1, 0.01);
+            p.rising = rng.gen_bool(0.5);
+            p.step = Some(rng.gen_range(0.1..6.0));
+            p.alpha = rng.gen_range(0.0..0.1);
+            let q = forward_steady_point(&blocks, &p).unwrap().unwrap();
+            let mut k = (1.0, 1.0);
+            for g in &gains {
+                k = (k.0 * g.0.lo, k.1 * g.0.hi);
+            }
+            for kk in [k.0, k.1, 0.5 * (k.0 + k.1)] {
+                assert!(
+                    q.alpha >= kk * p.alpha,
+                    "α {} < {kk} · {}",
+                    q.alpha,
+                    p.alpha
+                );
+                assert!(q.step_height() >= kk * p.step_height());
+                let u = kk * p.u;
+                assert!(
+                    q.u - q.du <= u && u <= q.u + q.du,
+                    "{u} not in {} ± {}",
+                    q.u,
+                    q.du
+                );
+            }
+            assert_eq!(q.rising, p.rising);
         }
     }
 

@@ -133,22 +133,18 @@ fn stage1_with(
         }
         if !inputs.is_empty() {
             // The steady input through the input blocks over their cell: an interval.
-            let v = chain::forward_steady(&inputs, Interval::new(p.u - p.du, p.u + p.du))?
+            let q = chain::forward_steady_point(&inputs, p)?
                 .ok_or_else(|| SmidError::invalid(
                     "model.input",
                     "a steady input reaches a non-monotone input block as an interval: give the nonlinearity's parameters a prior box (`model.prior`)",
                 ))?;
-            if v.lo != v.hi && !model.nonlinearity.accepts_input_radius() {
+            if q.du > 0.0 && !model.nonlinearity.accepts_input_radius() {
                 return Err(SmidError::invalid(
                     "model.input",
                     "steady-state data reach the nonlinearity through input-side blocks whose steady output is uncertain over their cell, and this plugin's stage 1 needs exact inputs: give the nonlinearity's parameters a prior box too (`model.prior`), or identify from records without the steady-state experiment",
                 ));
             }
-            (p.u, p.du) = chain::centre_radius(v);
-            if v.lo == v.hi {
-                p.du = 0.0;
-            }
-            // `rising` stays: the blocks are monotone, so the input reached v̄ from the same side.
+            *p = q;
         }
         rest_shifted(model, &slices, p)?;
     }
