@@ -252,7 +252,7 @@ pub fn forward_steady_point(
     let Some(h) = forward_steady(blocks, p.step_hull())? else {
         return Ok(None);
     };
-    let mut q = p.clone();
+    let mut q = *p;
     (q.u, q.du) = centre_radius(v);
     if v.lo == v.hi {
         q.du = 0.0;
