@@ -54,6 +54,40 @@ fn json_map(pairs: &[(String, f64)]) -> String {
         .join(", ")
 }
 
+/// A true block `tag` in the middle half of `prior` that the plugin accepts.
+fn draw_block(tag: &str, prior: &[(f64, f64)], rng: &mut impl Rng) -> Vec<(String, f64)> {
+    let names = registry::parameter_names(tag);
+    for _ in 0..50 {
+        let values: Vec<(String, f64)> = names
+            .iter()
+            .zip(prior)
+            .map(|(n, p)| (n.clone(), p.0 + rng.gen_range(0.25..0.75) * (p.1 - p.0)))
+            .collect();
+        if registry::instantiate(tag, &values).is_ok_and(|b| b.validate().is_ok()) {
+            return values;
+        }
+    }
+    panic!("no valid draw of `{tag}` in its default prior {prior:?}");
+}
+
+/// Identify the spec `text` (a chain whose truth is in the model) and check that every bound
+/// holds the paper's backlash and linear block and the drawn input block `in1`.
+fn assert_true_chain_inside(tag: &str, text: &str, block: &[(String, f64)]) {
+    let spec = smid::parse_spec(text, std::path::Path::new("<steady-prior>"))
+        .unwrap_or_else(|e| panic!("{tag}: {e}\n{text}"));
+    let id = match smid::run_spec(&spec, std::path::Path::new("."), &|_| {}) {
+        Ok(Outcome::Consistent(id)) => id,
+        Ok(Outcome::Falsified(f)) => {
+            panic!("{tag}: the true chain was falsified: {f:?}\n{text}")
+        }
+        Err(e) => panic!("{tag}: {e}\n{text}"),
+    };
+    let mut truth: Vec<(String, f64)> = BACKLASH.iter().map(|(n, v)| (n.to_string(), *v)).collect();
+    truth.extend(block.iter().map(|(n, v)| (format!("in1.{n}"), *v)));
+    truth.extend([("a1", 0.5), ("a2", 0.7), ("b1", 1.4), ("b2", 0.8)].map(|(n, v)| (n.into(), v)));
+    common::assert_truth_inside(&id, &truth, &format!("{tag}\n{text}"));
+}
+
 #[test]
 fn steady_points_prune_a_bisected_nonlinearity_behind_any_input_block() {
     let plugins = input_side_plugins();
@@ -67,24 +101,7 @@ fn steady_points_prune_a_bisected_nonlinearity_behind_any_input_block() {
         let seed = 40 + k as u64;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let names = registry::parameter_names(tag);
-        // A true block in the middle half of its prior that the plugin accepts.
-        let mut truth_block = None;
-        for _ in 0..50 {
-            let values: Vec<(String, f64)> = names
-                .iter()
-                .zip(prior)
-                .map(|(n, p)| (n.clone(), p.0 + rng.gen_range(0.25..0.75) * (p.1 - p.0)))
-                .collect();
-            if let Ok(b) = registry::instantiate(tag, &values) {
-                if b.validate().is_ok() {
-                    truth_block = Some(values);
-                    break;
-                }
-            }
-        }
-        let Some(block) = truth_block else {
-            panic!("no valid draw of `{tag}` in its default prior {prior:?}");
-        };
+        let block = draw_block(tag, prior, &mut rng);
         // The backlash's box: random widths around the truth (plays kept non-negative).
         let mut bl_prior = Vec::new();
         for (n, v) in BACKLASH {
@@ -139,22 +156,7 @@ method:
                 .collect::<Vec<_>>()
                 .join(", "),
         );
-        let spec = smid::parse_spec(&text, std::path::Path::new("<steady-prior>"))
-            .unwrap_or_else(|e| panic!("{tag}: {e}\n{text}"));
-        let id = match smid::run_spec(&spec, std::path::Path::new("."), &|_| {}) {
-            Ok(Outcome::Consistent(id)) => id,
-            Ok(Outcome::Falsified(f)) => {
-                panic!("{tag}: the true chain was falsified: {f:?}\n{text}")
-            }
-            Err(e) => panic!("{tag}: {e}\n{text}"),
-        };
-        let mut truth: Vec<(String, f64)> =
-            BACKLASH.iter().map(|(n, v)| (n.to_string(), *v)).collect();
-        truth.extend(block.iter().map(|(n, v)| (format!("in1.{n}"), *v)));
-        truth.extend(
-            [("a1", 0.5), ("a2", 0.7), ("b1", 1.4), ("b2", 0.8)].map(|(n, v)| (n.into(), v)),
-        );
-        common::assert_truth_inside(&id, &truth, &format!("{tag}\n{text}"));
+        assert_true_chain_inside(tag, &text, &block);
         eprintln!("{tag}: truth inside every bound");
         tried += 1;
     }
@@ -278,19 +280,7 @@ fn steady_points_give_polygons_through_a_block_that_passes_their_steps() {
                 .map(|i| (i.lo, i.hi))
                 .collect();
             let names = registry::parameter_names(tag);
-            let mut block = None;
-            for _ in 0..50 {
-                let values: Vec<(String, f64)> = names
-                    .iter()
-                    .zip(&prior)
-                    .map(|(n, p)| (n.clone(), p.0 + rng.gen_range(0.25..0.75) * (p.1 - p.0)))
-                    .collect();
-                if registry::instantiate(tag, &values).is_ok_and(|b| b.validate().is_ok()) {
-                    block = Some(values);
-                    break;
-                }
-            }
-            let block = block.unwrap_or_else(|| panic!("no valid draw of `{tag}`"));
+            let block = draw_block(tag, &prior, &mut rng);
             let block_prior: Vec<String> = names
                 .iter()
                 .zip(&prior)
@@ -332,22 +322,7 @@ method:
                 amplitude = rng.gen_range(1.0..2.0),
                 priors = block_prior.join(", "),
             );
-            let spec = smid::parse_spec(&text, std::path::Path::new("<steady-polygons>"))
-                .unwrap_or_else(|e| panic!("{tag}: {e}\n{text}"));
-            let id = match smid::run_spec(&spec, std::path::Path::new("."), &|_| {}) {
-                Ok(Outcome::Consistent(id)) => id,
-                Ok(Outcome::Falsified(f)) => {
-                    panic!("{tag}: the true chain was falsified: {f:?}\n{text}")
-                }
-                Err(e) => panic!("{tag}: {e}\n{text}"),
-            };
-            let mut truth: Vec<(String, f64)> =
-                BACKLASH.iter().map(|(n, v)| (n.to_string(), *v)).collect();
-            truth.extend(block.iter().map(|(n, v)| (format!("in1.{n}"), *v)));
-            truth.extend(
-                [("a1", 0.5), ("a2", 0.7), ("b1", 1.4), ("b2", 0.8)].map(|(n, v)| (n.into(), v)),
-            );
-            common::assert_truth_inside(&id, &truth, &format!("{tag}\n{text}"));
+            assert_true_chain_inside(tag, &text, &block);
         }
     }
 }
