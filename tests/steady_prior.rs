@@ -70,6 +70,49 @@ fn draw_block(tag: &str, prior: &[(f64, f64)], rng: &mut impl Rng) -> Vec<(Strin
     panic!("no valid draw of `{tag}` in its default prior {prior:?}");
 }
 
+/// The spec of the paper's Wiener plant behind the input block `tag` (true values `block`),
+/// identified with that block before the backlash: `steady` and `dynamic` are the experiment's
+/// lines, `priors` the model's prior entries, `cells` the branch and bound's budget.
+fn chain_spec(
+    tag: &str,
+    block: &[(String, f64)],
+    seed: u64,
+    steady: &str,
+    dynamic: &str,
+    priors: &str,
+    cells: &str,
+) -> String {
+    format!(
+        "name: steady-prior-{tag}
+plant:
+  simulator:
+    a: [0.5, 0.7]
+    b: [0.0, 1.4, 0.8]
+    nonlinearity: {{ type: output_backlash, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 }}
+    input: [ {{ type: {tag}, {block} }} ]
+noise: {{ encoder_bits: 15 }}
+experiment:
+  seed: {seed}
+  filter: {{ pole: 0.8125 }}
+  steady_state: {{ {steady} }}
+  dynamic: {{ {dynamic} }}
+model:
+  nonlinearity: {{ type: output_backlash }}
+  input: [ {{ type: {tag} }} ]
+  na: 2
+  nb: 2
+  fixed: {{ b0: 0.0 }}
+  prior: {{ {priors} }}
+method:
+  alpha: zero
+  eiv: classical
+  cells: {{ {cells} }}
+  member: {{ search: false }}
+",
+        block = json_map(block),
+    )
+}
+
 /// Identify the spec `text` (a chain whose truth is in the model) and check that every bound
 /// holds the paper's backlash and linear block and the drawn input block `in1`.
 fn assert_true_chain_inside(tag: &str, text: &str, block: &[(String, f64)]) {
@@ -121,40 +164,20 @@ fn steady_points_prune_a_bisected_nonlinearity_behind_any_input_block() {
         let levels = if rng.gen_bool(0.5) { 2 } else { 8 };
         let length = rng.gen_range(200..320);
         let amplitude = rng.gen_range(1.0..2.0);
-        let text = format!(
-            "name: steady-prior-{tag}
-plant:
-  simulator:
-    a: [0.5, 0.7]
-    b: [0.0, 1.4, 0.8]
-    nonlinearity: {{ type: output_backlash, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 }}
-    input: [ {{ type: {tag}, {block} }} ]
-noise: {{ encoder_bits: 15 }}
-experiment:
-  seed: {seed}
-  filter: {{ pole: 0.8125 }}
-  steady_state: {{ amplitudes: 30 }}
-  dynamic: {{ length: {length}, amplitude: {amplitude:?}, levels: {levels} }}
-model:
-  nonlinearity: {{ type: output_backlash }}
-  input: [ {{ type: {tag} }} ]
-  na: 2
-  nb: 2
-  fixed: {{ b0: 0.0 }}
-  prior: {{ {priors} }}
-method:
-  alpha: zero
-  eiv: classical
-  cells: {{ max_cells: 600, max_leaves: 32, nonlinearity_halvings: 4 }}
-  member: {{ search: false }}
-",
-            block = json_map(&block),
-            priors = bl_prior
-                .iter()
-                .chain(&block_prior)
-                .cloned()
-                .collect::<Vec<_>>()
-                .join(", "),
+        let priors = bl_prior
+            .iter()
+            .chain(&block_prior)
+            .cloned()
+            .collect::<Vec<_>>()
+            .join(", ");
+        let text = chain_spec(
+            tag,
+            &block,
+            seed,
+            "amplitudes: 30",
+            &format!("length: {length}, amplitude: {amplitude:?}, levels: {levels}"),
+            &priors,
+            "max_cells: 600, max_leaves: 32, nonlinearity_halvings: 4",
         );
         assert_true_chain_inside(tag, &text, &block);
         eprintln!("{tag}: truth inside every bound");
@@ -287,40 +310,25 @@ fn steady_points_give_polygons_through_a_block_that_passes_their_steps() {
                 .map(|(n, p)| format!("in1.{n}: [{:?}, {:?}]", p.0, p.1))
                 .collect();
             let levels = if rng.gen_bool(0.5) { 2 } else { 8 };
-            let text = format!(
-                "name: steady-polygons-{tag}
-plant:
-  simulator:
-    a: [0.5, 0.7]
-    b: [0.0, 1.4, 0.8]
-    nonlinearity: {{ type: output_backlash, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 }}
-    input: [ {{ type: {tag}, {block} }} ]
-noise: {{ encoder_bits: 15 }}
-experiment:
-  seed: {seed}
-  filter: {{ pole: 0.8125 }}
-  steady_state: {{ amplitudes: {amps}, min: {amin:?}, max: {amax:?}, shuffle: {shuffle} }}
-  dynamic: {{ length: {length}, amplitude: {amplitude:?}, levels: {levels} }}
-model:
-  nonlinearity: {{ type: output_backlash }}
-  input: [ {{ type: {tag} }} ]
-  na: 2
-  nb: 2
-  fixed: {{ b0: 0.0 }}
-  prior: {{ {priors} }}
-method:
-  alpha: zero
-  eiv: classical
-  cells: {{ max_cells: 600, max_leaves: 32 }}
-  member: {{ search: false }}
-",
-                block = json_map(&block),
-                amps = rng.gen_range(20..40),
-                amin = rng.gen_range(0.3..0.7),
-                shuffle = rng.gen_bool(0.5),
-                length = rng.gen_range(200..320),
-                amplitude = rng.gen_range(1.0..2.0),
-                priors = block_prior.join(", "),
+            let steady = format!(
+                "amplitudes: {}, min: {:?}, max: {amax:?}, shuffle: {}",
+                rng.gen_range(20..40),
+                rng.gen_range(0.3..0.7),
+                rng.gen_bool(0.5)
+            );
+            let dynamic = format!(
+                "length: {}, amplitude: {:?}, levels: {levels}",
+                rng.gen_range(200..320),
+                rng.gen_range(1.0..2.0)
+            );
+            let text = chain_spec(
+                tag,
+                &block,
+                seed,
+                &steady,
+                &dynamic,
+                &block_prior.join(", "),
+                "max_cells: 600, max_leaves: 32",
             );
             assert_true_chain_inside(tag, &text, &block);
         }
