@@ -92,8 +92,7 @@ pub struct DataScale {
     pub y_max: f64,
     /// Longest training record (samples), steady-state record included.
     pub length: usize,
-    /// Range of the outputs `[min y, max y]` and of the inputs, over every training record
-    /// and the steady-state points.
+    /// Range of the outputs `[min y, max y]` and of the inputs.
     pub y_range: (f64, f64),
     pub u_range: (f64, f64),
     /// The declared noise bound `Δη`, where the caller knows one (a diagnosis of a spec that

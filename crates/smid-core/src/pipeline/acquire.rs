@@ -142,9 +142,8 @@ pub fn simulate_experiments(spec: &Spec, plant: &mut dyn Plant) -> Result<Experi
     })
 }
 
-/// The scale of the training data: largest `|y|`, longest record, the ranges of the inputs
-/// and outputs (steady-state points included in each), for default priors and the
-/// resolution of bisected parameters.
+/// The scale of the training data: largest `|y|`, longest record (steady-state record
+/// included), for default priors and the resolution of bisected parameters.
 pub fn data_scale(data: &ExperimentData) -> DataScale {
     let mut y_max = 0.0f64;
     let mut length = 0usize;
@@ -164,11 +163,6 @@ pub fn data_scale(data: &ExperimentData) -> DataScale {
     }
     if let Some(s) = &data.steady {
         y_max = y_max.max(s.points.iter().fold(0.0, |m, p| m.max(p.y.abs())));
-        // The steady-state experiment's levels are inputs and outputs the blocks saw too.
-        for p in &s.points {
-            widen(&mut y_range, p.y);
-            widen(&mut u_range, p.u);
-        }
         length = length.max(
             s.points
                 .iter()
@@ -424,58 +418,4 @@ pub fn run_with_plant(spec: &Spec, plant: &mut dyn Plant) -> Result<Outcome<Iden
     let data = simulate_experiments(spec, plant)?;
     let truth = plant_truth(spec, plant)?;
     identify(spec, data, &truth)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::nonlinearity::SteadyPoint;
-    use rand::{Rng, SeedableRng};
-
-    /// The ranges a default prior is drawn from hold every input and output the blocks saw:
-    /// the dynamic records' and the steady-state points' (random sizes and values; the
-    /// steady-state levels are drawn wider than the records half the time).
-    #[test]
-    fn the_data_ranges_hold_the_steady_state_points_too() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-        for _ in 0..50 {
-            let (a, b) = (rng.gen_range(0.5..2.0), rng.gen_range(0.5..4.0));
-            let mut draw =
-                |n: usize, s: f64| -> Vec<f64> { (0..n).map(|_| rng.gen_range(-s..s)).collect() };
-            let records: Vec<Record> = (0..2)
-                .map(|k| {
-                    let n = 5 + 3 * k;
-                    Record::measured(format!("r{k}"), draw(n, a), draw(n, a), 0.01, 1.0)
-                })
-                .collect();
-            let (su, sy) = (draw(7, b), draw(7, b));
-            let steady = SteadyStateData {
-                points: su
-                    .iter()
-                    .zip(&sy)
-                    .enumerate()
-                    .map(|(i, (&u, &y))| SteadyPoint::new(i, u, y, 0.01))
-                    .collect(),
-            };
-            let all = |f: fn(&Record) -> &Vec<f64>, s: &[f64]| {
-                records
-                    .iter()
-                    .flat_map(|r| f(r).iter().copied())
-                    .chain(s.iter().copied())
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
-                        (l.min(v), h.max(v))
-                    })
-            };
-            let (u_all, y_all) = (all(|r| &r.u, &su), all(|r| &r.y, &sy));
-            let data = ExperimentData {
-                steady: Some(steady),
-                steady_record: None,
-                records,
-                filter: None,
-            };
-            let scale = data_scale(&data);
-            assert_eq!(scale.u_range, u_all);
-            assert_eq!(scale.y_range, y_all);
-        }
-    }
 }
