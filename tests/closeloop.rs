@@ -500,8 +500,8 @@ model:
   output: [ {{ type: saturation }} ]
   prior: {{ out1.m_l: [1.0, 1.0], out1.s_l: [40.0, 40.0], out1.m_r: [1.0, 1.0], out1.s_r: [5.0, 20.0] }}
 method:
-  cells: {{ nonlinearity_halvings: 4, max_cells: 2000, max_leaves: 64 }}
-  member: {{ probe: 16, cells: 2, spread: false }}
+  cells: {{ nonlinearity_halvings: 3, max_cells: 2000, max_leaves: 64 }}
+  member: {{ probe: 8, cells: 2, spread: false }}
 ",
         data.display()
     );
@@ -540,11 +540,12 @@ method:
         m.training_fit,
         m.centre_training_fit
     );
-    let v = validate_on(set, &set.training.records.clone());
+    // The label `validate` and the reports print for the member (a whole validation on the
+    // training records would only repeat it, at minutes of LPs).
+    let label = smid::core::members::representative_label(set);
     assert!(
-        v.member.contains("NOT certified") || v.member.contains("not certified"),
-        "{}",
-        v.member
+        label.contains("NOT certified") || label.contains("not certified"),
+        "{label}"
     );
 }
 
