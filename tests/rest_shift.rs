@@ -53,33 +53,17 @@ fn spec_text(seed: u64, plant_effect: &str, tag: &str, rest: &str, rng: &mut imp
     let levels = if rng.gen_bool(0.5) { 2 } else { 8 };
     let length = rng.gen_range(150..260);
     let amplitude = rng.gen_range(0.8..1.6);
-    format!(
-        "name: rest-shift-{tag}
-plant:
-  simulator:
-    a: [0.5, 0.7]
-    b: [0.0, 1.4, 0.8]
-    nonlinearity: {{ type: output_backlash, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 }}
-    effects: [ {plant_effect} ]
-noise: {{ encoder_bits: 15 }}
-experiment:
-  seed: {seed}
-  filter: {{ pole: 0.8125 }}
-  steady_state: {{ amplitudes: 30 }}
-  dynamic: {{ length: {length}, amplitude: {amplitude:?}, levels: {levels} }}
-model:
-  nonlinearity: {{ type: output_backlash }}
-  na: 2
-  nb: 2
-  fixed: {{ b0: 0.0 }}
-  unit_gain: true
-  effects: [ {{ type: {tag} }} ]
-  prior: {{ {rest}: [-0.4, 0.4] }}
-method:
-  alpha: zero
-  eiv: classical
-  member: {{ search: false }}
-"
+    common::paper_plant_spec(
+        &format!("rest-shift-{tag}"),
+        seed,
+        &format!("    effects: [ {plant_effect} ]\n"),
+        &format!(
+            "  steady_state: {{ amplitudes: 30 }}\n  dynamic: {{ length: {length}, amplitude: {amplitude:?}, levels: {levels} }}\n"
+        ),
+        &format!(
+            "  unit_gain: true\n  effects: [ {{ type: {tag} }} ]\n  prior: {{ {rest}: [-0.4, 0.4] }}\n"
+        ),
+        "",
     )
 }
 

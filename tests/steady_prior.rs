@@ -82,34 +82,16 @@ fn chain_spec(
     priors: &str,
     cells: &str,
 ) -> String {
-    format!(
-        "name: steady-prior-{tag}
-plant:
-  simulator:
-    a: [0.5, 0.7]
-    b: [0.0, 1.4, 0.8]
-    nonlinearity: {{ type: output_backlash, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 }}
-    input: [ {{ type: {tag}, {block} }} ]
-noise: {{ encoder_bits: 15 }}
-experiment:
-  seed: {seed}
-  filter: {{ pole: 0.8125 }}
-  steady_state: {{ {steady} }}
-  dynamic: {{ {dynamic} }}
-model:
-  nonlinearity: {{ type: output_backlash }}
-  input: [ {{ type: {tag} }} ]
-  na: 2
-  nb: 2
-  fixed: {{ b0: 0.0 }}
-  prior: {{ {priors} }}
-method:
-  alpha: zero
-  eiv: classical
-  cells: {{ {cells} }}
-  member: {{ search: false }}
-",
-        block = json_map(block),
+    common::paper_plant_spec(
+        &format!("steady-prior-{tag}"),
+        seed,
+        &format!(
+            "    input: [ {{ type: {tag}, {block} }} ]\n",
+            block = json_map(block)
+        ),
+        &format!("  steady_state: {{ {steady} }}\n  dynamic: {{ {dynamic} }}\n"),
+        &format!("  input: [ {{ type: {tag} }} ]\n  prior: {{ {priors} }}\n"),
+        &format!("  cells: {{ {cells} }}\n"),
     )
 }
 

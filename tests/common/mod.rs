@@ -79,3 +79,43 @@ pub fn assert_same_bounds(a: &pipeline::Identification, b: &pipeline::Identifica
         );
     }
 }
+
+/// A spec of the paper's Section 6 plant (`a = [0.5, 0.7]`, `b = [0, 1.4, 0.8]`, output
+/// backlash, 15-bit encoder, filter pole 0.8125) identified as a Wiener model with output
+/// backlash (`na = nb = 2`, `b0` fixed at 0, `alpha: zero`, classical stage 3, no member
+/// search). Each `&str` is YAML lines added to its section, indented by four spaces for
+/// `plant` (inside `simulator`) and two for the others: chain blocks and effects of the plant
+/// and the model, the experiment's `steady_state` and `dynamic`, the model's prior and the
+/// method's budget.
+#[allow(dead_code)] // not every test file uses every helper
+pub fn paper_plant_spec(
+    name: &str,
+    seed: u64,
+    plant: &str,
+    experiment: &str,
+    model: &str,
+    method: &str,
+) -> String {
+    format!(
+        "name: {name}
+plant:
+  simulator:
+    a: [0.5, 0.7]
+    b: [0.0, 1.4, 0.8]
+    nonlinearity: {{ type: output_backlash, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 }}
+{plant}noise: {{ encoder_bits: 15 }}
+experiment:
+  seed: {seed}
+  filter: {{ pole: 0.8125 }}
+{experiment}model:
+  nonlinearity: {{ type: output_backlash }}
+  na: 2
+  nb: 2
+  fixed: {{ b0: 0.0 }}
+{model}method:
+  alpha: zero
+  eiv: classical
+  member: {{ search: false }}
+{method}"
+    )
+}
