@@ -173,33 +173,15 @@ fn steady_points_prune_a_bisected_nonlinearity_behind_any_input_block() {
 /// falling steady points) is proven inconsistent at stage 1, by the steady-state points alone.
 #[test]
 fn steady_points_falsify_a_box_away_from_the_truth() {
-    let text = "name: steady-prior-away
-plant:
-  simulator:
-    a: [0.5, 0.7]
-    b: [0.0, 1.4, 0.8]
-    nonlinearity: { type: output_backlash, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 }
-    input: [ { type: dead_zone, m_l: 1.0, c_l: 0.1, m_r: 1.0, c_r: 0.15 } ]
-noise: { encoder_bits: 15 }
-experiment:
-  seed: 3
-  filter: { pole: 0.8125 }
-  steady_state: { amplitudes: 20 }
-  dynamic: { length: 200, amplitude: 1.5, levels: 8 }
-model:
-  nonlinearity: { type: output_backlash }
-  input: [ { type: dead_zone } ]
-  na: 2
-  nb: 2
-  fixed: { b0: 0.0 }
-  prior: { m_l: [0.30, 0.32], c_l: [0.0, 0.01], m_r: [0.24, 0.26], c_r: [0.02, 0.05], in1.m_l: [1.0, 1.0], in1.c_l: [0.05, 0.2], in1.m_r: [1.0, 1.0], in1.c_r: [0.05, 0.2] }
-method:
-  alpha: zero
-  eiv: classical
-  cells: { max_cells: 200, max_leaves: 8, nonlinearity_halvings: 3 }
-  member: { search: false }
-";
-    let spec = smid::parse_spec(text, std::path::Path::new("<steady-prior-away>")).unwrap();
+    let text = common::paper_plant_spec(
+        "steady-prior-away",
+        3,
+        "    input: [ { type: dead_zone, m_l: 1.0, c_l: 0.1, m_r: 1.0, c_r: 0.15 } ]\n",
+        "  steady_state: { amplitudes: 20 }\n  dynamic: { length: 200, amplitude: 1.5, levels: 8 }\n",
+        "  input: [ { type: dead_zone } ]\n  prior: { m_l: [0.30, 0.32], c_l: [0.0, 0.01], m_r: [0.24, 0.26], c_r: [0.02, 0.05], in1.m_l: [1.0, 1.0], in1.c_l: [0.05, 0.2], in1.m_r: [1.0, 1.0], in1.c_r: [0.05, 0.2] }\n",
+        "  cells: { max_cells: 200, max_leaves: 8, nonlinearity_halvings: 3 }\n",
+    );
+    let spec = smid::parse_spec(&text, std::path::Path::new("<steady-prior-away>")).unwrap();
     match smid::run_spec(&spec, std::path::Path::new("."), &|_| {}) {
         Ok(Outcome::Falsified(f)) => assert_eq!(
             f.stage,
