@@ -910,6 +910,58 @@ fn a_quantiser_declared_or_identified_through_the_spec_holds_the_truth() {
     );
 }
 
+/// The smallest consistent bound's proven end is sound: on fresh records whose noise is scaled
+/// down to a fraction of the model's bound (drawn from the plant, `y = w + s·e`), the truth
+/// admits them at their largest noise, so no check below the model's bound (each starting
+/// from the bounds of a larger one) may prove them inconsistent there. Examples of several
+/// plugins and structures, fraction drawn per example.
+#[test]
+fn the_smallest_bound_is_never_proven_above_the_noise_the_records_carry() {
+    let names = [
+        "bias",
+        "dead-zone-input",
+        "dead-zone-output",
+        "example-gain",
+        "saturation",
+        "wiener-hammerstein",
+        "paper",
+    ];
+    use rayon::prelude::*;
+    names.par_iter().enumerate().for_each(|(i, name)| {
+        let path = root().join(format!("examples/{name}.yaml"));
+        let mut src = closeloop::load_source(&path).unwrap();
+        src.spec.method.member.search = false;
+        let id = smid::run_spec(&src.spec, &src.base, &|_| {})
+            .unwrap_or_else(|e| panic!("{name}: {e}"))
+            .unwrap();
+        let fresh =
+            closeloop::fresh_records(&src.spec, &src.base, &[], 2001 + i as u64, 300, 1).unwrap();
+        // A fraction in [0.2, 0.7) from the example's index (a fixed, varied draw).
+        let s = 0.2 + 0.5 * ((i as f64 * 0.618_033_988_75).fract());
+        let mut noise = 0.0f64;
+        let scaled: Vec<_> = fresh
+            .iter()
+            .map(|r| {
+                let w = r.w.clone().expect("a simulated record carries its noise-free output");
+                let mut r = r.with_bound(id.model.delta);
+                for (y, w) in r.y.iter_mut().zip(&w) {
+                    *y = w + s * (*y - w);
+                    noise = noise.max((*y - w).abs());
+                }
+                r
+            })
+            .collect();
+        let (lo, hi) = validate::smallest_bound(&id.model, &scaled, 0.02, None)
+            .unwrap()
+            .expect("consistent at the model's bound");
+        assert!(
+            lo <= noise * (1.0 + 1e-9),
+            "{name}: proven inconsistent below {lo:e}, above the records' largest noise {noise:e} (scale {s})"
+        );
+        assert!(lo <= hi && hi <= id.model.delta, "{name}: [{lo:e}, {hi:e}]");
+    });
+}
+
 /// A model whose cells leave stage 2's intervals wider than the noise on a fresh record (a
 /// sensor drift: `offset + drift·t` over each cell) is not contradicted by the record at any
 /// bound: the smallest consistent bound is then `(0, 0)`, said at once instead of halving

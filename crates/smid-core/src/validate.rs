@@ -23,9 +23,10 @@
 //!   a noise bound estimated from the data, a cell budget that stopped the bisection.
 use crate::baseline::Arx;
 use crate::error::{Result, SmidError};
+use crate::interval::Interval;
 use crate::members;
 use crate::model::{BoundSource, ModelSet, Record};
-use crate::outcome::lift;
+use crate::outcome::{lift, Outcome};
 use crate::pipeline::{relabel, stage2, stage3};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -254,18 +255,35 @@ fn centre_out(model: &ModelSet) -> Vec<usize> {
     members::cells_from_centre(model)
 }
 
-/// One cell against the training records plus `fresh`: `None` when consistent, else where
-/// the fresh data contradict it (the first offending sample with `locate`; a verdict alone
-/// does not look for it).
+/// One cell against the training records plus `fresh`: `Ok(bounds)` when consistent (stage
+/// 3's θ bounds of the joint equations, `None` when unbounded), else where the fresh data
+/// contradict it (the first offending sample with `locate`; a verdict alone does not look for
+/// it).
+///
+/// `warm`: a box known to hold every θ of the cell consistent with these records (the bounds
+/// of the same cell at a larger fresh bound: the set only shrinks with the bound), intersected
+/// with the model's prior for stage 3 to start from. A tighter start proves no contradiction
+/// that is not there; it may prove one a wider start misses. (The cell's own training bounds
+/// are not used so: a stage 3 restarted from its own bounds tightens further, and on the
+/// measured examples proves their training records inconsistent at the estimated bound.)
 fn check_cell(
     model: &ModelSet,
     k: usize,
     records: &[Record],
     locate: bool,
-) -> Result<Option<Falsification>> {
+    warm: Option<&[Interval]>,
+) -> Result<std::result::Result<Option<Vec<Interval>>, Falsification>> {
     let layout = model.layout()?;
     let nt = model.training.records.len();
     let c = &model.cells[k];
+    let prior = warm.map(|w| match &layout.theta_prior {
+        Some(p) if p.len() == w.len() => w
+            .iter()
+            .zip(p)
+            .map(|(a, b)| a.intersect(b).unwrap_or(*a))
+            .collect::<Vec<_>>(),
+        _ => w.to_vec(),
+    });
     let found = (|| {
         let sig = stage2(
             &model.model,
@@ -274,27 +292,40 @@ fn check_cell(
             &c.cell,
             records,
         )?;
-        match stage3(&model.model, layout, &model.method, &sig, None, locate) {
+        match stage3(
+            &model.model,
+            layout,
+            &model.method,
+            &sig,
+            prior.as_deref(),
+            locate,
+        ) {
+            Ok(r) => Ok(Some(r.bounds)),
             // Unbounded is not a contradiction.
-            Ok(_) | Err(SmidError::Unbounded { .. }) => Ok(()),
+            Err(SmidError::Unbounded { .. }) => Ok(None),
             Err(e) => Err(relabel(e, &sig)),
         }
     })();
     // `(record, sample)` in the joint records: a fresh record's index follows the training
     // records'. An inconsistency inside the training records (possible only when the training
     // set changed) is reported as record 0 and named in the detail.
-    Ok(lift(found)?.falsification().cloned().map(|f| {
-        if f.record < nt {
-            Falsification {
-                detail: format!("in the training record {}: {}", f.record, f.detail),
-                record: 0,
-                ..f
-            }
-        } else {
-            Falsification {
-                record: f.record - nt,
-                ..f
-            }
+    let falsified = match lift(found)? {
+        Outcome::Consistent(bounds) => return Ok(Ok(bounds)),
+        Outcome::Falsified(f) => f,
+    };
+    Ok(Err(if falsified.record < nt {
+        Falsification {
+            detail: format!(
+                "in the training record {}: {}",
+                falsified.record, falsified.detail
+            ),
+            record: 0,
+            ..falsified
+        }
+    } else {
+        Falsification {
+            record: falsified.record - nt,
+            ..falsified
         }
     }))
 }
@@ -322,7 +353,7 @@ fn consistency_located(model: &ModelSet, fresh: &[Record], locate: bool) -> Resu
             if found.load(Ordering::Relaxed) {
                 return Ok(None);
             }
-            let r = check_cell(model, k, &records, locate);
+            let r = check_cell(model, k, &records, locate, None).map(|c| c.err());
             if matches!(r, Ok(None)) {
                 found.store(true, Ordering::Relaxed);
             }
@@ -413,6 +444,17 @@ pub fn smallest_bound(
         hi *= 2.0;
     }
     let res = resolution.max(1e-6);
+    // A cell's check: its θ bounds when it admits the data (kept to warm-start its next,
+    // smaller bound), `None` when contradicted. A cell the solver cannot check counts as
+    // contradicted here (its own bound stays unknown).
+    let check = |k: usize, d: f64, warm: Option<&[Interval]>| -> Result<Option<Vec<Interval>>> {
+        match check_cell(model, k, &with(d), false, warm) {
+            Ok(Ok(bounds)) => Ok(Some(bounds.unwrap_or_default())),
+            Ok(Err(_)) | Err(SmidError::Solver(_)) => Ok(None),
+            Err(e) => Err(e),
+        }
+    };
+    let warm_of = |b: &[Interval]| (!b.is_empty()).then(|| b.to_vec());
     // Each cell: can it go below the best bound so far? The candidates are checked in
     // parallel in chunks at the current target, then bisected one by one.
     let order = centre_out(model);
@@ -421,36 +463,32 @@ pub fn smallest_bound(
         if target <= lo_set {
             break;
         }
-        let recs = with(target);
-        // A cell the solver cannot check is skipped here (its own bound stays unknown).
-        let pass: Vec<Result<bool>> = chunk
-            .par_iter()
-            .map(|&k| match check_cell(model, k, &recs, false) {
-                Ok(r) => Ok(r.is_none()),
-                Err(SmidError::Solver(_)) => Ok(false),
-                Err(e) => Err(e),
-            })
-            .collect();
+        let pass: Vec<Result<Option<Vec<Interval>>>> =
+            chunk.par_iter().map(|&k| check(k, target, None)).collect();
         for (&k, p) in chunk.iter().zip(pass) {
-            if !p? {
-                continue;
-            }
+            let Some(at_target) = p? else { continue };
+            let mut warm = warm_of(&at_target);
             // Bisect this cell between the set's lower end and the target.
             let (mut a, mut b) = (lo_set, hi * (1.0 - res));
             if b <= a {
                 continue;
             }
             // The best bound may have dropped since the chunk was checked: check again.
-            if b < target && !matches!(check_cell(model, k, &with(b), false), Ok(None)) {
-                continue;
+            if b < target {
+                match check(k, b, warm.as_deref())? {
+                    Some(bounds) => warm = warm_of(&bounds),
+                    None => continue,
+                }
             }
             let mut n = 0;
             while b - a > res * b && n < 40 {
                 let mid = 0.5 * (a + b);
-                if matches!(check_cell(model, k, &with(mid), false), Ok(None)) {
-                    b = mid;
-                } else {
-                    a = mid;
+                match check(k, mid, warm.as_deref())? {
+                    Some(bounds) => {
+                        b = mid;
+                        warm = warm_of(&bounds);
+                    }
+                    None => a = mid,
                 }
                 n += 1;
                 if a == 0.0 && b < VACUOUS_BELOW * d0 {
