@@ -88,3 +88,49 @@ fn method_options_reach_the_method_and_are_checked() {
         "{e}"
     );
 }
+
+/// Rounds stopped at their cap before they settled are reported, not hidden: the bounds still
+/// hold, but the set may be far smaller or empty. One round of `shared` on the paper's data
+/// is flagged in every cell, in the model set read back from `result.json`, in the run's
+/// report and among `validate`'s warnings; the default twelve rounds settle there, and the
+/// classical method has no rounds.
+#[test]
+fn rounds_stopped_at_their_cap_are_reported() {
+    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
+    let run = |m: &str| {
+        smid::run_spec(&paper_with(m).unwrap(), &base, &|_| {})
+            .unwrap()
+            .unwrap()
+    };
+    let one = run("  eiv: shared\n  options: { max_rounds: 1 }\n");
+    assert!(
+        one.model
+            .cells
+            .iter()
+            .all(|c| c.unsettled.is_some_and(|g| g >= 0.03)),
+        "{:?}",
+        one.model
+            .cells
+            .iter()
+            .map(|c| c.unsettled)
+            .collect::<Vec<_>>()
+    );
+    let warning = one
+        .model
+        .duplicate()
+        .unsettled_warning()
+        .expect("read back from result.json, the model set still says so");
+    assert!(warning.contains("max_rounds"), "{warning}");
+    assert!(smid::core::report::table(&one).contains(&warning));
+    let v = smid::core::validate::validate(
+        &one.model,
+        &one.model.training.records,
+        &Default::default(),
+    )
+    .unwrap();
+    assert!(v.warnings.contains(&warning), "{:?}", v.warnings);
+    for settled in ["  eiv: shared\n", "  eiv: classical\n"] {
+        let id = run(settled);
+        assert_eq!(id.model.unsettled_warning(), None, "{settled}");
+    }
+}

@@ -438,6 +438,11 @@ pub struct CellSet {
     pub nonlinearity: Box<dyn NonlinearitySet>,
     /// Stage 3: guaranteed `θ` intervals over this cell (fixed entries degenerate).
     pub theta: Vec<Interval>,
+    /// Stage 3's rounds stopped at their cap before they settled (the last round's largest
+    /// relative shrinkage): `theta` holds, but the set may be far smaller or empty
+    /// ([`crate::stage3::EivResult::unsettled`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unsettled: Option<f64>,
 }
 
 impl CellSet {
@@ -606,6 +611,23 @@ impl ModelSet {
     pub fn duplicate(&self) -> ModelSet {
         serde_json::from_value(serde_json::to_value(self).expect("model sets serialise"))
             .expect("a serialised model set deserialises")
+    }
+
+    /// What to tell an engineer when stage 3's rounds stopped at their cap before they settled
+    /// in some cell ([`CellSet::unsettled`]): the bounds hold, but the set may be far smaller
+    /// or empty, so a "consistent" verdict built on it proves less than it says. `None` when
+    /// every cell settled.
+    pub fn unsettled_warning(&self) -> Option<String> {
+        let gains: Vec<f64> = self.cells.iter().filter_map(|c| c.unsettled).collect();
+        let worst = gains.iter().copied().fold(f64::NAN, f64::max);
+        (!gains.is_empty()).then(|| {
+            format!(
+                "stage 3's rounds stopped at their cap before they settled in {} of {} cell(s) (the last round still shrank a radius by {:.1} %): the bounds hold, but the set may be far smaller, or empty (the data would then falsify the model); raise `method.options.max_rounds` to know",
+                gains.len(),
+                self.cells.len(),
+                100.0 * worst
+            )
+        })
     }
 
     /// The parameters (`name = value ∉ [lower, upper]`) whose reported bounds miss the

@@ -78,6 +78,9 @@ pub fn table(id: &Identification) -> String {
             );
         }
     }
+    if let Some(w) = id.model.unsettled_warning() {
+        let _ = writeln!(s, "warning: {w}");
+    }
     let inverted = id
         .inner
         .iter()

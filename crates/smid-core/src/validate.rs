@@ -594,6 +594,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
             }
         }
     }
+    warnings.extend(model.unsettled_warning());
     if model.bound_source == BoundSource::Estimated {
         warnings.push(
             "the noise bound was estimated from the training data, not given: the verdicts hold for that estimate, not as a prior guarantee".into(),

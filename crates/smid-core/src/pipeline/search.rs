@@ -336,6 +336,7 @@ pub fn identify_with(
                 kept.push(CellSet {
                     nonlinearity: stage1(model, &layout, training.steady.as_ref(), &leaf.cell)?,
                     theta: vec![Interval::entire(); layout.theta_names.len()],
+                    unsettled: None,
                     cell: leaf.cell,
                 });
             }

@@ -528,6 +528,7 @@ pub fn evaluate_cell(
             cell: cell.to_vec(),
             nonlinearity: set,
             theta: r.bounds,
+            unsettled: r.unsettled,
         })
     })();
     match outcome {

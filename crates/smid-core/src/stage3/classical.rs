@@ -353,6 +353,7 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
         bounds,
         equations,
         feasible_orthants: feasible,
+        unsettled: None,
     })
 }
 

@@ -138,6 +138,7 @@ impl ExactResult {
             bounds: self.outer.clone(),
             equations: self.equations.clone(),
             feasible_orthants: 0,
+            unsettled: None,
         }
     }
 }
@@ -1020,6 +1021,7 @@ mod tests {
             bounds: vec![Interval::new(-1.0, 1.0); 6],
             equations: prob.equation_times(),
             feasible_orthants: 1,
+            unsettled: None,
         };
         assert!(matches!(
             solve_from(&prob, &start, &quick(), || {}),

@@ -90,6 +90,11 @@ pub struct EivResult {
     pub equations: Vec<usize>,
     /// Number of sign orthants whose LP was feasible.
     pub feasible_orthants: usize,
+    /// `Some(g)` when a method that shrinks the box in rounds (`shared`, `sdp`) stopped at its
+    /// round cap before they settled, its last round shrinking a radius by the fraction `g`:
+    /// the bounds hold, but more rounds would tighten them, and the set may be far smaller or
+    /// empty. `None` when the rounds settled or the method has none.
+    pub unsettled: Option<f64>,
 }
 
 /// Parameter names in θ order: `a1..a_na, b0..b_nb`.
@@ -455,6 +460,7 @@ impl schemars::JsonSchema for EivMethod {
 ///     bounds: vec![smid_core::interval::Interval::new(1.0, 1.0)],
 ///     equations: vec![],
 ///     feasible_orthants: 0,
+///     unsettled: None,
 /// };
 /// assert_eq!(Keep.solve_from(&prob, start).unwrap().bounds[0].lo, 1.0);
 /// ```
@@ -534,6 +540,7 @@ pub fn prior_start(prob: &EivProblem) -> Result<EivResult> {
         bounds: prob.start_box()?,
         equations: prob.equation_times(),
         feasible_orthants: 0,
+        unsettled: None,
     })
 }
 

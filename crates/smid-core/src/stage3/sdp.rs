@@ -483,6 +483,7 @@ mod imp {
         let model = SharedModel::new(prob, start.equations.clone());
         let mut tb = start.bounds.clone();
         let mut db = model.initial_deltas();
+        let mut unsettled = None;
         for _round in 0..opts.max_rounds.max(1) {
             for _ in 0..2 {
                 if let Some(t) = model.propagate(&tb, &mut db) {
@@ -509,13 +510,16 @@ mod imp {
                 tb[k] = new;
             }
             if gain < opts.min_improvement {
+                unsettled = None;
                 break;
             }
+            unsettled = Some(gain);
         }
         Ok(EivResult {
             bounds: tb,
             equations: start.equations,
             feasible_orthants: start.feasible_orthants,
+            unsettled,
         })
     }
 

@@ -102,6 +102,8 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
     let mut db = model.initial_deltas();
     let mut ws = (model.times.len() >= opts.working_set_from)
         .then(|| WorkingSet::new(&model.times, window_len(prob, &start.bounds)));
+    // The last round's largest relative shrinkage, until the rounds settle.
+    let mut unsettled = None;
     for round in 0..opts.max_rounds.max(1) {
         for _ in 0..2 {
             if let Some(t) = model.propagate(&tb, &mut db) {
@@ -142,13 +144,16 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
             "shared: round {round}: radii shrank by up to {gain:.4}, conclusive: {conclusive}"
         );
         if gain < opts.min_improvement && conclusive {
+            unsettled = None;
             break;
         }
+        unsettled = Some(gain);
     }
     Ok(EivResult {
         bounds: tb,
         equations: start.equations,
         feasible_orthants: start.feasible_orthants,
+        unsettled,
     })
 }
 
