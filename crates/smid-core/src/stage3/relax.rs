@@ -532,3 +532,67 @@ pub(crate) fn tighten(old: Interval, lo: Option<f64>, hi: Option<f64>) -> Option
     };
     Some((new, gain))
 }
+
+/// What one round of a relaxation found at the current boxes.
+pub(crate) enum Round {
+    /// Guaranteed ends of the free θ (in `model.free` order), and whether they are the whole
+    /// relaxation's (a working set's bounds alone, guaranteed but perhaps looser, do not end
+    /// the rounds).
+    Bounds(FreeBounds, bool),
+    /// The relaxation admits no point at the current boxes.
+    Empty,
+}
+
+/// The box-shrinking rounds of a relaxation (`shared`, `sdp`): propagate the `δ` boxes twice
+/// (a sample they empty is a finding at `t`, [`inconsistent`]), take the round's guaranteed
+/// ends of the free θ, intersect (ends that do not meet, or an empty round, are the finding
+/// `emptied` makes), until no radius shrinks by `min_improvement` in a conclusive round or
+/// `max_rounds` are spent. Returns the last round's largest shrinkage when the rounds stopped
+/// at the cap before they settled (`EivResult::unsettled`), `None` when they settled.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn shrink_rounds(
+    model: &SharedModel,
+    tb: &mut [Interval],
+    max_rounds: usize,
+    min_improvement: f64,
+    method: &str,
+    mut round: impl FnMut(&[Interval], &[Interval]) -> Result<Round>,
+    emptied: impl Fn(&[Interval], &[Interval]) -> Result<SmidError>,
+    inconsistent: impl Fn(usize) -> SmidError,
+) -> Result<Option<f64>> {
+    let mut db = model.initial_deltas();
+    let mut unsettled = None;
+    for r in 0..max_rounds.max(1) {
+        for _ in 0..2 {
+            if let Some(t) = model.propagate(tb, &mut db) {
+                return Err(inconsistent(t));
+            }
+        }
+        let (found, conclusive) = match round(tb, &db)? {
+            Round::Bounds(found, conclusive) => (found, conclusive),
+            Round::Empty => return Err(emptied(tb, &db)?),
+        };
+        let mut new = Vec::with_capacity(found.len());
+        let mut gain: f64 = 0.0;
+        for (&k, &(lo, hi)) in model.free.iter().zip(&found) {
+            // Two guaranteed bounds that do not meet: no θ is consistent.
+            let Some((b, g)) = tighten(tb[k], lo, hi) else {
+                return Err(emptied(tb, &db)?);
+            };
+            gain = gain.max(g);
+            new.push((k, b));
+        }
+        for (k, b) in new {
+            tb[k] = b;
+        }
+        log::debug!(
+            target: "smid::stage3",
+            "{method}: round {r}: radii shrank by up to {gain:.4}, conclusive: {conclusive}"
+        );
+        if gain < min_improvement && conclusive {
+            return Ok(None);
+        }
+        unsettled = Some(gain);
+    }
+    Ok(unsettled)
+}

@@ -137,7 +137,7 @@ mod imp {
     use crate::interval::Interval;
     use crate::lp::RESULT_PAD;
     use crate::sparse_lp::{conic_solver, csc, merge, padded_rows, PaddedRows};
-    use crate::stage3::relax::{tighten, SharedModel};
+    use crate::stage3::relax::{shrink_rounds, Round, SharedModel};
     use clarabel::solver::{DefaultSolver, IPSolver, SupportedConeT};
     use std::collections::HashMap;
 
@@ -482,39 +482,31 @@ mod imp {
         prob.validate()?;
         let model = SharedModel::new(prob, start.equations.clone());
         let mut tb = start.bounds.clone();
-        let mut db = model.initial_deltas();
-        let mut unsettled = None;
-        for _round in 0..opts.max_rounds.max(1) {
-            for _ in 0..2 {
-                if let Some(t) = model.propagate(&tb, &mut db) {
-                    return Err(inconsistent(t));
+        let unsettled = shrink_rounds(
+            &model,
+            &mut tb,
+            opts.max_rounds,
+            opts.min_improvement,
+            "sdp",
+            |tb, db| {
+                let mut solver = Conic::build(&model, tb, db)?.solver()?;
+                let mut found = Vec::with_capacity(model.free.len());
+                for c in 0..model.free.len() {
+                    found.push((solver.bound(c, false)?, solver.bound(c, true)?));
                 }
-            }
-            let mut solver = Conic::build(&model, &tb, &db)?.solver()?;
-            let mut gain: f64 = 0.0;
-            for (c, &k) in model.free.iter().enumerate() {
-                let old = tb[k];
-                let lo = solver.bound(c, false)?;
-                let hi = solver.bound(c, true)?;
-                let Some((new, g)) = tighten(old, lo, hi) else {
-                    // Two guaranteed bounds that do not meet: no θ is consistent.
-                    // (The first offending equation is not looked for: named the last one.)
-                    let t = *model.times.last().unwrap_or(&0);
-                    return Err(SmidError::inconsistent_unlocated(
-                        Stage::Linear,
-                        t,
-                        message(t),
-                    ));
-                };
-                gain = gain.max(g);
-                tb[k] = new;
-            }
-            if gain < opts.min_improvement {
-                unsettled = None;
-                break;
-            }
-            unsettled = Some(gain);
-        }
+                Ok(Round::Bounds(found, true))
+            },
+            // The first offending equation is not looked for: named the last one.
+            |_, _| {
+                let t = *model.times.last().unwrap_or(&0);
+                Ok(SmidError::inconsistent_unlocated(
+                    Stage::Linear,
+                    t,
+                    message(t),
+                ))
+            },
+            inconsistent,
+        )?;
         Ok(EivResult {
             bounds: tb,
             equations: start.equations,

@@ -15,7 +15,7 @@
 //! record's round may end on a working set's bounds, `working_set.rs`). As the θ box
 //! shrinks the envelopes become exact, so the result approaches the exact feasible set (see
 //! [`super::exact_grid`]).
-use super::relax::{bound_free, feasible_free, tighten, SharedModel};
+use super::relax::{bound_free, feasible_free, shrink_rounds, Round, SharedModel};
 use super::working_set::{bound_free_ws, window_len, WorkingSet};
 use super::{EivMethod, EivProblem, EivResult, Stage3Method};
 use crate::error::{Result, SmidError, Stage};
@@ -99,56 +99,33 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
     prob.validate()?;
     let model = SharedModel::new(prob, start.equations.clone());
     let mut tb = start.bounds.clone();
-    let mut db = model.initial_deltas();
     let mut ws = (model.times.len() >= opts.working_set_from)
         .then(|| WorkingSet::new(&model.times, window_len(prob, &start.bounds)));
-    // The last round's largest relative shrinkage, until the rounds settle.
-    let mut unsettled = None;
-    for round in 0..opts.max_rounds.max(1) {
-        for _ in 0..2 {
-            if let Some(t) = model.propagate(&tb, &mut db) {
-                return Err(inconsistent(t));
-            }
-        }
-        // `conclusive`: the bounds are the whole LP's (a round that ended on a working set's
-        // bounds alone, guaranteed but perhaps looser, does not end the rounds).
-        let (found, conclusive) = match ws.as_mut() {
-            Some(w) => {
-                let found = bound_free_ws(&model, &tb, &db, w)?;
-                if w.retired(model.times.len()) {
-                    ws = None;
+    let unsettled = shrink_rounds(
+        &model,
+        &mut tb,
+        opts.max_rounds,
+        opts.min_improvement,
+        "shared",
+        |tb, db| {
+            let found = match ws.as_mut() {
+                Some(w) => {
+                    let found = bound_free_ws(&model, tb, db, w)?;
+                    if w.retired(model.times.len()) {
+                        ws = None;
+                    }
+                    found
                 }
-                match found {
-                    Some((b, conclusive)) => (Some(b), conclusive),
-                    None => (None, true),
-                }
-            }
-            None => (bound_free(&model, &tb, &db, &model.times)?, true),
-        };
-        let Some(found) = found else {
-            return Err(emptied(prob, &model, &tb, &db)?);
-        };
-        let mut gain: f64 = 0.0;
-        for (c, &k) in model.free.iter().enumerate() {
-            let old = tb[k];
-            let (lo, hi) = found[c];
-            let Some((new, g)) = tighten(old, lo, hi) else {
-                // Two guaranteed bounds that do not meet: no θ is consistent.
-                return Err(emptied(prob, &model, &tb, &db)?);
+                None => bound_free(&model, tb, db, &model.times)?.map(|b| (b, true)),
             };
-            gain = gain.max(g);
-            tb[k] = new;
-        }
-        log::debug!(
-            target: "smid::stage3",
-            "shared: round {round}: radii shrank by up to {gain:.4}, conclusive: {conclusive}"
-        );
-        if gain < opts.min_improvement && conclusive {
-            unsettled = None;
-            break;
-        }
-        unsettled = Some(gain);
-    }
+            Ok(match found {
+                Some((b, conclusive)) => Round::Bounds(b, conclusive),
+                None => Round::Empty,
+            })
+        },
+        |tb, db| emptied(prob, &model, tb, db),
+        inconsistent,
+    )?;
     Ok(EivResult {
         bounds: tb,
         equations: start.equations,
