@@ -456,9 +456,17 @@ pub fn write_validation(v: &Validation, dir: &Path, prefix: &str) -> Result<Vec<
 
 fn verdict_text(t: &diagnose::TrainVerdict) -> String {
     match t {
-        diagnose::TrainVerdict::Consistent { fit_percent, bound } => format!(
-            "consistent at bound {bound:.3e}, training free-run fit {}",
-            pct(*fit_percent)
+        diagnose::TrainVerdict::Consistent {
+            fit_percent,
+            bound,
+            unsettled,
+        } => format!(
+            "consistent at bound {bound:.3e}, training free-run fit {}{}",
+            pct(*fit_percent),
+            unsettled.map_or(String::new(), |g| format!(
+                " (stage 3's rounds not settled: the last shrank a radius by {:.1} %, so more rounds may falsify it)",
+                100.0 * g
+            ))
         ),
         diagnose::TrainVerdict::Falsified {
             stage,

@@ -129,6 +129,25 @@ fn rounds_stopped_at_their_cap_are_reported() {
     )
     .unwrap();
     assert!(v.warnings.contains(&warning), "{:?}", v.warnings);
+    // The diagnosis's verdicts carry it too: the model as declared, consistent on its training
+    // records only as far as one round can tell.
+    let mut src = smid::closeloop::Source {
+        spec: paper_with("  eiv: shared\n  options: { max_rounds: 1 }\n").unwrap(),
+        base: base.clone(),
+        model: None,
+    };
+    let data = smid::closeloop::training_data(&mut src).unwrap();
+    let only = smid::core::diagnose::Options {
+        only: vec!["delay".into()],
+        ..Default::default()
+    };
+    let c = smid::core::diagnose::choose(&src.spec, &data, &only, &|_, _| {}).unwrap();
+    match &c.rounds[0].base_train {
+        smid::core::diagnose::TrainVerdict::Consistent { unsettled, .. } => {
+            assert!(unsettled.is_some_and(|g| g >= 0.03), "{unsettled:?}")
+        }
+        other => panic!("the paper's data falsify its model: {other:?}"),
+    }
     for settled in ["  eiv: shared\n", "  eiv: classical\n"] {
         let id = run(settled);
         assert_eq!(id.model.unsettled_warning(), None, "{settled}");

@@ -80,6 +80,11 @@ pub enum TrainVerdict {
         fit_percent: f64,
         /// The noise bound the model was identified with (estimated ones differ per model).
         bound: f64,
+        /// Stage 3's rounds stopped at their cap before they settled in some cell: the largest
+        /// last-round shrinkage ([`ModelSet::unsettled`]). The verdict then says only that the
+        /// capped rounds did not falsify the model; more rounds may.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        unsettled: Option<f64>,
     },
     /// The training data falsify the model.
     Falsified {
@@ -751,6 +756,7 @@ fn try_model_with(
                 TrainVerdict::Consistent {
                     fit_percent: fit,
                     bound,
+                    unsettled: id.model.unsettled(),
                 },
                 Some(id),
             )
@@ -1703,6 +1709,7 @@ mod tests {
         let ok = TrainVerdict::Consistent {
             fit_percent: 0.0,
             bound: 1.0,
+            unsettled: None,
         };
         assert!(ok.reach() > f(lin, 9, 999, true).reach());
     }
@@ -1717,6 +1724,7 @@ mod tests {
                 Some(f) => TrainVerdict::Consistent {
                     fit_percent: f,
                     bound: 1e-3,
+                    unsettled: None,
                 },
                 None => TrainVerdict::Failed {
                     message: "falsified".into(),

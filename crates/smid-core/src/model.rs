@@ -619,8 +619,7 @@ impl ModelSet {
     /// every cell settled.
     pub fn unsettled_warning(&self) -> Option<String> {
         let gains: Vec<f64> = self.cells.iter().filter_map(|c| c.unsettled).collect();
-        let worst = gains.iter().copied().fold(f64::NAN, f64::max);
-        (!gains.is_empty()).then(|| {
+        self.unsettled().map(|worst| {
             format!(
                 "stage 3's rounds stopped at their cap before they settled in {} of {} cell(s) (the last round still shrank a radius by {:.1} %): the bounds hold, but the set may be far smaller, or empty (the data would then falsify the model); raise `method.options.max_rounds` to know",
                 gains.len(),
@@ -628,6 +627,15 @@ impl ModelSet {
                 100.0 * worst
             )
         })
+    }
+
+    /// The largest last-round shrinkage over the cells whose stage-3 rounds stopped at their
+    /// cap before they settled ([`CellSet::unsettled`]); `None` when every cell settled.
+    pub fn unsettled(&self) -> Option<f64> {
+        self.cells
+            .iter()
+            .filter_map(|c| c.unsettled)
+            .reduce(f64::max)
     }
 
     /// The parameters (`name = value ∉ [lower, upper]`) whose reported bounds miss the
