@@ -399,6 +399,16 @@ fn consistency_located(model: &ModelSet, fresh: &[Record], locate: bool) -> Resu
 /// taken to admit them at any bound ([`smallest_bound`] answers `(0, 0)`).
 pub const VACUOUS_BELOW: f64 = 1e-9;
 
+/// One cell's verdict at one bound of the [`smallest_bound`] search.
+enum CellCheck {
+    /// The cell admits the records: stage 3's θ bounds of the joint equations, `None` when
+    /// unbounded (a box to start the same cell's check at a smaller bound from: the set only
+    /// shrinks with the bound).
+    Admits(Option<Vec<Interval>>),
+    /// The records contradict the cell, or the solver could not check it.
+    Refuses,
+}
+
 /// The smallest noise bound of the fresh records for which they are consistent with the
 /// model set, as a bracket `[lo, hi]` (relative width `resolution`): the data provably
 /// contradict every cell below `lo`, and some cell admits them at `hi`. `None` when even
@@ -444,17 +454,15 @@ pub fn smallest_bound(
         hi *= 2.0;
     }
     let res = resolution.max(1e-6);
-    // A cell's check: its θ bounds when it admits the data (kept to warm-start its next,
-    // smaller bound), `None` when contradicted. A cell the solver cannot check counts as
-    // contradicted here (its own bound stays unknown).
-    let check = |k: usize, d: f64, warm: Option<&[Interval]>| -> Result<Option<Vec<Interval>>> {
+    // A cell's check. A cell the solver cannot check counts as contradicted here (its own
+    // bound stays unknown).
+    let check = |k: usize, d: f64, warm: Option<&[Interval]>| -> Result<CellCheck> {
         match check_cell(model, k, &with(d), false, warm) {
-            Ok(Ok(bounds)) => Ok(Some(bounds.unwrap_or_default())),
-            Ok(Err(_)) | Err(SmidError::Solver(_)) => Ok(None),
+            Ok(Ok(bounds)) => Ok(CellCheck::Admits(bounds)),
+            Ok(Err(_)) | Err(SmidError::Solver(_)) => Ok(CellCheck::Refuses),
             Err(e) => Err(e),
         }
     };
-    let warm_of = |b: &[Interval]| (!b.is_empty()).then(|| b.to_vec());
     // Each cell: can it go below the best bound so far? The candidates are checked in
     // parallel in chunks at the current target, then bisected one by one.
     let order = centre_out(model);
@@ -463,11 +471,12 @@ pub fn smallest_bound(
         if target <= lo_set {
             break;
         }
-        let pass: Vec<Result<Option<Vec<Interval>>>> =
+        let pass: Vec<Result<CellCheck>> =
             chunk.par_iter().map(|&k| check(k, target, None)).collect();
         for (&k, p) in chunk.iter().zip(pass) {
-            let Some(at_target) = p? else { continue };
-            let mut warm = warm_of(&at_target);
+            let CellCheck::Admits(mut warm) = p? else {
+                continue;
+            };
             // Bisect this cell between the set's lower end and the target.
             let (mut a, mut b) = (lo_set, hi * (1.0 - res));
             if b <= a {
@@ -476,19 +485,19 @@ pub fn smallest_bound(
             // The best bound may have dropped since the chunk was checked: check again.
             if b < target {
                 match check(k, b, warm.as_deref())? {
-                    Some(bounds) => warm = warm_of(&bounds),
-                    None => continue,
+                    CellCheck::Admits(bounds) => warm = bounds,
+                    CellCheck::Refuses => continue,
                 }
             }
             let mut n = 0;
             while b - a > res * b && n < 40 {
                 let mid = 0.5 * (a + b);
                 match check(k, mid, warm.as_deref())? {
-                    Some(bounds) => {
+                    CellCheck::Admits(bounds) => {
                         b = mid;
-                        warm = warm_of(&bounds);
+                        warm = bounds;
                     }
-                    None => a = mid,
+                    CellCheck::Refuses => a = mid,
                 }
                 n += 1;
                 if a == 0.0 && b < VACUOUS_BELOW * d0 {
