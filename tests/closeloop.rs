@@ -318,10 +318,10 @@ fn a_declared_offset_is_bounded_around_the_truth_by_the_branch_and_bound() {
 
 /// Every run example (the specs in `examples/`; `examples/diagnose/` holds training data with
 /// an undeclared effect by design) validates on a fresh record of its own plant: CONSISTENT,
-/// PASS, and its free run fits. The record's noise is scaled down to a fraction of what the
-/// plant drew (`y = w + s·e`, `s` per example), so the truth admits it at its largest noise and
-/// no check of the smallest consistent bound (each starting from the bounds of a larger one)
-/// may prove it inconsistent there.
+/// PASS, and its free run fits. The same record with its noise scaled down to a fraction of
+/// what the plant drew (`y = w + s·e`, `s` per example) is admitted by the truth at its largest
+/// noise, so no check of the smallest consistent bound (each starting from the bounds of a
+/// larger one) may prove it inconsistent there.
 #[test]
 fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
     let paths = common::yaml_files(&root().join("examples"));
@@ -357,12 +357,23 @@ fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
         src.model = Some(id.model);
         let length = src.spec.experiment.dynamic.length;
         let fresh = closeloop::fresh_records(&src.spec, &src.base, &[], 1001, length, 1).unwrap();
-        // The record's noise scaled to a fraction s in [0.2, 0.7) of what the plant drew (a
-        // fixed, varied draw from the example's index): `y = w + s·e`, within the bound.
+        let v = validate_on(src.model.as_ref().unwrap(), &fresh);
+        assert!(
+            v.consistency.consistent && v.pass,
+            "{}: {:?} {:?}",
+            path.display(),
+            v.consistency,
+            v.smallest_bound
+        );
+        // The same record with its noise scaled to a fraction s in [0.2, 0.7) of what the
+        // plant drew (a fixed, varied draw from the example's index): `y = w + s·e`. The
+        // smallest consistent bound's proven end never lies above the largest noise it
+        // carries (the bisection starts each check from the last consistent one's bounds,
+        // which must stay guaranteed), and its consistent end is at most the bound.
         let delta = src.model.as_ref().unwrap().delta;
         let s = 0.2 + 0.5 * ((i as f64 * 0.618_033_988_75).fract());
         let mut noise = 0.0f64;
-        let fresh: Vec<_> = fresh
+        let scaled: Vec<_> = fresh
             .iter()
             .map(|r| {
                 let w =
@@ -376,18 +387,9 @@ fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
                 r
             })
             .collect();
-        let v = validate_on(src.model.as_ref().unwrap(), &fresh);
-        assert!(
-            v.consistency.consistent && v.pass,
-            "{}: {:?} {:?}",
-            path.display(),
-            v.consistency,
-            v.smallest_bound
-        );
-        // The smallest consistent bound's proven end never lies above the largest noise the
-        // record carries (the bisection starts each check from the last consistent one's
-        // bounds, which must stay guaranteed), and its consistent end is at most the bound.
-        let (lo, hi) = v.smallest_bound.expect("consistent at the model's bound");
+        let (lo, hi) = validate::smallest_bound(src.model.as_ref().unwrap(), &scaled, 0.02, None)
+            .unwrap()
+            .expect("consistent at the model's bound");
         assert!(
             lo <= noise * (1.0 + 1e-9) && lo <= hi && hi <= delta,
             "{}: [{lo:e}, {hi:e}], the record's largest noise {noise:e} (scale {s}), bound {delta:e}",

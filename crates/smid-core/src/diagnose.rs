@@ -83,7 +83,7 @@ pub enum TrainVerdict {
         /// Stage 3's rounds stopped at their cap before they settled in some cell: the largest
         /// last-round shrinkage ([`ModelSet::unsettled`]). The verdict then says only that the
         /// capped rounds did not falsify the model; more rounds may.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
+        #[serde(skip_serializing_if = "Option::is_none")]
         unsettled: Option<f64>,
     },
     /// The training data falsify the model.
