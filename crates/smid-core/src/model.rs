@@ -618,11 +618,11 @@ impl ModelSet {
     /// or empty, so a "consistent" verdict built on it proves less than it says. `None` when
     /// every cell settled.
     pub fn unsettled_warning(&self) -> Option<String> {
-        let gains: Vec<f64> = self.cells.iter().filter_map(|c| c.unsettled).collect();
+        let capped = self.cells.iter().filter(|c| c.unsettled.is_some()).count();
         self.unsettled().map(|worst| {
             format!(
                 "stage 3's rounds stopped at their cap before they settled in {} of {} cell(s) (the last round still shrank a radius by {:.1} %): the bounds hold, but the set may be far smaller, or empty (the data would then falsify the model); raise `method.options.max_rounds` to know",
-                gains.len(),
+                capped,
                 self.cells.len(),
                 100.0 * worst
             )

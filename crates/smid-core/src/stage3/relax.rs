@@ -543,23 +543,37 @@ pub(crate) enum Round {
     Empty,
 }
 
+/// When the rounds of [`shrink_rounds`] stop, and the method they are logged under.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct RoundLimits {
+    /// At most this many rounds (at least one runs).
+    pub max_rounds: usize,
+    /// Settled: no radius shrank by this fraction in a conclusive round.
+    pub min_improvement: f64,
+    /// The method's name, for the log.
+    pub method: &'static str,
+}
+
 /// The box-shrinking rounds of a relaxation (`shared`, `sdp`): propagate the `δ` boxes twice
 /// (a sample they empty is a finding at `t`, [`inconsistent`]), take the round's guaranteed
 /// ends of the free θ, intersect (ends that do not meet, or an empty round, are the finding
-/// `emptied` makes), until no radius shrinks by `min_improvement` in a conclusive round or
-/// `max_rounds` are spent. Returns the last round's largest shrinkage when the rounds stopped
-/// at the cap before they settled (`EivResult::unsettled`), `None` when they settled.
-#[allow(clippy::too_many_arguments)]
+/// `emptied` makes), until no radius shrinks by `limits.min_improvement` in a conclusive round
+/// or `limits.max_rounds` are spent. Returns the last round's largest shrinkage when the rounds
+/// stopped at the cap before they settled (`EivResult::unsettled`), `None` when they settled.
+/// A round must give one pair of ends per free θ, in `model.free`'s order.
 pub(crate) fn shrink_rounds(
     model: &SharedModel,
     tb: &mut [Interval],
-    max_rounds: usize,
-    min_improvement: f64,
-    method: &str,
+    limits: RoundLimits,
     mut round: impl FnMut(&[Interval], &[Interval]) -> Result<Round>,
     emptied: impl Fn(&[Interval], &[Interval]) -> Result<SmidError>,
     inconsistent: impl Fn(usize) -> SmidError,
 ) -> Result<Option<f64>> {
+    let RoundLimits {
+        max_rounds,
+        min_improvement,
+        method,
+    } = limits;
     let mut db = model.initial_deltas();
     let mut unsettled = None;
     for r in 0..max_rounds.max(1) {
@@ -572,6 +586,13 @@ pub(crate) fn shrink_rounds(
             Round::Bounds(found, conclusive) => (found, conclusive),
             Round::Empty => return Err(emptied(tb, &db)?),
         };
+        if found.len() != model.free.len() {
+            return Err(SmidError::Solver(format!(
+                "{method}: a round gave {} pairs of ends for {} free parameters",
+                found.len(),
+                model.free.len()
+            )));
+        }
         let mut new = Vec::with_capacity(found.len());
         let mut gain: f64 = 0.0;
         for (&k, &(lo, hi)) in model.free.iter().zip(&found) {

@@ -137,7 +137,7 @@ mod imp {
     use crate::interval::Interval;
     use crate::lp::RESULT_PAD;
     use crate::sparse_lp::{conic_solver, csc, merge, padded_rows, PaddedRows};
-    use crate::stage3::relax::{shrink_rounds, Round, SharedModel};
+    use crate::stage3::relax::{shrink_rounds, Round, RoundLimits, SharedModel};
     use clarabel::solver::{DefaultSolver, IPSolver, SupportedConeT};
     use std::collections::HashMap;
 
@@ -485,9 +485,11 @@ mod imp {
         let unsettled = shrink_rounds(
             &model,
             &mut tb,
-            opts.max_rounds,
-            opts.min_improvement,
-            "sdp",
+            RoundLimits {
+                max_rounds: opts.max_rounds,
+                min_improvement: opts.min_improvement,
+                method: super::NAME,
+            },
             |tb, db| {
                 let mut solver = Conic::build(&model, tb, db)?.solver()?;
                 let mut found = Vec::with_capacity(model.free.len());

@@ -15,7 +15,7 @@
 //! record's round may end on a working set's bounds, `working_set.rs`). As the θ box
 //! shrinks the envelopes become exact, so the result approaches the exact feasible set (see
 //! [`super::exact_grid`]).
-use super::relax::{bound_free, feasible_free, shrink_rounds, Round, SharedModel};
+use super::relax::{bound_free, feasible_free, shrink_rounds, Round, RoundLimits, SharedModel};
 use super::working_set::{bound_free_ws, window_len, WorkingSet};
 use super::{EivMethod, EivProblem, EivResult, Stage3Method};
 use crate::error::{Result, SmidError, Stage};
@@ -104,9 +104,11 @@ pub fn solve_from(prob: &EivProblem, start: EivResult, opts: &SharedOptions) -> 
     let unsettled = shrink_rounds(
         &model,
         &mut tb,
-        opts.max_rounds,
-        opts.min_improvement,
-        "shared",
+        RoundLimits {
+            max_rounds: opts.max_rounds,
+            min_improvement: opts.min_improvement,
+            method: NAME,
+        },
         |tb, db| {
             let found = match ws.as_mut() {
                 Some(w) => {
