@@ -11,6 +11,7 @@ mod common;
 
 use rand::{Rng, SeedableRng};
 use smid_core::effect::{self, Signals};
+use smid_core::interval::Interval;
 use smid_core::outcome::Outcome;
 
 /// The paper's backlash and linear block (`A(1) = 2.2`), `(name, value)`.
@@ -84,12 +85,30 @@ fn a_term_that_shifts_the_rest_keeps_every_bound_around_the_truth_with_steady_st
                 .scaled_example(f)
                 .unwrap();
             let value = serde_json::to_value(&plant_effect).unwrap();
-            // The true shift at rest from the plant side: its equation term on a record at rest.
-            let still = vec![0.0; 8];
-            let term = plant_effect
-                .plant_equation(&Signals::input(&still, 1.0))
-                .expect("a term of the linear equation");
-            let shift = term.last().unwrap() / A1;
+            // The true shift at rest from the plant side: its equation term on a record at rest
+            // at the unit input (what the rest parameter is), over the plant's A(1).
+            let at_rest = |v: f64| {
+                let still = vec![v; 8];
+                let term = plant_effect
+                    .plant_equation(&Signals::input(&still, 1.0))
+                    .expect("a term of the linear equation");
+                term.last().unwrap() / A1
+            };
+            let shift = at_rest(1.0);
+            // The model's shift at other steady inputs, from that parameter, holds the plant's.
+            let entry = effect::effect_entry(tag).unwrap();
+            let cand = (entry.candidates)().into_iter().next().unwrap();
+            let model_term = cand.as_equation().expect("a term of the linear equation");
+            for _ in 0..5 {
+                let v = rng.gen_range(-2.0..2.0);
+                let s = Interval::new(shift, shift);
+                let got = model_term.rest_shift(Interval::new(v, v), s);
+                assert!(
+                    got.contains(at_rest(v)),
+                    "{tag}: at the steady input {v} the plant shifts by {}, the model by {got:?}",
+                    at_rest(v)
+                );
+            }
             let mut truth: Vec<(String, f64)> =
                 TRUTH.iter().map(|(n, v)| (n.to_string(), *v)).collect();
             truth.push((rest.clone(), shift));

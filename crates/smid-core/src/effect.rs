@@ -224,6 +224,16 @@ pub trait EquationTerm {
         let h = 0.5 * (scale.u_range.1 - scale.u_range.0).abs();
         Interval::new(-h, h)
     }
+    /// The shift `x̄ - v̄` of the linear block's output at rest, at the steady input `v` (an
+    /// interval) over the cell `s` of [`EquationTerm::rest_parameter`]: a guaranteed interval.
+    /// The rest parameter is the term's shift at the unit steady input, `Σ c_k φ_k / A(1)` on
+    /// a record at rest at `v̄ = 1`; a term whose shift grows with the steady input says how
+    /// here. Default: `s` (a constant shift, the same at every input). A parallel path `c·u_t`
+    /// gives `v·s` (`x̄ = v̄ + v̄·c/A(1)`).
+    fn rest_shift(&self, v: Interval, s: Interval) -> Interval {
+        let _ = v;
+        s
+    }
 }
 
 /// Model side: an output term `s_t` (an offset, a drift) known up to parameters `ψ` that the
@@ -669,18 +679,20 @@ pub fn measured(effects: &[Box<dyn Effect>], psi: &[&[f64]], t: usize, w: f64) -
     y + sum_over(add, Some(t)).map_or(0.0, |s| s.center())
 }
 
-/// The shift `s` of the linear block's output at rest, summed over the terms that name one
-/// ([`EquationTerm::rest_parameter`]), over a cell where `cells[i]` is effect `i`'s slice (the
-/// rest parameter last in it): a guaranteed interval, `[0, 0]` when no term names one.
-pub fn rest_shift(effects: &[Box<dyn Effect>], cells: &[&[Interval]]) -> Interval {
+/// The shift of the linear block's output at rest at the steady input `v`, summed over the
+/// terms that name one ([`EquationTerm::rest_parameter`], [`EquationTerm::rest_shift`]), over a
+/// cell where `cells[i]` is effect `i`'s slice (the rest parameter last in it): a guaranteed
+/// interval, `[0, 0]` when no term names one.
+pub fn rest_shift(effects: &[Box<dyn Effect>], cells: &[&[Interval]], v: Interval) -> Interval {
     let (mut lo, mut hi) = (0.0, 0.0);
     for (e, c) in effects.iter().zip(cells) {
         // The shift is in the cell only where the model has it (its prior given), after the
         // sensor's parameters.
         if e.rest_parameter().is_some() && c.len() > e.sensor_parameters().len() {
-            if let Some(s) = c.last() {
-                lo += s.lo;
-                hi += s.hi;
+            if let (Some(s), Some(term)) = (c.last(), e.as_equation()) {
+                let d = term.rest_shift(v, *s);
+                lo += d.lo;
+                hi += d.hi;
             }
         }
     }

@@ -346,15 +346,15 @@ pub(super) fn theta_truth(layout: &Layout, lin: &crate::linear::LinearModel) -> 
 
 /// The true shift at rest of each model term that names one
 /// ([`crate::effect::EquationTerm::rest_parameter`]): `Σ c_k φ_k(rest) / A(1)`, the term's
-/// regressors on a record at rest and its coefficients' true values (by column name); none
-/// where a coefficient's truth is unknown or `A(1) = 0`.
+/// regressors on a record at rest at the unit input and its coefficients' true values (by
+/// column name); none where a coefficient's truth is unknown or `A(1) = 0`.
 fn rest_truth(
     spec: &Spec,
     lin: &crate::linear::LinearModel,
     truth: &[(String, f64)],
 ) -> Vec<(String, f64)> {
     let a1 = 1.0 + lin.a.iter().sum::<f64>();
-    let rest = vec![0.0; 8];
+    let rest = vec![1.0; 8];
     let signals = crate::effect::Signals::input(&rest, 1.0);
     spec.model
         .effects

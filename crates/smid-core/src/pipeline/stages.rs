@@ -207,7 +207,7 @@ fn prune_by_steady_points(
         let Some(v) = chain::forward_steady(&input, Interval::new(p.u - p.du, p.u + p.du))? else {
             continue;
         };
-        let s = effect::rest_shift(&model.effects, &slices);
+        let s = effect::rest_shift(&model.effects, &slices, v);
         let v = Interval::new(v.lo + s.lo, v.hi + s.hi).outward();
         if x.intersect(&v.outward()).is_none() {
             return Err(SmidError::inconsistent(
@@ -246,7 +246,8 @@ fn rest_shifted(
     slices: &[&[Interval]],
     p: &mut crate::nonlinearity::SteadyPoint,
 ) -> Result<()> {
-    let s = effect::rest_shift(&model.effects, slices);
+    let u = Interval::new(p.u - p.du, p.u + p.du);
+    let s = effect::rest_shift(&model.effects, slices, u);
     if s.lo == 0.0 && s.hi == 0.0 {
         return Ok(());
     }
