@@ -404,3 +404,21 @@ fn an_undeclared_constant_is_offered_with_steady_state_data_and_named() {
         named_trial("constant", seed);
     }
 }
+
+/// A parallel path of the input (`c·u_t` in the linear equation) with the designed
+/// steady-state experiment: at rest it scales the linear block's output (`x̄ = v̄ + v̄·c/A(1)`
+/// under unit gain), so the diagnosis offers it with its gain at rest bisected
+/// (`EquationTerm::rest_shift`) and it is named with the truth inside every bound. Before, a
+/// term whose shift at rest grows with the input was not offered with steady-state data, and
+/// the row was 0/10 (6/10 since). Seed 1 of `smid diagnose-check`.
+#[test]
+fn an_undeclared_parallel_path_is_offered_with_steady_state_data_and_named() {
+    let t = named_trial("parallel_input", 1);
+    assert!(
+        t.equivalent
+            || t.chosen
+                .iter()
+                .any(|c| c.starts_with("parallel linear path")),
+        "{t:?}"
+    );
+}
