@@ -208,13 +208,14 @@ pub trait EquationTerm {
         true
     }
     /// A term that does not vanish at rest may still be used with steady-state data when it
-    /// only **shifts** the linear block's output there: with unit gain (eq 8), `x̄ = v̄ + s`
-    /// for an unknown constant `s` (a constant term `c`: `s = c/A(1)`). The shift is then a
-    /// parameter of its own, named here, that the branch and bound bisects over
-    /// [`EquationTerm::rest_prior`]; stage 1 carries each steady input as `v̄ + s` over the
-    /// cell, and stage 3 bounds the term's coefficients beside `θ` as before (the coupling
-    /// `c = A(1)·s` is left out: a relaxation, so every bound stays guaranteed). Default: none
-    /// (the term vanishes at rest, or steady-state data are refused with it).
+    /// only **shifts** the linear block's output there by an amount its parameter fixes: with
+    /// unit gain (eq 8), `x̄ = v̄ + s` (a constant term `c`: `s = c/A(1)`; a shift that
+    /// grows with the input, [`EquationTerm::rest_shift`]). The shift's parameter is then one
+    /// of its own, named here, that the branch and bound bisects over
+    /// [`EquationTerm::rest_prior`]; stage 1 carries each steady point over the cell as
+    /// `x̄ = v̄ + s`, and stage 3 bounds the term's coefficients beside `θ` as before (the
+    /// coupling `c = A(1)·s` is left out: a relaxation, so every bound stays guaranteed).
+    /// Default: none (the term vanishes at rest, or steady-state data are refused with it).
     fn rest_parameter(&self) -> Option<String> {
         None
     }
@@ -224,14 +225,15 @@ pub trait EquationTerm {
         let h = 0.5 * (scale.u_range.1 - scale.u_range.0).abs();
         Interval::new(-h, h)
     }
-    /// The shift `x̄ - v̄` of the linear block's output at rest, at the steady input `v` (an
-    /// interval) over the cell `s` of [`EquationTerm::rest_parameter`]: a guaranteed interval.
-    /// The rest parameter is the term's shift at the unit steady input, `Σ c_k φ_k / A(1)` on
-    /// a record at rest at `v̄ = 1`; a term whose shift grows with the steady input says how
-    /// here. Default: `s` (a constant shift, the same at every input). A parallel path `c·u_t`
-    /// gives `v·s` (`x̄ = v̄ + v̄·c/A(1)`).
-    fn rest_shift(&self, v: Interval, s: Interval) -> Interval {
-        let _ = v;
+    /// The shift `x̄ - v̄` of the linear block's output at rest (`v̄` its input), at the
+    /// **measured** steady input `u` (an interval; the terms' regressors read the measured
+    /// input, before any block) over the cell `s` of [`EquationTerm::rest_parameter`]: a
+    /// guaranteed interval. The rest parameter is the term's shift at the unit measured input,
+    /// `Σ c_k φ_k / A(1)` on a record at rest at `ū = 1`; a term whose shift grows with the
+    /// input says how here. Default: `s`, whatever the input (a constant shift). A parallel
+    /// path `c·u_t` gives `u·s` (`x̄ = v̄ + ū·c/A(1)`).
+    fn rest_shift(&self, u: Interval, s: Interval) -> Interval {
+        let _ = u;
         s
     }
 }
@@ -679,18 +681,18 @@ pub fn measured(effects: &[Box<dyn Effect>], psi: &[&[f64]], t: usize, w: f64) -
     y + sum_over(add, Some(t)).map_or(0.0, |s| s.center())
 }
 
-/// The shift of the linear block's output at rest at the steady input `v`, summed over the
+/// The shift of the linear block's output at rest at the measured steady input `u`, summed over the
 /// terms that name one ([`EquationTerm::rest_parameter`], [`EquationTerm::rest_shift`]), over a
 /// cell where `cells[i]` is effect `i`'s slice (the rest parameter last in it): a guaranteed
 /// interval, `[0, 0]` when no term names one.
-pub fn rest_shift(effects: &[Box<dyn Effect>], cells: &[&[Interval]], v: Interval) -> Interval {
+pub fn rest_shift(effects: &[Box<dyn Effect>], cells: &[&[Interval]], u: Interval) -> Interval {
     let (mut lo, mut hi) = (0.0, 0.0);
     for (e, c) in effects.iter().zip(cells) {
         // The shift is in the cell only where the model has it (its prior given), after the
         // sensor's parameters.
         if e.rest_parameter().is_some() && c.len() > e.sensor_parameters().len() {
             if let (Some(s), Some(term)) = (c.last(), e.as_equation()) {
-                let d = term.rest_shift(v, *s);
+                let d = term.rest_shift(u, *s);
                 lo += d.lo;
                 hi += d.hi;
             }

@@ -840,8 +840,9 @@ impl EquationTerm for ParallelInput {
     fn vanishes_at_steady_state(&self) -> bool {
         false
     }
-    /// At rest `A(1)·x̄ = B(1)·v̄ + c·v̄`: with unit gain, `x̄ = v̄ + v̄·g` for the gain at rest
-    /// `g = c/A(1)`, the shift at the unit steady input.
+    /// At rest `A(1)·x̄ = B(1)·v̄ + c·ū` (`ū` the measured input, `v̄` the linear block's):
+    /// with unit gain, `x̄ = v̄ + ū·g` for the gain at rest `g = c/A(1)`, the shift at the
+    /// unit measured input.
     fn rest_parameter(&self) -> Option<String> {
         Some("parallel_gain_at_rest".into())
     }
@@ -850,9 +851,9 @@ impl EquationTerm for ParallelInput {
     fn rest_prior(&self, _scale: &DataScale) -> Interval {
         Interval::new(-0.5, 0.5)
     }
-    /// `v·g` over the boxes of both, rounded outward.
-    fn rest_shift(&self, v: Interval, g: Interval) -> Interval {
-        let p = [v.lo * g.lo, v.lo * g.hi, v.hi * g.lo, v.hi * g.hi];
+    /// `u·g` over the boxes of both, rounded outward.
+    fn rest_shift(&self, u: Interval, g: Interval) -> Interval {
+        let p = [u.lo * g.lo, u.lo * g.hi, u.hi * g.lo, u.hi * g.hi];
         let lo = p.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = p.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         Interval::new(lo, hi).outward()

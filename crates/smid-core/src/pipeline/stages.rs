@@ -126,6 +126,8 @@ fn stage1_with(
         }
     }
     for p in &mut data.points {
+        // The measured steady input, which the terms' shift at rest reads.
+        let measured = Interval::new(p.u - p.du, p.u + p.du);
         (p.y, p.dy) = effect::true_output(&model.effects, &slices, p.time, p.y, p.dy)?
             .ok_or_else(|| no_true_output(p.index))?;
         if !outputs.is_empty() {
@@ -146,7 +148,7 @@ fn stage1_with(
             }
             *p = q;
         }
-        rest_shifted(model, &slices, p)?;
+        rest_shifted(model, &slices, p, measured)?;
     }
     // A point an output block leaves unknown (a clipped saturation) bounds nothing: it is left
     // out of stage 1 (fewer points can only widen the set).
@@ -207,7 +209,12 @@ fn prune_by_steady_points(
         let Some(v) = chain::forward_steady(&input, Interval::new(p.u - p.du, p.u + p.du))? else {
             continue;
         };
-        let s = effect::rest_shift(&model.effects, &slices, v);
+        // The terms read the measured input (`c·u_t`), not what the input side makes of it.
+        let s = effect::rest_shift(
+            &model.effects,
+            &slices,
+            Interval::new(p.u - p.du, p.u + p.du),
+        );
         let v = Interval::new(v.lo + s.lo, v.hi + s.hi).outward();
         if x.intersect(&v.outward()).is_none() {
             return Err(SmidError::inconsistent(
@@ -228,7 +235,7 @@ fn prune_by_steady_points(
 pub(crate) fn not_at_rest(e: &dyn effect::Effect, what: &str) -> String {
     match e.rest_parameter() {
         Some(n) => format!(
-            "{what} need every term to vanish at rest or have its shift there bounded, and `{}` shifts the linear block's output at rest: give that shift a prior box, `model.prior.{n}: [lo, hi]` (in the input's units; the diagnosis takes half the input's range)",
+            "{what} need every term to vanish at rest or have its shift there bounded, and `{}` shifts the linear block's output at rest: give that shift a prior box, `model.prior.{n}: [lo, hi]` (the shift at the unit input; a diagnosis gives each term its default box)",
             e.label()
         ),
         None => format!(
@@ -238,16 +245,19 @@ pub(crate) fn not_at_rest(e: &dyn effect::Effect, what: &str) -> String {
     }
 }
 
-/// A steady point's input moved by the terms' shift at rest over the cell
-/// ([`effect::rest_shift`]): `v̄ + s`, an interval, so the nonlinearity must honour an input
-/// radius. Nothing changes when no term names a shift.
+/// A steady point moved by the terms' shift at rest over the cell ([`effect::rest_shift`] at
+/// the `measured` steady input, before any block): at rest the linear block's output is
+/// `x̄ = v̄ + s` (unit gain, eq 8). Wiener: the nonlinearity reads `x̄`, so its input becomes
+/// `v̄ + s`, an interval it must honour as an input radius. Hammerstein: the nonlinearity's
+/// output is `v̄ = x̄ - s`, so the point's output moves and its input stays. Nothing changes
+/// when no term names a shift.
 fn rest_shifted(
     model: &ModelSpec,
     slices: &[&[Interval]],
     p: &mut crate::nonlinearity::SteadyPoint,
+    measured: Interval,
 ) -> Result<()> {
-    let u = Interval::new(p.u - p.du, p.u + p.du);
-    let s = effect::rest_shift(&model.effects, slices, u);
+    let s = effect::rest_shift(&model.effects, slices, measured);
     if s.lo == 0.0 && s.hi == 0.0 {
         return Ok(());
     }
@@ -256,6 +266,11 @@ fn rest_shifted(
             "model.unit_gain",
             "a term's shift at rest carries the steady input as `v + s` only with `unit_gain: true` (eq 8)",
         ));
+    }
+    if model.structure == Structure::Hammerstein {
+        let y = Interval::new(p.y - p.dy - s.hi, p.y + p.dy - s.lo).outward();
+        (p.y, p.dy) = chain::centre_radius(y);
+        return Ok(());
     }
     if !model.nonlinearity.accepts_input_radius() {
         return Err(SmidError::invalid(
