@@ -410,15 +410,25 @@ fn an_undeclared_constant_is_offered_with_steady_state_data_and_named() {
 /// under unit gain), so the diagnosis offers it with its gain at rest bisected
 /// (`EquationTerm::rest_shift`) and it is named with the truth inside every bound. Before, a
 /// term whose shift at rest grows with the input was not offered with steady-state data, and
-/// the row was 0/10 (6/10 since). Seed 1 of `smid diagnose-check`.
+/// the row was 0/10. Seed 1 of `smid diagnose-check`.
 #[test]
 fn an_undeclared_parallel_path_is_offered_with_steady_state_data_and_named() {
-    let t = named_trial("parallel_input", 1);
+    named_trial("parallel_input", 1);
+}
+
+/// Where the parsimony rule picks viscous friction on the input velocity (one parameter fewer)
+/// over the parallel path, the two explain the records alike at another scale of the inner
+/// signal: the parallel path's linear block is `k = 1 + c/A(1)` times the friction's and its
+/// backlash sits behind that gain (`Nonlinearity::behind_gain`: slopes `/k`, plays `·k`). The
+/// equivalence test searches that trade, so the parallel path is reported indistinguishable
+/// from the choice, and its set holds the truth and passes on held-out records. Before, the
+/// friction's backlash lay outside the parallel path's bounds, no equivalence was found and
+/// 4 of 10 seeds named nothing (6/10). Seed 5 of `smid diagnose-check`.
+#[test]
+fn a_parallel_path_is_reported_equal_to_friction_with_the_inner_signal_scaled() {
+    let t = named_trial("parallel_input", 5);
     assert!(
-        t.equivalent
-            || t.chosen
-                .iter()
-                .any(|c| c.starts_with("parallel linear path")),
-        "{t:?}"
+        t.equivalent,
+        "named as the choice itself, not its equal: {t:?}"
     );
 }

@@ -14,7 +14,9 @@
 //!   the noise bound of each other after both transients from rest, or whose member put into
 //!   the other's model class does (by an equation-error or an output-error fit), and the
 //!   rule's ties (admissible, as many parameters, fits within the noise's slack), are reported
-//!   as indistinguishable, never silently chosen between.
+//!   as indistinguishable, never silently chosen between. The class's point is sought with the
+//!   gain between the linear block and the block after it free (the inner signal's scale is
+//!   each class's convention: `k·L` then `N(·/k)` is the same model).
 //! * **Choice (training data only)**: the base model and every candidate are identified on the
 //!   training records with the declared noise bound. A model is *admissible* when its feasible
 //!   set is not empty (the training data do not falsify it). When the base model is admissible
@@ -200,7 +202,10 @@ fn indistinguishable(a: &[Vec<f64>], b: &[Vec<f64>], tol: f64, skip: usize) -> b
 /// * `θ` fitted by equation-error least squares to the linear block's output of `from`'s
 ///   member, the other parameters (a bisected block's, at most [`FITTED_DIMS`]) searched
 ///   inside `to`'s bounds: a unit-gain lag before the linear block and one more pole of it,
-///   whose classes coincide wherever the extra pole is real and inside the lag's prior;
+///   whose classes coincide wherever the extra pole is real and inside the lag's prior. When
+///   the block after the linear block lies outside `to`'s bounds, a gain traded between the two
+///   is searched too ([`GainTrade`]): a parallel input path and viscous friction on the input
+///   velocity, whose inner signals differ by a scale at rest;
 /// * `θ` copied, every other parameter moved inside `to`'s bounds by an output-error fit to
 ///   the member's runs: an input bias through a unit-gain block and a sensor offset after the
 ///   backlash, whose classes coincide once the plays move with the bias.
@@ -243,9 +248,16 @@ fn transplanted_runs(from: &ModelSet, to: &ModelSet, skip: usize) -> Option<Vec<
         return None;
     }
     // A copied value outside `to`'s bounds is no point of its class as identified (a box of
-    // the nonlinearity from the steady-state points in one candidate, from stage 1 in another).
+    // the nonlinearity from the steady-state points in one candidate, from stage 1 in another),
+    // unless it is the block right after the linear block, outside only by a gain the linear
+    // block can take ([`GainTrade`]).
     let inside = |name: &str, v: f64| to.parameter(name).is_some_and(|p| p.interval().contains(v));
-    if !copied.iter().all(|(k, v)| inside(k, *v)) {
+    let gain = GainTrade::of(to, &copied);
+    let traded = |name: &str| {
+        gain.as_ref()
+            .is_some_and(|g| g.names.iter().any(|n| n == name))
+    };
+    if !copied.iter().all(|(k, v)| traded(k) || inside(k, *v)) {
         return None;
     }
     let target = training_runs(&source, to)?;
@@ -255,6 +267,7 @@ fn transplanted_runs(from: &ModelSet, to: &ModelSet, skip: usize) -> Option<Vec<
         layout,
         copied,
         searched,
+        gain,
     };
     // Two ways into `to`'s class; the one whose runs come closer to the member's is kept.
     [
@@ -325,6 +338,100 @@ struct Transplant<'a> {
     layout: &'a crate::model::Layout,
     copied: Vec<(String, f64)>,
     searched: Vec<(String, Interval)>,
+    /// The gain traded between the linear block and the block after it, when the copied
+    /// values of that block lie outside `to`'s bounds.
+    gain: Option<GainTrade>,
+}
+
+/// At most this factor either way is traded between the linear block and the block after it
+/// ([`GainTrade`]): a parallel path that changes the static gain by up to a half, and more.
+const GAIN_RANGE: f64 = 4.0;
+
+/// The gain `k` a member's linear block may take from the block right after it (the Wiener
+/// model's nonlinearity, or a Hammerstein model's first output-side block) when that block is
+/// put into `to`'s class: `k·L` followed by the block behind the gain
+/// ([`crate::nonlinearity::Nonlinearity::behind_gain`]) simulates as the member does. Two
+/// classes whose linear blocks' outputs differ by a scale at rest (a parallel input path's
+/// `1 + c/A(1)` against viscous friction on the input velocity, which leaves the gain at rest
+/// alone) then meet inside `to`'s bounds.
+struct GainTrade {
+    /// The block's parameters' names in `to` (qualified for a chain block).
+    names: Vec<String>,
+    /// The block at the member's values.
+    block: Box<dyn crate::nonlinearity::Nonlinearity>,
+    /// The gains (within [`GAIN_RANGE`] either way) that bring every moved value inside
+    /// `to`'s bounds, their hull on a log grid widened by one step.
+    window: Interval,
+}
+
+impl GainTrade {
+    /// The trade for `to`, when the block after its linear block has all its parameters among
+    /// the `copied` values, they lie outside `to`'s bounds as they are, and some gain within
+    /// [`GAIN_RANGE`] brings them inside.
+    fn of(to: &ModelSet, copied: &[(String, f64)]) -> Option<GainTrade> {
+        let layout = to.layout().ok()?;
+        let (tag, prefix) = match to.model.structure {
+            crate::nonlinearity::Structure::Wiener => (to.model.nonlinearity_tag(), None),
+            crate::nonlinearity::Structure::Hammerstein => {
+                let b = layout.blocks.iter().find(|b| b.side == Side::Output)?;
+                (b.tag.clone(), Some(b.prefix.clone()))
+            }
+        };
+        let short = crate::registry::parameter_names(&tag);
+        let names: Vec<String> = short
+            .iter()
+            .map(|n| prefix.as_deref().map_or(n.clone(), |p| qualified(p, n)))
+            .collect();
+        let values: Vec<(String, f64)> = short
+            .iter()
+            .zip(&names)
+            .map(|(s, f)| {
+                copied
+                    .iter()
+                    .find(|(k, _)| k == f)
+                    .map(|(_, v)| (s.clone(), *v))
+            })
+            .collect::<Option<_>>()?;
+        if values.is_empty() {
+            return None;
+        }
+        let block = crate::registry::instantiate(&tag, &values).ok()?;
+        let mut trade = GainTrade {
+            names,
+            block,
+            window: Interval::new(1.0, 1.0),
+        };
+        if trade.moved(to, 1.0).is_some() {
+            return None;
+        }
+        const STEPS: i32 = 200;
+        let step = GAIN_RANGE.ln() / f64::from(STEPS);
+        let fits: Vec<f64> = (-STEPS..=STEPS)
+            .map(|i| (step * f64::from(i)).exp())
+            .filter(|&k| trade.moved(to, k).is_some())
+            .collect();
+        let (lo, hi) = (fits.first()?, fits.last()?);
+        trade.window = Interval::new(lo / step.exp(), hi * step.exp());
+        Some(trade)
+    }
+
+    /// The block's values behind the gain `k`, by their names in `to`, when all lie inside
+    /// `to`'s bounds.
+    fn moved(&self, to: &ModelSet, k: f64) -> Option<Vec<(String, f64)>> {
+        let v = self.block.behind_gain(k)?;
+        if v.len() != self.names.len() {
+            return None;
+        }
+        self.names
+            .iter()
+            .zip(v)
+            .map(|(n, (_, x))| {
+                to.parameter(n)
+                    .is_some_and(|p| p.interval().contains(x))
+                    .then(|| (n.clone(), x))
+            })
+            .collect()
+    }
 }
 
 impl Transplant<'_> {
@@ -340,12 +447,33 @@ impl Transplant<'_> {
         v
     }
 
+    /// The traded gain at `z`'s last entry (log-uniform over the trade's window), and the
+    /// values of [`Transplant::at`] with the block after the linear block moved behind it
+    /// (`None` when a moved value leaves `to`'s bounds). Without a trade: gain 1, `at(z)`.
+    fn at_gain(&self, z: &[f64]) -> Option<(f64, Vec<(String, f64)>)> {
+        let Some(g) = &self.gain else {
+            return Some((1.0, self.at(z)));
+        };
+        let (own, last) = z.split_at(z.len().checked_sub(1)?);
+        let w = g.window;
+        let k = (w.lo.ln() + (w.hi / w.lo).ln() * last[0].clamp(0.0, 1.0)).exp();
+        let moved = g.moved(self.to, k)?;
+        let mut v = self.at(own);
+        for (n, x) in moved {
+            if let Some(e) = v.iter_mut().find(|(k, _)| *k == n) {
+                e.1 = x;
+            }
+        }
+        Some((k, v))
+    }
+
     /// Nelder-Mead on `error` over the searched parameters, from a few starts across their
     /// bounds (the error need not be convex in them): the best `z`.
     fn minimise(&self, error: &dyn Fn(&[f64]) -> f64) -> Option<Vec<f64>> {
+        let dims = self.searched.len() + usize::from(self.gain.is_some());
         let mut best: Option<(Vec<f64>, f64)> = None;
         for start in [0.5, 0.15, 0.85] {
-            let z0 = vec![start; self.searched.len()];
+            let z0 = vec![start; dims];
             if let Some((z, e)) =
                 crate::members::simulation::nelder_mead(error, &z0, 0.2, 200, f64::NEG_INFINITY)
             {
@@ -353,7 +481,7 @@ impl Transplant<'_> {
                     best = Some((z, e));
                 }
             }
-            if self.searched.is_empty() {
+            if dims == 0 {
                 break;
             }
         }
@@ -376,7 +504,9 @@ impl Transplant<'_> {
     /// `θ` fitted by equation-error least squares to the linear block's output of the member
     /// `source` ([`crate::members::theta_reproducing`]), the searched parameters minimising
     /// that fit's error: right where the two classes share the linear block's output (a
-    /// unit-gain lag before the linear block and one more pole of it).
+    /// unit-gain lag before the linear block and one more pole of it). With a [`GainTrade`]
+    /// the output is `k` times the member's, the block after it behind `k`, and `k` is
+    /// searched too (the fit's error taken relative to `k²`, the scale of the fitted output).
     fn equation_error(&self, source: &crate::members::ModelPoint) -> Option<Vec<Vec<f64>>> {
         let x: Vec<Vec<f64>> = self
             .to
@@ -388,14 +518,24 @@ impl Transplant<'_> {
         if !x.iter().flatten().all(|v| v.is_finite()) {
             return None;
         }
+        let scaled = |k: f64| -> Vec<Vec<f64>> {
+            x.iter()
+                .map(|r| r.iter().map(|v| k * v).collect())
+                .collect()
+        };
         let error = |z: &[f64]| -> f64 {
-            match crate::members::theta_reproducing(self.to, &self.at(z), &x) {
-                Ok(Some((_, e))) => e,
+            let Some((k, v)) = self.at_gain(z) else {
+                return f64::INFINITY;
+            };
+            match crate::members::theta_reproducing(self.to, &v, &scaled(k)) {
+                Ok(Some((_, e))) => e / (k * k),
                 _ => f64::INFINITY,
             }
         };
-        let mut v = self.at(&self.minimise(&error)?);
-        let theta = crate::members::theta_reproducing(self.to, &v, &x).ok()??.0;
+        let (k, mut v) = self.at_gain(&self.minimise(&error)?)?;
+        let theta = crate::members::theta_reproducing(self.to, &v, &scaled(k))
+            .ok()??
+            .0;
         let values: Vec<f64> = theta.iter().map(|(_, t)| *t).collect();
         if !self.admits_theta(&values) {
             return None;

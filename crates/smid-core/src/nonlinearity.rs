@@ -63,6 +63,16 @@ pub trait Nonlinearity: Debug + Send + Sync {
     fn validate(&self) -> Result<()> {
         Ok(())
     }
+    /// The same block behind a gain `k > 0` on its input: the parameters (by name, as
+    /// [`Nonlinearity::parameters`] reports them) of a map `N'` of this plugin's class with
+    /// `N'(k·x_t) = N(x_t)` for every input sequence from rest, memory included; `None`
+    /// (default) when the class is not closed under such a gain (a bias, a unit-gain lag).
+    /// A block right after the linear block can then trade that gain with it (`k·L` followed
+    /// by `N'` behaves as `L` followed by `N`): the diagnosis searches the trade when it tests
+    /// two candidates for equivalence (a parallel input path scales the inner signal at rest).
+    fn behind_gain(&self, _k: f64) -> Option<Vec<(String, f64)>> {
+        None
+    }
     /// Run a whole sequence from rest.
     fn simulate(&self, x: &[f64]) -> Vec<f64> {
         let mut mem = self.initial_memory();

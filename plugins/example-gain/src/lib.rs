@@ -32,6 +32,10 @@ impl Nonlinearity for Gain {
     fn step(&self, _memory: &mut Vec<f64>, x: f64) -> f64 {
         self.k * x
     }
+    /// Behind a gain `g`: the gain divides by it.
+    fn behind_gain(&self, g: f64) -> Option<Vec<(String, f64)>> {
+        (g.is_finite() && g > 0.0).then(|| vec![("k".into(), self.k / g)])
+    }
     fn parameters(&self) -> Vec<(String, f64)> {
         vec![("k".into(), self.k)]
     }

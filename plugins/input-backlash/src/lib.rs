@@ -74,6 +74,10 @@ impl Nonlinearity for InputBacklash {
     fn initial_memory(&self) -> Vec<f64> {
         vec![0.0]
     }
+    /// Behind a gain `k`: as the output backlash's map (slopes `/k`, half-plays `·k`).
+    fn behind_gain(&self, k: f64) -> Option<Vec<(String, f64)>> {
+        self.backlash().behind_gain(k)
+    }
     fn parameters(&self) -> Vec<(String, f64)> {
         self.backlash().parameters()
     }

@@ -78,6 +78,17 @@ impl Nonlinearity for Saturation {
     fn step(&self, _memory: &mut Vec<f64>, x: f64) -> f64 {
         self.map(x)
     }
+    /// Behind a gain `k`: the slopes divide by `k`, the limits (output units) stay.
+    fn behind_gain(&self, k: f64) -> Option<Vec<(String, f64)>> {
+        (k.is_finite() && k > 0.0).then(|| {
+            vec![
+                ("m_l".into(), self.m_l / k),
+                ("s_l".into(), self.s_l),
+                ("m_r".into(), self.m_r / k),
+                ("s_r".into(), self.s_r),
+            ]
+        })
+    }
     fn parameters(&self) -> Vec<(String, f64)> {
         vec![
             ("m_l".into(), self.m_l),
