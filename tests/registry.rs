@@ -223,8 +223,9 @@ fn a_block_behind_a_gain_maps_the_scaled_input_as_before() {
             .to_string()
     };
     let drawn: Vec<String> = blocks.iter().map(|(_, n, _)| tag_of(n.as_ref())).collect();
-    // The examples of the simulators no check case draws (a backlash's example, moved, may
-    // cross its branches inside the input's range, where rounding picks the branch).
+    // The examples of the simulators no check case draws (the drawn ones are drawn within
+    // their range: an input backlash's example, moved, crosses its branches inside the input's
+    // range, where rounding picks the branch).
     for e in registry::nonlinearities()
         .into_iter()
         .filter(|e| !drawn.iter().any(|d| d == e.tag))
@@ -248,6 +249,12 @@ fn a_block_behind_a_gain_maps_the_scaled_input_as_before() {
             continue;
         };
         let tag = tag_of(n.as_ref());
+        let names = |v: &[(String, f64)]| v.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+        assert_eq!(
+            names(&moved),
+            names(&n.parameters()),
+            "{name}: behind a gain, its parameters in another order"
+        );
         let scaled = registry::instantiate(&tag, &moved).unwrap_or_else(|err| {
             panic!("{name}: its parameters behind a gain {k} are not its own ({err})")
         });

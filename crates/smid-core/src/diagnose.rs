@@ -14,8 +14,8 @@
 //!   the noise bound of each other after both transients from rest, or whose member put into
 //!   the other's model class does (by an equation-error or an output-error fit), and the
 //!   rule's ties (admissible, as many parameters, fits within the noise's slack), are reported
-//!   as indistinguishable, never silently chosen between. The class's point is sought with the
-//!   gain between the linear block and the block after it free (the inner signal's scale is
+//!   as indistinguishable, never silently chosen between. The equation-error way searches the
+//!   gain between the linear block and the block after it too (the inner signal's scale is
 //!   each class's convention: `k·L` then `N(·/k)` is the same model).
 //! * **Choice (training data only)**: the base model and every candidate are identified on the
 //!   training records with the declared noise bound. A model is *admissible* when its feasible
@@ -202,10 +202,10 @@ fn indistinguishable(a: &[Vec<f64>], b: &[Vec<f64>], tol: f64, skip: usize) -> b
 /// * `θ` fitted by equation-error least squares to the linear block's output of `from`'s
 ///   member, the other parameters (a bisected block's, at most [`FITTED_DIMS`]) searched
 ///   inside `to`'s bounds: a unit-gain lag before the linear block and one more pole of it,
-///   whose classes coincide wherever the extra pole is real and inside the lag's prior. When
-///   the block after the linear block lies outside `to`'s bounds, a gain traded between the two
-///   is searched too ([`GainTrade`]): a parallel input path and viscous friction on the input
-///   velocity, whose inner signals differ by a scale at rest;
+///   whose classes coincide wherever the extra pole is real and inside the lag's prior. A gain
+///   traded between the linear block and the block after it is searched too ([`GainTrade`]):
+///   a parallel input path and viscous friction on the input velocity, whose inner signals
+///   differ by a scale at rest;
 /// * `θ` copied, every other parameter moved inside `to`'s bounds by an output-error fit to
 ///   the member's runs: an input bias through a unit-gain block and a sensor offset after the
 ///   backlash, whose classes coincide once the plays move with the bias.
@@ -269,10 +269,15 @@ fn transplanted_runs(from: &ModelSet, to: &ModelSet, skip: usize) -> Option<Vec<
         searched,
         gain,
     };
-    // Two ways into `to`'s class; the one whose runs come closer to the member's is kept.
+    // Two ways into `to`'s class; the one whose runs come closer to the member's is kept. The
+    // output-error way copies θ at the member's scale, so it has no point where the block after
+    // the linear block needs a traded gain.
+    let needed = fit.gain.as_ref().is_some_and(|g| g.needed);
     [
         fit.equation_error(&source),
-        fit.output_error(&values, &target),
+        (!needed)
+            .then(|| fit.output_error(&values, &target))
+            .flatten(),
     ]
     .into_iter()
     .flatten()
@@ -344,30 +349,35 @@ struct Transplant<'a> {
 }
 
 /// At most this factor either way is traded between the linear block and the block after it
-/// ([`GainTrade`]): a parallel path that changes the static gain by up to a half, and more.
+/// ([`GainTrade`]): a parallel input path with `c/A(1)` in `[-3/4, 3]`.
 const GAIN_RANGE: f64 = 4.0;
 
 /// The gain `k` a member's linear block may take from the block right after it (the Wiener
 /// model's nonlinearity, or a Hammerstein model's first output-side block) when that block is
 /// put into `to`'s class: `k·L` followed by the block behind the gain
-/// ([`crate::nonlinearity::Nonlinearity::behind_gain`]) simulates as the member does. Two
-/// classes whose linear blocks' outputs differ by a scale at rest (a parallel input path's
-/// `1 + c/A(1)` against viscous friction on the input velocity, which leaves the gain at rest
-/// alone) then meet inside `to`'s bounds.
+/// ([`crate::nonlinearity::Nonlinearity::behind_gain`]) simulates as the member does. Under unit
+/// gain each class fixes the scale of the inner signal its own way, so two classes whose
+/// linear blocks' outputs differ by a scale at rest (a parallel input path's `1 + c/A(1)`
+/// against viscous friction on the input velocity, which leaves the gain at rest alone) meet
+/// inside `to`'s bounds only with the gain traded.
 struct GainTrade {
-    /// The block's parameters' names in `to` (qualified for a chain block).
+    /// The block's parameters' names, as the plugin gives them.
+    short: Vec<String>,
+    /// The same, as `to` names them (qualified for a chain block).
     names: Vec<String>,
+    /// `to`'s bounds of each.
+    bounds: Vec<Interval>,
     /// The block at the member's values.
     block: Box<dyn crate::nonlinearity::Nonlinearity>,
-    /// The gains (within [`GAIN_RANGE`] either way) that bring every moved value inside
-    /// `to`'s bounds, their hull on a log grid widened by one step.
+    /// The gains that bring every moved value inside `to`'s bounds ([`gain_window`]).
     window: Interval,
+    /// The member's own values lie outside `to`'s bounds (gain 1 is no point of the class).
+    needed: bool,
 }
 
 impl GainTrade {
     /// The trade for `to`, when the block after its linear block has all its parameters among
-    /// the `copied` values, they lie outside `to`'s bounds as they are, and some gain within
-    /// [`GAIN_RANGE`] brings them inside.
+    /// the `copied` values and some gain within [`GAIN_RANGE`] brings them inside `to`'s bounds.
     fn of(to: &ModelSet, copied: &[(String, f64)]) -> Option<GainTrade> {
         let layout = to.layout().ok()?;
         let (tag, prefix) = match to.model.structure {
@@ -392,46 +402,129 @@ impl GainTrade {
                     .map(|(_, v)| (s.clone(), *v))
             })
             .collect::<Option<_>>()?;
+        let bounds: Vec<Interval> = names
+            .iter()
+            .map(|n| to.parameter(n).map(|p| p.interval()))
+            .collect::<Option<_>>()?;
         if values.is_empty() {
             return None;
         }
-        let block = crate::registry::instantiate(&tag, &values).ok()?;
         let mut trade = GainTrade {
+            short,
             names,
-            block,
+            bounds,
+            block: crate::registry::instantiate(&tag, &values).ok()?,
             window: Interval::new(1.0, 1.0),
+            needed: false,
         };
-        if trade.moved(to, 1.0).is_some() {
-            return None;
-        }
-        const STEPS: i32 = 200;
-        let step = GAIN_RANGE.ln() / f64::from(STEPS);
-        let fits: Vec<f64> = (-STEPS..=STEPS)
-            .map(|i| (step * f64::from(i)).exp())
-            .filter(|&k| trade.moved(to, k).is_some())
-            .collect();
-        let (lo, hi) = (fits.first()?, fits.last()?);
-        trade.window = Interval::new(lo / step.exp(), hi * step.exp());
+        trade.window = gain_window(&|k| trade.behind(k), &trade.bounds)?;
+        trade.needed = trade.moved(1.0).is_none();
         Some(trade)
+    }
+
+    /// The block's values behind the gain `k`, in the order of [`GainTrade::short`] (looked up
+    /// by name).
+    fn behind(&self, k: f64) -> Option<Vec<f64>> {
+        let v = self.block.behind_gain(k)?;
+        self.short
+            .iter()
+            .map(|s| v.iter().find(|(n, _)| n == s).map(|(_, x)| *x))
+            .collect()
     }
 
     /// The block's values behind the gain `k`, by their names in `to`, when all lie inside
     /// `to`'s bounds.
-    fn moved(&self, to: &ModelSet, k: f64) -> Option<Vec<(String, f64)>> {
-        let v = self.block.behind_gain(k)?;
-        if v.len() != self.names.len() {
-            return None;
-        }
+    fn moved(&self, k: f64) -> Option<Vec<(String, f64)>> {
         self.names
             .iter()
-            .zip(v)
-            .map(|(n, (_, x))| {
-                to.parameter(n)
-                    .is_some_and(|p| p.interval().contains(x))
-                    .then(|| (n.clone(), x))
-            })
+            .zip(self.behind(k)?)
+            .zip(&self.bounds)
+            .map(|((n, x), b)| b.contains(x).then(|| (n.clone(), x)))
             .collect()
     }
+
+    /// Where gain 1 sits in the window, on [`Transplant::at_gain`]'s log scale (the middle
+    /// when outside).
+    fn unit_position(&self) -> f64 {
+        let w = self.window;
+        if w.contains(1.0) && w.hi > w.lo {
+            -w.lo.ln() / (w.hi / w.lo).ln()
+        } else {
+            0.5
+        }
+    }
+}
+
+/// The gains `k` in `[1/GAIN_RANGE, GAIN_RANGE]` at which every value of `behind(k)` lies in
+/// its bound in `bounds`: for each value, the hull of the gains of a log grid where it does,
+/// each edge bisected against the grid's next gain; or, where the value jumps over its bound
+/// between two grid gains (a bound narrower than the grid's step), that crossing bisected from
+/// both sides. Then the intersection over the values. For values monotone in `k` (every
+/// registered block's) this is the exact window, widened outward by the bisection's last step;
+/// `None` when empty.
+fn gain_window(behind: &dyn Fn(f64) -> Option<Vec<f64>>, bounds: &[Interval]) -> Option<Interval> {
+    const STEPS: i32 = 200;
+    const HALVINGS: usize = 60;
+    let step = GAIN_RANGE.ln() / f64::from(STEPS);
+    let grid: Vec<f64> = (-STEPS..=STEPS)
+        .map(|i| (step * f64::from(i)).exp())
+        .collect();
+    let last = grid.len() - 1;
+    // Where value `i` lies at gain `k`: below its bound -1, inside 0, above 1.
+    let side = |i: usize, k: f64| -> Option<i8> {
+        let v = *behind(k)?.get(i)?;
+        let b = bounds[i];
+        if v.is_nan() {
+            None
+        } else if v < b.lo {
+            Some(-1)
+        } else if v > b.hi {
+            Some(1)
+        } else {
+            Some(0)
+        }
+    };
+    // Between `a` (where `holds` fails) and `b` (where it holds), bisected in `ln k`: the last
+    // gain found failing and the first found holding.
+    let split = |a: f64, b: f64, holds: &dyn Fn(f64) -> bool| -> (f64, f64) {
+        let (mut a, mut b) = (a, b);
+        for _ in 0..HALVINGS {
+            let m = (a * b).sqrt();
+            if holds(m) {
+                b = m;
+            } else {
+                a = m;
+            }
+        }
+        (a, b)
+    };
+    let mut window = Interval::new(grid[0], grid[last]);
+    for i in 0..bounds.len() {
+        let s: Vec<Option<i8>> = grid.iter().map(|&k| side(i, k)).collect();
+        let hits: Vec<usize> = (0..=last).filter(|&j| s[j] == Some(0)).collect();
+        let w = if let (Some(&a), Some(&b)) = (hits.first(), hits.last()) {
+            let lo = if a == 0 {
+                grid[0]
+            } else {
+                split(grid[a - 1], grid[a], &|k| side(i, k) == Some(0)).0
+            };
+            let hi = if b == last {
+                grid[last]
+            } else {
+                split(grid[b], grid[b + 1], &|k| side(i, k) != Some(0)).1
+            };
+            Interval::new(lo, hi)
+        } else {
+            let j = (0..last)
+                .find(|&j| matches!((s[j], s[j + 1]), (Some(-1), Some(1)) | (Some(1), Some(-1))))?;
+            let (from, to) = (s[j], s[j + 1]);
+            let lo = split(grid[j], grid[j + 1], &|k| side(i, k) != from).0;
+            let hi = split(grid[j], grid[j + 1], &|k| side(i, k) == to).1;
+            Interval::new(lo, hi)
+        };
+        window = window.intersect(&w)?;
+    }
+    Some(window)
 }
 
 impl Transplant<'_> {
@@ -457,7 +550,7 @@ impl Transplant<'_> {
         let (own, last) = z.split_at(z.len().checked_sub(1)?);
         let w = g.window;
         let k = (w.lo.ln() + (w.hi / w.lo).ln() * last[0].clamp(0.0, 1.0)).exp();
-        let moved = g.moved(self.to, k)?;
+        let moved = g.moved(k)?;
         let mut v = self.at(own);
         for (n, x) in moved {
             if let Some(e) = v.iter_mut().find(|(k, _)| *k == n) {
@@ -467,13 +560,19 @@ impl Transplant<'_> {
         Some((k, v))
     }
 
-    /// Nelder-Mead on `error` over the searched parameters, from a few starts across their
-    /// bounds (the error need not be convex in them): the best `z`.
+    /// Nelder-Mead on `error` over the searched parameters and the traded gain (the last
+    /// entry of `z`), from a few starts across their bounds (the error need not be convex in
+    /// them), the first with the gain at 1 where that is in its window: the best `z`.
     fn minimise(&self, error: &dyn Fn(&[f64]) -> f64) -> Option<Vec<f64>> {
         let dims = self.searched.len() + usize::from(self.gain.is_some());
         let mut best: Option<(Vec<f64>, f64)> = None;
         for start in [0.5, 0.15, 0.85] {
-            let z0 = vec![start; dims];
+            let mut z0 = vec![start; dims];
+            if let (Some(g), Some(z)) = (&self.gain, z0.last_mut()) {
+                if start == 0.5 {
+                    *z = g.unit_position();
+                }
+            }
             if let Some((z, e)) =
                 crate::members::simulation::nelder_mead(error, &z0, 0.2, 200, f64::NEG_INFINITY)
             {
@@ -575,7 +674,8 @@ impl Transplant<'_> {
             if i.hi > i.lo {
                 moved.push((n.clone(), i, (v - i.lo) / (i.hi - i.lo)));
             } else {
-                fixed.push((n.clone(), v));
+                // A point bound: its one value (a copy from the member may lie outside it).
+                fixed.push((n.clone(), i.lo));
             }
         }
         if moved.len() > OUTPUT_ERROR_DIMS {
@@ -1827,6 +1927,47 @@ pub fn assess(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The gain window of a block whose values move as a backlash's (`m/k`, `c·k`) and a
+    /// saturation's limit (fixed): found around the true gain however narrow the bounds (far
+    /// narrower than the grid's step), empty when the values ask for different gains or a fixed
+    /// value lies outside its bound.
+    #[test]
+    fn the_gain_window_finds_narrow_bounds_and_refuses_disagreeing_ones() {
+        let (m, c, s) = (0.25, 0.1, 1.5);
+        let behind = |k: f64| Some(vec![m / k, c * k, s]);
+        for (k0, width) in [(1.1, 1e-9), (0.3, 1e-4), (3.7, 0.05), (1.0, 1e-12)] {
+            let around = |v: f64| Interval::new(v * (1.0 - width), v * (1.0 + width));
+            let bounds = [around(m / k0), around(c * k0), Interval::new(1.0, 2.0)];
+            let w = gain_window(&behind, &bounds).expect("a window");
+            assert!(w.contains(k0), "{k0} outside {w:?}");
+            assert!(
+                w.hi / w.lo < (1.0 + 4.0 * width) / (1.0 - 4.0 * width) * (1.0 + 1e-9),
+                "{k0}, width {width}: {w:?} wider than its bounds ask"
+            );
+        }
+        // Slopes asking for 1.1, plays for 2.
+        let bounds = [
+            Interval::new(m / 1.1 * 0.999, m / 1.1 * 1.001),
+            Interval::new(c * 2.0 * 0.999, c * 2.0 * 1.001),
+            Interval::new(1.0, 2.0),
+        ];
+        assert!(gain_window(&behind, &bounds).is_none());
+        // A fixed value outside its bound.
+        let bounds = [
+            Interval::new(0.0, 1.0),
+            Interval::new(0.0, 1.0),
+            Interval::new(2.0, 3.0),
+        ];
+        assert!(gain_window(&behind, &bounds).is_none());
+        // Outside the gain range.
+        let bounds = [
+            Interval::new(m / 9.0, m / 9.0),
+            Interval::new(c * 9.0, c * 9.0),
+            Interval::new(1.0, 2.0),
+        ];
+        assert!(gain_window(&behind, &bounds).is_none());
+    }
 
     #[test]
     fn reach_orders_located_findings_by_record_then_sample_and_proves_nothing_unlocated() {
