@@ -202,6 +202,26 @@ pub fn two_branch_polygons(cell: &[Interval]) -> Result<(Polygon, Polygon)> {
     ))
 }
 
+/// Two linear branches `m·(x ± c)` with breakpoints `c` in input units (a backlash, a dead
+/// zone: `(m_l, c_l, m_r, c_r)`) behind a gain `k` on their input
+/// ([`Nonlinearity::behind_gain`]): the slopes divide by `k`, the breakpoints multiply.
+pub fn two_branches_behind_gain(
+    m_l: f64,
+    c_l: f64,
+    m_r: f64,
+    c_r: f64,
+    k: f64,
+) -> Option<Vec<(String, f64)>> {
+    (k.is_finite() && k > 0.0).then(|| {
+        vec![
+            ("m_l".into(), m_l / k),
+            ("c_l".into(), c_l * k),
+            ("m_r".into(), m_r / k),
+            ("c_r".into(), c_r * k),
+        ]
+    })
+}
+
 /// Plot regions of a nonlinearity with two linear branches parameterised as
 /// `(m_l, c_l, m_r, c_r)` and held as polygons in `(m, m·c)` coordinates (output backlash, dead
 /// zone); `truth` in report order.

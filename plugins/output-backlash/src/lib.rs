@@ -86,14 +86,7 @@ impl Nonlinearity for Backlash {
     /// Behind a gain `k`: the slopes divide by `k`, the half-plays (in input units) multiply
     /// (the memory holds the output, which does not change).
     fn behind_gain(&self, k: f64) -> Option<Vec<(String, f64)>> {
-        (k.is_finite() && k > 0.0).then(|| {
-            vec![
-                ("m_l".into(), self.m_l / k),
-                ("c_l".into(), self.c_l * k),
-                ("m_r".into(), self.m_r / k),
-                ("c_r".into(), self.c_r * k),
-            ]
-        })
+        smid_core::nonlinearity::two_branches_behind_gain(self.m_l, self.c_l, self.m_r, self.c_r, k)
     }
     fn parameters(&self) -> Vec<(String, f64)> {
         vec![
