@@ -249,8 +249,8 @@ fn transplanted_runs(from: &ModelSet, to: &ModelSet, skip: usize) -> Option<Vec<
     }
     // A copied value outside `to`'s bounds is no point of its class as identified (a box of
     // the nonlinearity from the steady-state points in one candidate, from stage 1 in another),
-    // unless it is the block right after the linear block, outside only by a gain the linear
-    // block can take ([`GainTrade`]).
+    // unless it is the block right after the linear block, which a gain traded with the linear
+    // block brings inside ([`GainTrade`]).
     let inside = |name: &str, v: f64| to.parameter(name).is_some_and(|p| p.interval().contains(v));
     let gain = GainTrade::of(to, &copied);
     let traded = |name: &str| {
@@ -343,8 +343,8 @@ struct Transplant<'a> {
     layout: &'a crate::model::Layout,
     copied: Vec<(String, f64)>,
     searched: Vec<(String, Interval)>,
-    /// The gain traded between the linear block and the block after it, when the copied
-    /// values of that block lie outside `to`'s bounds.
+    /// The gain traded between the linear block and the block after it, when that block's
+    /// values are all copied and some gain brings them inside `to`'s bounds.
     gain: Option<GainTrade>,
 }
 
