@@ -432,3 +432,69 @@ fn a_parallel_path_is_reported_equal_to_friction_with_the_inner_signal_scaled() 
         "named as the choice itself, not its equal: {t:?}"
     );
 }
+
+/// A term that breaks the designed experiment (`EquationTerm::keeps_steady_design`, generated
+/// from the registry: dry friction) is still tried on a model with steady-state points: its
+/// polygons are refused, so the model's nonlinearity is bisected in a box from the points as if
+/// the design held (`pipeline::design_prior`, listed with the candidate's priors) and the
+/// points prune its cells with any history. The points are read as stage 1 reads them, with
+/// the overshoot allowance α of `method.alpha: bias` (at 12 bits the polygons without it are
+/// empty, and every such candidate was refused). On the paper's plant at 12 bits with an
+/// undeclared sensor offset (a shift of the backlash's plays), each such candidate is
+/// consistent with the training data.
+#[test]
+fn a_term_that_breaks_the_design_is_tried_in_a_box_from_the_steady_state_points() {
+    smid::link_plugins();
+    let tags: Vec<String> = smid_core::effect::effects()
+        .into_iter()
+        .filter(|e| {
+            (e.candidates)()
+                .iter()
+                .any(|c| !c.keeps_steady_design() && c.vanishes_at_steady_state())
+        })
+        .map(|e| e.tag.to_string())
+        .collect();
+    assert!(
+        !tags.is_empty(),
+        "the registry has a term that breaks the design"
+    );
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/12bit/paper-offset.yaml");
+    let (spec, data) = smid::load_simulated(&path).unwrap();
+    let choice = diagnose::choose(
+        &spec,
+        &data,
+        &Options {
+            only: tags.clone(),
+            max_effects: 1,
+            ..Options::default()
+        },
+        &|_, _| {},
+    )
+    .unwrap();
+    let nonlinearity = smid_core::registry::parameter_names("output_backlash");
+    let tried: Vec<&diagnose::Evidence> = choice.rounds[0]
+        .candidates
+        .iter()
+        .filter(|e| tags.contains(&e.tag))
+        .collect();
+    assert!(!tried.is_empty(), "{}", choice.summary());
+    for e in tried {
+        for n in &nonlinearity {
+            assert!(
+                e.priors.iter().any(|(p, _)| p == n),
+                "{}: no box for `{n}` from the points: {:?}\n{}",
+                e.label,
+                e.priors,
+                choice.summary()
+            );
+        }
+        assert!(
+            matches!(e.train, diagnose::TrainVerdict::Consistent { .. }),
+            "{}: {:?}\n{}",
+            e.label,
+            e.train,
+            choice.summary()
+        );
+    }
+}

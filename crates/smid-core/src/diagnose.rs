@@ -1120,11 +1120,19 @@ fn candidates(
                 given.push((n.clone(), [p.lo, p.hi]));
             }
             let label = cand.label();
+            let breaks_design = !cand.keeps_steady_design();
             m.effects.push(cand);
-            let after = match m.layout() {
-                Ok(l) => l.p() + l.dims.len(),
+            let (after, layout) = match m.layout() {
+                Ok(l) => (l.p() + l.dims.len(), l),
                 Err(_) => continue, // e.g. a name clash with a declared term
             };
+            if breaks_design {
+                if let Some(st) = steady_data {
+                    if !with_design_prior(&mut m, &layout, st, &mut given, &label) {
+                        continue;
+                    }
+                }
+            }
             out.push((
                 m,
                 Evidence {
@@ -1211,24 +1219,8 @@ fn candidates(
             let added = prior.iter().filter(|p| p.hi > p.lo).count();
             if side == Side::Input {
                 if let Some(st) = steady_data {
-                    match design_prior_for(&m, &layout, st, position) {
-                        // The nonlinearity's parameters were in the model already: bisected
-                        // now, not added.
-                        Ok(Some(boxes)) => {
-                            for (n, p) in boxes {
-                                m.prior.insert(n.clone(), [p.lo, p.hi]);
-                                given.push((n, [p.lo, p.hi]));
-                            }
-                            if m.layout().is_err() {
-                                continue;
-                            }
-                        }
-                        Ok(None) => {}
-                        // No box from the points: the candidate is tried as it is (and its
-                        // verdict says why it fails).
-                        Err(e) => {
-                            log::info!(target: "smid::diagnose", "{}: no prior box for the nonlinearity from the steady-state points: {e}", entry.tag)
-                        }
+                    if !with_design_prior(&mut m, &layout, st, &mut given, entry.tag) {
+                        continue;
                     }
                 }
             }
@@ -1258,28 +1250,49 @@ fn candidates(
     out
 }
 
-/// The prior box of a model's nonlinearity when the input block at `position` of candidate
-/// `m` breaks the designed steady-state experiment at every point over its prior (stage 1
-/// over the prior fails) and the nonlinearity is not bisected yet: the polygons' hull as if the design held,
-/// with each point's input an interval over the blocks' priors, widened
-/// ([`crate::pipeline::design_prior`]). The nonlinearity is then bisected in
-/// that box and the steady-state points prune its cells with any history. `None`: nothing to
-/// add (the block keeps the design, or the nonlinearity has no parameters or a prior already).
+/// Gives candidate `m` the prior box of [`design_prior_for`] where it needs one (its
+/// nonlinearity's parameters were in the model already: bisected now, not added), listed with
+/// its priors. Without a box from the points the candidate is tried as it is, and its verdict
+/// says why it fails. `false`: the model with the box has no layout (not offered).
+fn with_design_prior(
+    m: &mut ModelSpec,
+    layout: &crate::model::Layout,
+    steady: &SteadyStateData,
+    given: &mut Vec<(String, [f64; 2])>,
+    what: &str,
+) -> bool {
+    match design_prior_for(m, layout, steady) {
+        Ok(Some(boxes)) => {
+            for (n, p) in boxes {
+                m.prior.insert(n.clone(), [p.lo, p.hi]);
+                given.push((n, [p.lo, p.hi]));
+            }
+            m.layout().is_ok()
+        }
+        Ok(None) => true,
+        Err(e) => {
+            log::info!(target: "smid::diagnose", "{what}: no prior box for the nonlinearity from the steady-state points: {e}");
+            true
+        }
+    }
+}
+
+/// The prior box of a model's nonlinearity when candidate `m` breaks the designed
+/// steady-state experiment at every point over its prior (stage 1 over the prior fails: an
+/// input block that clips or kinks the wave, a term that switches while it settles,
+/// [`crate::effect::EquationTerm::keeps_steady_design`]) and the nonlinearity is not bisected
+/// yet: the polygons' hull as if the design held, with each point's input an interval over
+/// the blocks' priors, widened ([`crate::pipeline::design_prior`]). The nonlinearity is then
+/// bisected in that box and the steady-state points prune its cells with any history. `None`:
+/// nothing to add (the candidate keeps the design, or the nonlinearity has no parameters or a
+/// prior already).
 fn design_prior_for(
     m: &ModelSpec,
     layout: &crate::model::Layout,
     steady: &SteadyStateData,
-    position: usize,
 ) -> Result<Option<Vec<(String, crate::interval::Interval)>>> {
     let names = crate::registry::parameter_names(&m.nonlinearity_tag());
     if names.is_empty() || !layout.nonlinearity_cells.is_empty() {
-        return Ok(None);
-    }
-    if !layout
-        .blocks
-        .iter()
-        .any(|b| b.side == Side::Input && b.index == position)
-    {
         return Ok(None);
     }
     let cell: Vec<crate::interval::Interval> = layout.dims.iter().map(|d| d.prior).collect();
@@ -1437,6 +1450,18 @@ fn refine_contenders(
     changed
 }
 
+/// The training steady-state points with the overshoot allowance α applied as every
+/// candidate's stage 1 reads them ([`crate::pipeline::with_alpha`]), for the candidates'
+/// design priors. Where α cannot be applied, the points as given (each candidate's own run
+/// then says why).
+fn steady_as_stage1_reads(spec: &Spec, training: &ExperimentData) -> Option<SteadyStateData> {
+    let mut s = training.steady.clone()?;
+    match crate::pipeline::with_alpha(spec, training.filter.as_ref(), &mut s) {
+        Ok(()) => Some(s),
+        Err(_) => training.steady.clone(),
+    }
+}
+
 /// The rounds of [`choose`] from `base` (its training verdict and set): each identifies every
 /// candidate on the training records and extends the model by the one the rule picks, until
 /// the model is admissible (or, with an estimated bound, nothing is picked) or
@@ -1459,8 +1484,9 @@ fn rounds(
     let mut rounds = Vec::new();
     let mut added = Vec::new();
     let mut equivalent_models = Vec::new();
+    let steady = steady_as_stage1_reads(spec, training);
     while (estimated || !base_train.admissible()) && added.len() < opts.max_effects {
-        let mut cands = candidates(&base, scale, opts, training.steady.as_ref());
+        let mut cands = candidates(&base, scale, opts, steady.as_ref());
         let mut sets = try_candidates(
             spec,
             full,
@@ -1534,7 +1560,7 @@ fn rounds(
         // The model as declared is consistent: one round tells which candidates the training
         // records cannot tell apart from it (an output offset on a backlash is a shift of its
         // plays); none is added.
-        let mut cands = candidates(&base, scale, opts, training.steady.as_ref());
+        let mut cands = candidates(&base, scale, opts, steady.as_ref());
         let sets = try_candidates(spec, full, &mut cands, training, None, progress);
         let mut round = Round {
             base: base.label(),

@@ -207,6 +207,19 @@ pub trait EquationTerm {
     fn vanishes_at_steady_state(&self) -> bool {
         true
     }
+    /// Whether the designed steady-state experiment stays valid with this term in the plant:
+    /// under the filtered square wave the linear block's output approaches each level without
+    /// overshoot (Appendix, Proposition 1), which stage 1's polygons (eqs 13-20) assume. A
+    /// term linear in the signals changes the linear block only, and the Appendix designs the
+    /// filter on the plant with it. A term that switches while the signal settles does not:
+    /// dry friction turns off once the velocity falls into its dead band, a step in the
+    /// equation after the filter that no filter pole short of the quasi-static one avoids,
+    /// and the backlash then holds the overshoot. Default: yes. With a term that says no,
+    /// steady-state points reach the nonlinearity only through a prior box (`model.prior`:
+    /// the points prune its cells with any history), never through the polygons.
+    fn keeps_steady_design(&self) -> bool {
+        true
+    }
     /// A term that does not vanish at rest may still be used with steady-state data when it
     /// only **shifts** the linear block's output there by an amount its parameter fixes: with
     /// unit gain (eq 8), `x̄ = v̄ + s` (a constant term `c`: `s = c/A(1)`; a shift that
@@ -350,6 +363,10 @@ impl<'a> dyn Effect + 'a {
     pub fn vanishes_at_steady_state(&self) -> bool {
         self.as_equation()
             .is_none_or(|c| c.vanishes_at_steady_state())
+    }
+    /// [`EquationTerm::keeps_steady_design`], or yes (no equation term).
+    pub fn keeps_steady_design(&self) -> bool {
+        self.as_equation().is_none_or(|c| c.keeps_steady_design())
     }
     /// [`EquationTerm::rest_parameter`] of a term that does not vanish at rest, or none.
     pub fn rest_parameter(&self) -> Option<String> {

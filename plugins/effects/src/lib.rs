@@ -608,6 +608,12 @@ impl EquationTerm for CoulombFriction {
     fn uses_output(&self) -> bool {
         self.velocity == Velocity::Output
     }
+    /// No: it turns off when the velocity falls into its dead band, a step in the equation
+    /// while the filtered square wave settles (the Appendix search on such a plant finds no
+    /// pole without overshoot).
+    fn keeps_steady_design(&self) -> bool {
+        false
+    }
 }
 
 impl PlantEffect for CoulombFriction {

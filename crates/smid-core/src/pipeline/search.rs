@@ -464,6 +464,33 @@ pub fn identify_with(
     }))
 }
 
+/// The steady-state points as stage 1 reads them: the overshoot allowance α of eqs 14-15 set
+/// as `method.alpha` says (`bias`: from each point's step and the filter-design step; `design`:
+/// from the overshoot the Appendix search measured; `zero`: none), then checked.
+pub fn with_alpha(
+    spec: &Spec,
+    filter: Option<&crate::experiment::FilterDesign>,
+    steady: &mut crate::nonlinearity::SteadyStateData,
+) -> Result<()> {
+    let step = filter
+        .and_then(|f| f.step)
+        .unwrap_or(spec.experiment.filter.step);
+    match spec.method.alpha {
+        AlphaSpec::Bias => experiment::apply_alpha(steady, step),
+        AlphaSpec::Design => match filter.and_then(|f| f.overshoot) {
+            Some(d) => experiment::apply_design_alpha(steady, d, step),
+            None => {
+                return Err(SmidError::invalid(
+                    "method.alpha",
+                    "`design` needs the filter pole from the Appendix search on the plant; with a given pole or measured data choose `bias` or `zero`",
+                ))
+            }
+        },
+        AlphaSpec::Zero => {}
+    }
+    steady.validate()
+}
+
 /// The data prepared for the stages (α applied to the steady-state points, every record and
 /// effect checked) and the branch and bound over the bisected parameters at the spec's
 /// declared bound. With `first_value` the search stops at the first cell with bounds
@@ -478,25 +505,7 @@ fn searched(
     let delta = spec.noise.delta()?;
     let layout = spec.model.layout()?;
     if let Some(steady) = data.steady.as_mut() {
-        let step = data
-            .filter
-            .as_ref()
-            .and_then(|f| f.step)
-            .unwrap_or(spec.experiment.filter.step);
-        match spec.method.alpha {
-            AlphaSpec::Bias => experiment::apply_alpha(steady, step),
-            AlphaSpec::Design => match data.filter.as_ref().and_then(|f| f.overshoot) {
-                Some(d) => experiment::apply_design_alpha(steady, d, step),
-                None => {
-                    return Err(SmidError::invalid(
-                        "method.alpha",
-                        "`design` needs the filter pole from the Appendix search on the plant; with a given pole or measured data choose `bias` or `zero`",
-                    ))
-                }
-            },
-            AlphaSpec::Zero => {}
-        }
-        steady.validate()?;
+        with_alpha(spec, data.filter.as_ref(), steady)?;
     }
     for r in &data.records {
         r.validate()?;

@@ -99,6 +99,20 @@ fn stage1_with(
             ))
         }
     };
+    // The polygons hold only where the design does (Appendix): a term that may make the
+    // linear block overshoot under the filtered square wave leaves them unusable.
+    if !assume_design {
+        if let Some(e) = model.effects.iter().find(|e| !e.keeps_steady_design()) {
+            return Err(SmidError::invalid(
+                "model.effects",
+                format!(
+                    "`{}` breaks the designed steady-state experiment (it switches while the filtered square wave settles, so the linear block may overshoot, which stage 1's polygons rule out; see EquationTerm::keeps_steady_design): give the nonlinearity's parameters a prior box (`model.prior`: {}; the steady-state points then prune its cells with any history), or identify from records without the steady-state experiment",
+                    e.label(),
+                    crate::registry::parameter_names(&model.nonlinearity_tag()).join(", ")
+                ),
+            ));
+        }
+    }
     if model.effects.is_empty() && !model.has_blocks() {
         return model.nonlinearity.bound_steady_state(steady);
     }
