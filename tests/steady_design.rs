@@ -138,6 +138,8 @@ fn terms_that_break_the_designed_experiment_reach_the_nonlinearity_only_through_
                 assert_consistent_around(&text, &truth, &context);
                 eprintln!("{context}: keeps the design; polygons' bounds hold the truth");
             } else {
+                // The same records with and without the box.
+                let mut same = rng.clone();
                 let text = spec_text(seed, &plant_term, &model_term, false, &mut rng);
                 match run(&text) {
                     Err(SmidError::Invalid { field, message }) => assert!(
@@ -152,10 +154,62 @@ fn terms_that_break_the_designed_experiment_reach_the_nonlinearity_only_through_
                     ),
                     Err(e) => panic!("{context}: {e}\n{text}"),
                 }
-                let text = spec_text(seed, &plant_term, &model_term, true, &mut rng);
+                let text = spec_text(seed, &plant_term, &model_term, true, &mut same);
                 assert_consistent_around(&text, &truth, &context);
                 eprintln!("{context}: breaks the design; refused without a prior box, truth inside with one");
             }
         }
+    }
+}
+
+/// Only a nonlinearity that holds the linear block's overshoot needs the design: a Wiener
+/// nonlinearity with parameters. A Hammerstein nonlinearity sees the filtered input itself,
+/// and one without parameters (`linear`) bounds nothing from the points, so a term that breaks
+/// the design leaves their stage 1 as it was; a term that keeps it never matters.
+#[test]
+fn only_a_wiener_nonlinearity_with_parameters_needs_the_design() {
+    let cases = terms();
+    for (_, cand) in &cases {
+        let term = serde_json::to_value(cand).unwrap().to_string();
+        let model = |structure: &str, nonlinearity: &str| {
+            let text = common::paper_plant_spec(
+                "steady-design-scope",
+                1,
+                "",
+                "",
+                &format!("  unit_gain: true\n  effects: [ {term} ]\n"),
+                "",
+            )
+            .replace(
+                "model:\n  nonlinearity: { type: output_backlash }",
+                &format!(
+                    "model:\n  structure: {structure}\n  nonlinearity: {{ type: {nonlinearity} }}"
+                ),
+            );
+            smid::parse_spec(&text, std::path::Path::new("<scope>"))
+                .unwrap_or_else(|e| panic!("{e}\n{text}"))
+                .model
+        };
+        let breaks = !cand.keeps_steady_design();
+        let label = cand.label();
+        assert_eq!(
+            model("wiener", "output_backlash")
+                .term_breaking_steady_design()
+                .is_some(),
+            breaks,
+            "{label}: a Wiener backlash"
+        );
+        assert!(
+            model("hammerstein", "input_backlash")
+                .term_breaking_steady_design()
+                .is_none(),
+            "{label}: a Hammerstein play sees the filtered input"
+        );
+        assert!(
+            model("wiener", "linear")
+                .term_breaking_steady_design()
+                .is_none(),
+            "{label}: no parameters to bound"
+        );
     }
 }

@@ -1120,13 +1120,13 @@ fn candidates(
                 given.push((n.clone(), [p.lo, p.hi]));
             }
             let label = cand.label();
-            let breaks_design = !cand.keeps_steady_design();
             m.effects.push(cand);
             let (after, layout) = match m.layout() {
                 Ok(l) => (l.p() + l.dims.len(), l),
                 Err(_) => continue, // e.g. a name clash with a declared term
             };
-            if breaks_design {
+            // This term, or one declared before, leaves the polygons unusable.
+            if m.term_breaking_steady_design().is_some() {
                 if let Some(st) = steady_data {
                     if !with_design_prior(&mut m, &layout, st, &mut given, &label) {
                         continue;
@@ -1217,7 +1217,7 @@ fn candidates(
                 continue;
             };
             let added = prior.iter().filter(|p| p.hi > p.lo).count();
-            if side == Side::Input {
+            if side == Side::Input || m.term_breaking_steady_design().is_some() {
                 if let Some(st) = steady_data {
                     if !with_design_prior(&mut m, &layout, st, &mut given, entry.tag) {
                         continue;

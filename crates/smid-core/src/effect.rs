@@ -215,8 +215,9 @@ pub trait EquationTerm {
     /// dry friction turns off once the velocity falls into its dead band, a step in the
     /// equation after the filter that no filter pole short of the quasi-static one avoids,
     /// and the backlash then holds the overshoot. Default: yes. With a term that says no,
-    /// steady-state points reach the nonlinearity only through a prior box (`model.prior`:
-    /// the points prune its cells with any history), never through the polygons.
+    /// steady-state points reach a Wiener nonlinearity with parameters only through a prior box
+    /// (`model.prior`: the points prune its cells with any history), never through the
+    /// polygons ([`crate::model::ModelSpec::term_breaking_steady_design`]).
     fn keeps_steady_design(&self) -> bool {
         true
     }

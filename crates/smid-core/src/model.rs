@@ -331,6 +331,23 @@ impl ModelSpec {
         s
     }
 
+    /// The term that leaves stage 1's polygons unusable, if any: a term that breaks the
+    /// designed steady-state experiment ([`crate::effect::EquationTerm::keeps_steady_design`])
+    /// in a Wiener model whose nonlinearity has parameters (it holds the linear block's
+    /// overshoot). A Hammerstein nonlinearity sees the filtered input itself, and a nonlinearity
+    /// without parameters bounds nothing, so neither needs the design.
+    pub fn term_breaking_steady_design(&self) -> Option<&dyn crate::effect::Effect> {
+        if self.structure != crate::nonlinearity::Structure::Wiener
+            || crate::registry::parameter_names(&self.nonlinearity_tag()).is_empty()
+        {
+            return None;
+        }
+        self.effects
+            .iter()
+            .find(|e| !e.keeps_steady_design())
+            .map(|e| e.as_ref())
+    }
+
     /// Whether the chain has blocks besides the nonlinearity.
     pub fn has_blocks(&self) -> bool {
         !(self.input.is_empty() && self.output.is_empty())

@@ -29,7 +29,11 @@ fn consistent_at_halvings(
     halvings: u32,
 ) -> Result<bool> {
     let spec = with_bound(spec, d);
-    let data = data_with_bound(data, d);
+    let mut data = data_with_bound(data, d);
+    // The points as the identification's stage 1 reads them (α at this bound).
+    if let Some(st) = data.steady.as_mut() {
+        super::with_alpha(&spec, data.filter.as_ref(), st)?;
+    }
     let layout = spec.model.layout()?;
     let training = Training {
         steady: data.steady.clone(),

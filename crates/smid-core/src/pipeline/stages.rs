@@ -102,7 +102,7 @@ fn stage1_with(
     // The polygons hold only where the design does (Appendix): a term that may make the
     // linear block overshoot under the filtered square wave leaves them unusable.
     if !assume_design {
-        if let Some(e) = model.effects.iter().find(|e| !e.keeps_steady_design()) {
+        if let Some(e) = model.term_breaking_steady_design() {
             return Err(SmidError::invalid(
                 "model.effects",
                 format!(
