@@ -52,15 +52,13 @@ fn run(text: &str) -> Outcome<smid::core::pipeline::Identification> {
 }
 
 fn spec_text(seed: u64, plant_effect: &str, tag: &str, rest: &str, rng: &mut impl Rng) -> String {
-    let levels = if rng.gen_bool(0.5) { 2 } else { 8 };
-    let length = rng.gen_range(150..260);
-    let amplitude = rng.gen_range(0.8..1.6);
     common::paper_plant_spec(
         &format!("rest-shift-{tag}"),
         seed,
         &format!("    effects: [ {plant_effect} ]\n"),
         &format!(
-            "  steady_state: {{ amplitudes: 30 }}\n  dynamic: {{ length: {length}, amplitude: {amplitude:?}, levels: {levels} }}\n"
+            "  steady_state: {{ amplitudes: 30 }}\n{}",
+            common::random_dynamic_record(rng)
         ),
         &format!(
             "  unit_gain: true\n  effects: [ {{ type: {tag} }} ]\n  prior: {{ {rest}: [-0.4, 0.4] }}\n"
@@ -82,9 +80,7 @@ fn hammerstein_spec_text(
     prior: bool,
     rng: &mut impl Rng,
 ) -> String {
-    let levels = if rng.gen_bool(0.5) { 2 } else { 8 };
-    let length = rng.gen_range(150..260);
-    let amplitude = rng.gen_range(0.8..1.6);
+    let dynamic = common::random_dynamic_record(rng);
     let play = if prior {
         ", m_l: [0.2, 0.3], c_l: [0.02, 0.12], m_r: [0.2, 0.3], c_r: [0.0, 0.1]"
     } else {
@@ -104,8 +100,7 @@ experiment:
   seed: {seed}
   filter: {{ pole: 0.8125 }}
   steady_state: {{ amplitudes: 30 }}
-  dynamic: {{ length: {length}, amplitude: {amplitude:?}, levels: {levels} }}
-model:
+{dynamic}model:
   structure: hammerstein
   nonlinearity: {{ type: input_backlash, at_rest: false }}
   na: 2

@@ -60,9 +60,7 @@ fn spec_text(
     prior: bool,
     rng: &mut impl Rng,
 ) -> String {
-    let levels = if rng.gen_bool(0.5) { 2 } else { 8 };
-    let length = rng.gen_range(150..260);
-    let amplitude = rng.gen_range(0.8..1.6);
+    let dynamic = common::random_dynamic_record(rng);
     let prior = if prior {
         "  prior: { m_l: [0.2, 0.3], c_l: [0.0, 0.15], m_r: [0.2, 0.3], c_r: [0.0, 0.15] }\n"
     } else {
@@ -72,9 +70,7 @@ fn spec_text(
         "steady-design",
         seed,
         &format!("    effects: [ {plant_term} ]\n"),
-        &format!(
-            "  steady_state: {{ amplitudes: 30, shuffle: true }}\n  dynamic: {{ length: {length}, amplitude: {amplitude:?}, levels: {levels} }}\n"
-        ),
+        &format!("  steady_state: {{ amplitudes: 30, shuffle: true }}\n{dynamic}"),
         &format!("  unit_gain: true\n  effects: [ {model_term} ]\n{prior}"),
         "",
     )

@@ -119,3 +119,14 @@ experiment:
 {method}"
     )
 }
+
+/// The `dynamic:` line of an experiment with a random record (`experiment` section, indented
+/// two spaces): binary or 8-level, 150-259 samples, amplitude 0.8-1.6, drawn from `rng` in that
+/// order.
+#[allow(dead_code)] // not every test file uses every helper
+pub fn random_dynamic_record(rng: &mut impl rand::Rng) -> String {
+    let levels = if rng.gen_bool(0.5) { 2 } else { 8 };
+    let length = rng.gen_range(150..260);
+    let amplitude = rng.gen_range(0.8..1.6);
+    format!("  dynamic: {{ length: {length}, amplitude: {amplitude:?}, levels: {levels} }}\n")
+}
