@@ -15,17 +15,7 @@ use smid_core::interval::Interval;
 use smid_core::outcome::Outcome;
 use smid_core::SmidError;
 
-/// The paper's backlash and linear block (`A(1) = 2.2`), `(name, value)`.
-const TRUTH: [(&str, f64); 8] = [
-    ("m_l", 0.248),
-    ("c_l", 0.0698),
-    ("m_r", 0.252),
-    ("c_r", 0.0349),
-    ("a1", 0.5),
-    ("a2", 0.7),
-    ("b1", 1.4),
-    ("b2", 0.8),
-];
+use common::PAPER_TRUTH as TRUTH;
 const A1: f64 = 2.2;
 
 /// Registered effects whose candidate names a shift at rest: `(tag, rest parameter)`.

@@ -18,17 +18,7 @@ use smid_core::effect::{self, Effect};
 use smid_core::outcome::Outcome;
 use smid_core::SmidError;
 
-/// The paper's backlash and linear block, `(name, value)`.
-const TRUTH: [(&str, f64); 8] = [
-    ("m_l", 0.248),
-    ("c_l", 0.0698),
-    ("m_r", 0.252),
-    ("c_r", 0.0349),
-    ("a1", 0.5),
-    ("a2", 0.7),
-    ("b1", 1.4),
-    ("b2", 0.8),
-];
+use common::PAPER_TRUTH as TRUTH;
 
 /// The filter line `common::paper_plant_spec` writes (the pole the Appendix gives the paper's
 /// plant without any term).

@@ -130,3 +130,16 @@ pub fn random_dynamic_record(rng: &mut impl rand::Rng) -> String {
     let amplitude = rng.gen_range(0.8..1.6);
     format!("  dynamic: {{ length: {length}, amplitude: {amplitude:?}, levels: {levels} }}\n")
 }
+
+/// The paper's backlash and linear block of [`paper_plant_spec`] (`A(1) = 2.2`), `(name, value)`.
+#[allow(dead_code)] // not every test file uses every helper
+pub const PAPER_TRUTH: [(&str, f64); 8] = [
+    ("m_l", 0.248),
+    ("c_l", 0.0698),
+    ("m_r", 0.252),
+    ("c_r", 0.0349),
+    ("a1", 0.5),
+    ("a2", 0.7),
+    ("b1", 1.4),
+    ("b2", 0.8),
+];
