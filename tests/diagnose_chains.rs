@@ -479,7 +479,7 @@ fn a_term_that_breaks_the_design_is_tried_in_a_box_from_the_steady_state_points(
         .filter(|e| tags.contains(&e.tag))
         .collect();
     assert!(!tried.is_empty(), "{}", choice.summary());
-    for e in tried {
+    for e in &tried {
         for n in &nonlinearity {
             assert!(
                 e.priors.iter().any(|(p, _)| p == n),
@@ -496,5 +496,38 @@ fn a_term_that_breaks_the_design_is_tried_in_a_box_from_the_steady_state_points(
             e.train,
             choice.summary()
         );
+    }
+    // With an undeclared drift the points leave no polygon consistent even as if the design
+    // held: such a candidate is not tried, and its verdict says why, not only that stage 1
+    // refuses its polygons.
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/12bit/paper-drift.yaml");
+    let (spec, data) = smid::load_simulated(&path).unwrap();
+    let choice = diagnose::choose(
+        &spec,
+        &data,
+        &Options {
+            only: tags.clone(),
+            max_effects: 1,
+            ..Options::default()
+        },
+        &|_, _| {},
+    )
+    .unwrap();
+    for e in choice.rounds[0]
+        .candidates
+        .iter()
+        .filter(|e| tags.contains(&e.tag))
+    {
+        match &e.train {
+            diagnose::TrainVerdict::Failed { message } => assert!(
+                message.starts_with("not tried")
+                    && message.contains("no box for the nonlinearity")
+                    && message.contains("model.prior"),
+                "{}: {message}",
+                e.label
+            ),
+            t => panic!("{}: {t:?}\n{}", e.label, choice.summary()),
+        }
     }
 }

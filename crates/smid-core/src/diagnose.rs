@@ -164,6 +164,11 @@ pub struct Evidence {
     /// accounts for, at the same parameter count ([`mark_ties`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub equivalent_to: Vec<String>,
+    /// Why the candidate is not identified at all, known before it is tried (its verdict then
+    /// says so): a term that breaks the designed experiment under which the steady-state points
+    /// give no box ([`with_design_prior`]).
+    #[serde(skip)]
+    pub(crate) untried: Option<String>,
 }
 
 /// The label of the base model in equivalence lists.
@@ -1054,6 +1059,11 @@ fn try_candidates(
     cands
         .par_iter_mut()
         .map(|(m, ev)| {
+            if let Some(why) = ev.untried.take() {
+                ev.train = TrainVerdict::Failed { message: why };
+                progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+                return None;
+            }
             let start = std::time::Instant::now();
             let (t, id) = try_model(
                 spec,
@@ -1115,6 +1125,7 @@ fn candidates(
                 continue;
             }
             let mut given = Vec::new();
+            let mut untried = None;
             for (n, p) in names.iter().zip(&priors) {
                 m.prior.insert(n.clone(), [p.lo, p.hi]);
                 given.push((n.clone(), [p.lo, p.hi]));
@@ -1128,7 +1139,7 @@ fn candidates(
             // This term, or one declared before, leaves the polygons unusable.
             if m.term_breaking_steady_design().is_some() {
                 if let Some(st) = steady_data {
-                    if !with_design_prior(&mut m, &layout, st, &mut given, &label) {
+                    if !with_design_prior(&mut m, &layout, st, &mut given, &mut untried, &label) {
                         continue;
                     }
                 }
@@ -1145,6 +1156,7 @@ fn candidates(
                     },
                     chosen: false,
                     equivalent_to: Vec::new(),
+                    untried,
                 },
             ));
         }
@@ -1208,6 +1220,7 @@ fn candidates(
             }
             let prefix = side.prefix(position + 1);
             let mut given = Vec::new();
+            let mut untried = None;
             for (n, p) in names.iter().zip(&prior) {
                 let name = qualified(&prefix, n);
                 m.prior.insert(name.clone(), [p.lo, p.hi]);
@@ -1219,7 +1232,8 @@ fn candidates(
             let added = prior.iter().filter(|p| p.hi > p.lo).count();
             if side == Side::Input || m.term_breaking_steady_design().is_some() {
                 if let Some(st) = steady_data {
-                    if !with_design_prior(&mut m, &layout, st, &mut given, entry.tag) {
+                    if !with_design_prior(&mut m, &layout, st, &mut given, &mut untried, entry.tag)
+                    {
                         continue;
                     }
                 }
@@ -1243,6 +1257,7 @@ fn candidates(
                     },
                     chosen: false,
                     equivalent_to: Vec::new(),
+                    untried,
                 },
             ));
         }
@@ -1253,12 +1268,15 @@ fn candidates(
 /// Gives candidate `m` the prior box of [`design_prior_for`] where it needs one (its
 /// nonlinearity's parameters were in the model already: bisected now, not added), listed with
 /// its priors. Without a box from the points the candidate is tried as it is, and its verdict
-/// says why it fails. `false`: the model with the box has no layout (not offered).
+/// says why it fails; under a term that breaks the design (whose polygons stage 1 refuses)
+/// it is not tried, and `untried` says why. `false`: the model with the box has no layout (not
+/// offered).
 fn with_design_prior(
     m: &mut ModelSpec,
     layout: &crate::model::Layout,
     steady: &SteadyStateData,
     given: &mut Vec<(String, [f64; 2])>,
+    untried: &mut Option<String>,
     what: &str,
 ) -> bool {
     match design_prior_for(m, layout, steady) {
@@ -1272,6 +1290,13 @@ fn with_design_prior(
         Ok(None) => true,
         Err(e) => {
             log::info!(target: "smid::diagnose", "{what}: no prior box for the nonlinearity from the steady-state points: {e}");
+            if let Some(term) = m.term_breaking_steady_design() {
+                *untried = Some(format!(
+                    "not tried: `{}` breaks the designed steady-state experiment, so stage 1 refuses the polygons, and the steady-state points give no box for the nonlinearity even as if the design held ({e}); give the nonlinearity's parameters a prior box (`model.prior`: {})",
+                    term.label(),
+                    crate::registry::parameter_names(&m.nonlinearity_tag()).join(", ")
+                ));
+            }
             true
         }
     }
@@ -2039,6 +2064,7 @@ mod tests {
             },
             chosen: false,
             equivalent_to: Vec::new(),
+            untried: None,
         }
     }
 
