@@ -458,20 +458,25 @@ fn a_term_that_breaks_the_design_is_tried_in_a_box_from_the_steady_state_points(
         !tags.is_empty(),
         "the registry has a term that breaks the design"
     );
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/12bit/paper-offset.yaml");
-    let (spec, data) = smid::load_simulated(&path).unwrap();
-    let choice = diagnose::choose(
-        &spec,
-        &data,
-        &Options {
-            only: tags.clone(),
-            max_effects: 1,
-            ..Options::default()
-        },
-        &|_, _| {},
-    )
-    .unwrap();
+    // One round on a 12-bit example with only those terms as candidates.
+    let choose = |example: &str| {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("examples/diagnose/12bit")
+            .join(example);
+        let (spec, data) = smid::load_simulated(&path).unwrap();
+        diagnose::choose(
+            &spec,
+            &data,
+            &Options {
+                only: tags.clone(),
+                max_effects: 1,
+                ..Options::default()
+            },
+            &|_, _| {},
+        )
+        .unwrap()
+    };
+    let choice = choose("paper-offset.yaml");
     let nonlinearity = smid_core::registry::parameter_names("output_backlash");
     let tried: Vec<&diagnose::Evidence> = choice.rounds[0]
         .candidates
@@ -500,20 +505,7 @@ fn a_term_that_breaks_the_design_is_tried_in_a_box_from_the_steady_state_points(
     // With an undeclared drift the points leave no polygon consistent even as if the design
     // held: such a candidate is not tried, and its verdict says why, not only that stage 1
     // refuses its polygons.
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/12bit/paper-drift.yaml");
-    let (spec, data) = smid::load_simulated(&path).unwrap();
-    let choice = diagnose::choose(
-        &spec,
-        &data,
-        &Options {
-            only: tags.clone(),
-            max_effects: 1,
-            ..Options::default()
-        },
-        &|_, _| {},
-    )
-    .unwrap();
+    let choice = choose("paper-drift.yaml");
     for e in choice.rounds[0]
         .candidates
         .iter()
