@@ -72,15 +72,10 @@ fn run(text: &str) -> smid_core::Result<Outcome<smid::core::pipeline::Identifica
     smid::run_spec(&spec, std::path::Path::new("."), &|_| {})
 }
 
-fn assert_consistent_around(
-    text: &str,
-    truth: &[(String, f64)],
-    context: &str,
-) -> smid::core::pipeline::Identification {
+fn assert_consistent_around(text: &str, truth: &[(String, f64)], context: &str) {
     match run(text) {
         Ok(Outcome::Consistent(id)) => {
-            common::assert_truth_inside(&id, truth, &format!("{context}\n{text}"));
-            id
+            common::assert_truth_inside(&id, truth, &format!("{context}\n{text}"))
         }
         Ok(Outcome::Falsified(f)) => {
             panic!("{context}: the true model was falsified: {f:?}\n{text}")
@@ -157,6 +152,7 @@ fn only_a_wiener_nonlinearity_with_parameters_needs_the_design() {
     let cases = terms();
     for (_, cand) in &cases {
         let term = serde_json::to_value(cand).unwrap().to_string();
+        let declared = "model:\n  nonlinearity: { type: output_backlash }";
         let model = |structure: &str, nonlinearity: &str| {
             let text = common::paper_plant_spec(
                 "steady-design-scope",
@@ -165,9 +161,10 @@ fn only_a_wiener_nonlinearity_with_parameters_needs_the_design() {
                 "",
                 &format!("  unit_gain: true\n  effects: [ {term} ]\n"),
                 "",
-            )
-            .replace(
-                "model:\n  nonlinearity: { type: output_backlash }",
+            );
+            assert!(text.contains(declared), "{text}");
+            let text = text.replace(
+                declared,
                 &format!(
                     "model:\n  structure: {structure}\n  nonlinearity: {{ type: {nonlinearity} }}"
                 ),

@@ -1137,12 +1137,17 @@ fn candidates(
                 Err(_) => continue, // e.g. a name clash with a declared term
             };
             // This term, or one declared before, leaves the polygons unusable.
-            if m.term_breaking_steady_design().is_some() {
-                if let Some(st) = steady_data {
-                    if !with_design_prior(&mut m, &layout, st, &mut given, &mut untried, &label) {
-                        continue;
-                    }
-                }
+            if m.term_breaking_steady_design().is_some()
+                && !with_design_prior(
+                    &mut m,
+                    &layout,
+                    steady_data,
+                    &mut given,
+                    &mut untried,
+                    &label,
+                )
+            {
+                continue;
             }
             out.push((
                 m,
@@ -1230,13 +1235,17 @@ fn candidates(
                 continue;
             };
             let added = prior.iter().filter(|p| p.hi > p.lo).count();
-            if side == Side::Input || m.term_breaking_steady_design().is_some() {
-                if let Some(st) = steady_data {
-                    if !with_design_prior(&mut m, &layout, st, &mut given, &mut untried, entry.tag)
-                    {
-                        continue;
-                    }
-                }
+            if (side == Side::Input || m.term_breaking_steady_design().is_some())
+                && !with_design_prior(
+                    &mut m,
+                    &layout,
+                    steady_data,
+                    &mut given,
+                    &mut untried,
+                    entry.tag,
+                )
+            {
+                continue;
             }
             out.push((
                 m,
@@ -1270,15 +1279,18 @@ fn candidates(
 /// its priors. Without a box from the points the candidate is tried as it is, and its verdict
 /// says why it fails; under a term that breaks the design (whose polygons stage 1 refuses)
 /// it is not tried, and `untried` says why. `false`: the model with the box has no layout (not
-/// offered).
+/// offered). Without steady-state points there is nothing to do.
 fn with_design_prior(
     m: &mut ModelSpec,
     layout: &crate::model::Layout,
-    steady: &SteadyStateData,
+    steady: Option<&SteadyStateData>,
     given: &mut Vec<(String, [f64; 2])>,
     untried: &mut Option<String>,
     what: &str,
 ) -> bool {
+    let Some(steady) = steady else {
+        return true;
+    };
     match design_prior_for(m, layout, steady) {
         Ok(Some(boxes)) => {
             for (n, p) in boxes {
@@ -1292,9 +1304,9 @@ fn with_design_prior(
             log::info!(target: "smid::diagnose", "{what}: no prior box for the nonlinearity from the steady-state points: {e}");
             if let Some(term) = m.term_breaking_steady_design() {
                 *untried = Some(format!(
-                    "not tried: `{}` breaks the designed steady-state experiment, so stage 1 refuses the polygons, and the steady-state points give no box for the nonlinearity even as if the design held ({e}); give the nonlinearity's parameters a prior box (`model.prior`: {})",
+                    "not tried: `{}` breaks the designed steady-state experiment, so stage 1 refuses the polygons, and the steady-state points give no box for the nonlinearity even as if the design held ({e}); {}",
                     term.label(),
-                    crate::registry::parameter_names(&m.nonlinearity_tag()).join(", ")
+                    crate::pipeline::prior_box_to_give(m)
                 ));
             }
             true

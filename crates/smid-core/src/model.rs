@@ -336,16 +336,13 @@ impl ModelSpec {
     /// in a Wiener model whose nonlinearity has parameters (it holds the linear block's
     /// overshoot). A Hammerstein nonlinearity sees the filtered input itself, and a nonlinearity
     /// without parameters bounds nothing, so neither needs the design.
+    /// Called by stage 1 on every cell: the terms are asked first (most models have none that
+    /// breaks the design), the plugin's registry entry only when one does.
     pub fn term_breaking_steady_design(&self) -> Option<&dyn crate::effect::Effect> {
-        if self.structure != crate::nonlinearity::Structure::Wiener
-            || crate::registry::parameter_names(&self.nonlinearity_tag()).is_empty()
-        {
-            return None;
-        }
-        self.effects
-            .iter()
-            .find(|e| !e.keeps_steady_design())
-            .map(|e| e.as_ref())
+        let term = self.effects.iter().find(|e| !e.keeps_steady_design())?;
+        (self.structure == crate::nonlinearity::Structure::Wiener
+            && !crate::registry::parameter_names(&self.nonlinearity_tag()).is_empty())
+        .then_some(term.as_ref())
     }
 
     /// Whether the chain has blocks besides the nonlinearity.

@@ -31,6 +31,16 @@ pub const DESIGN_WIDEN_WIDTH: f64 = 0.25;
 /// Widening of a [`design_prior`] box on each side, as a fraction of its centre's magnitude.
 pub const DESIGN_WIDEN_CENTRE: f64 = 0.05;
 
+/// The advice every refusal of stage 1's polygons ends with: the nonlinearity's parameters
+/// by name, to be given a prior box (`model.prior`), so that the branch and bound bisects them
+/// and the steady-state points prune its cells with any history.
+pub fn prior_box_to_give(model: &ModelSpec) -> String {
+    format!(
+        "give the nonlinearity's parameters a prior box (`model.prior`: {})",
+        crate::registry::parameter_names(&model.nonlinearity_tag()).join(", ")
+    )
+}
+
 /// A box for the nonlinearity's parameters from the steady-state points **as if** every input
 /// block kept the designed experiment valid (the polygons, each point's input an interval over
 /// the blocks' whole prior boxes `cell`), widened on each side by [`DESIGN_WIDEN_WIDTH`] of its
@@ -93,8 +103,8 @@ fn stage1_with(
             return Err(SmidError::invalid(
                 "plant",
                 format!(
-                    "stage 1 needs steady-state data (the designed experiment of Section 3); without it, give the nonlinearity's parameters a prior box (`model.prior`: {})",
-                    crate::registry::parameter_names(&model.nonlinearity_tag()).join(", ")
+                    "stage 1 needs steady-state data (the designed experiment of Section 3); without it, {}",
+                    prior_box_to_give(model)
                 ),
             ))
         }
@@ -106,9 +116,9 @@ fn stage1_with(
             return Err(SmidError::invalid(
                 "model.effects",
                 format!(
-                    "`{}` breaks the designed steady-state experiment (it switches while the filtered square wave settles, so the linear block may overshoot, which stage 1's polygons rule out; see EquationTerm::keeps_steady_design): give the nonlinearity's parameters a prior box (`model.prior`: {}; the steady-state points then prune its cells with any history), or identify from records without the steady-state experiment",
+                    "`{}` breaks the designed steady-state experiment (it switches while the filtered square wave settles, so the linear block may overshoot, which stage 1's polygons rule out; see EquationTerm::keeps_steady_design): {} (the steady-state points then prune its cells with any history), or identify from records without the steady-state experiment",
                     e.label(),
-                    crate::registry::parameter_names(&model.nonlinearity_tag()).join(", ")
+                    prior_box_to_give(model)
                 ),
             ));
         }
@@ -134,8 +144,11 @@ fn stage1_with(
         data.points = kept;
         if data.points.is_empty() {
             return Err(SmidError::invalid(
-                    "model.input",
-                "steady-state data reach the nonlinearity through an input block that may make the linear block overshoot under the designed square wave at every point (a clipped or kinked wave; see NonlinearitySet::keeps_steady_design_over): give the nonlinearity's parameters a prior box (`model.prior`; the steady-state points then prune its cells without the design's assumption), or identify from records without the steady-state experiment",
+                "model.input",
+                format!(
+                    "steady-state data reach the nonlinearity through an input block that may make the linear block overshoot under the designed square wave at every point (a clipped or kinked wave; see NonlinearitySet::keeps_steady_design_over): {} (the steady-state points then prune its cells without the design's assumption), or identify from records without the steady-state experiment",
+                    prior_box_to_give(model)
+                ),
             ));
         }
     }
@@ -149,15 +162,22 @@ fn stage1_with(
         }
         if !inputs.is_empty() {
             // The steady input through the input blocks over their cell: an interval.
-            let q = chain::forward_steady_point(&inputs, p)?
-                .ok_or_else(|| SmidError::invalid(
+            let q = chain::forward_steady_point(&inputs, p)?.ok_or_else(|| {
+                SmidError::invalid(
                     "model.input",
-                    "a steady input reaches a non-monotone input block as an interval: give the nonlinearity's parameters a prior box (`model.prior`)",
-                ))?;
+                    format!(
+                        "a steady input reaches a non-monotone input block as an interval: {}",
+                        prior_box_to_give(model)
+                    ),
+                )
+            })?;
             if q.du > 0.0 && !model.nonlinearity.accepts_input_radius() {
                 return Err(SmidError::invalid(
                     "model.input",
-                    "steady-state data reach the nonlinearity through input-side blocks whose steady output is uncertain over their cell, and this plugin's stage 1 needs exact inputs: give the nonlinearity's parameters a prior box too (`model.prior`), or identify from records without the steady-state experiment",
+                    format!(
+                        "steady-state data reach the nonlinearity through input-side blocks whose steady output is uncertain over their cell, and this plugin's stage 1 needs exact inputs: {}, or identify from records without the steady-state experiment",
+                        prior_box_to_give(model)
+                    ),
                 ));
             }
             *p = q;
@@ -289,7 +309,10 @@ fn rest_shifted(
     if !model.nonlinearity.accepts_input_radius() {
         return Err(SmidError::invalid(
             "model.effects",
-            "a term's shift at rest makes every steady input an interval, and this plugin's stage 1 needs exact inputs: give the nonlinearity's parameters a prior box (`model.prior`), or identify from records without the steady-state experiment",
+            format!(
+                "a term's shift at rest makes every steady input an interval, and this plugin's stage 1 needs exact inputs: {}, or identify from records without the steady-state experiment",
+                prior_box_to_give(model)
+            ),
         ));
     }
     let v = Interval::new(p.u - p.du + s.lo, p.u + p.du + s.hi).outward();
