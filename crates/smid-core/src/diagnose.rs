@@ -1136,17 +1136,15 @@ fn candidates(
                 Ok(l) => (l.p() + l.dims.len(), l),
                 Err(_) => continue, // e.g. a name clash with a declared term
             };
-            // This term, or one declared before, leaves the polygons unusable.
-            if m.term_breaking_steady_design().is_some()
-                && !with_design_prior(
-                    &mut m,
-                    &layout,
-                    steady_data,
-                    &mut given,
-                    &mut untried,
-                    &label,
-                )
-            {
+            if !with_design_prior(
+                &mut m,
+                &layout,
+                steady_data,
+                false,
+                &mut given,
+                &mut untried,
+                &label,
+            ) {
                 continue;
             }
             out.push((
@@ -1235,16 +1233,16 @@ fn candidates(
                 continue;
             };
             let added = prior.iter().filter(|p| p.hi > p.lo).count();
-            if (side == Side::Input || m.term_breaking_steady_design().is_some())
-                && !with_design_prior(
-                    &mut m,
-                    &layout,
-                    steady_data,
-                    &mut given,
-                    &mut untried,
-                    entry.tag,
-                )
-            {
+            let input_block = side == Side::Input;
+            if !with_design_prior(
+                &mut m,
+                &layout,
+                steady_data,
+                input_block,
+                &mut given,
+                &mut untried,
+                entry.tag,
+            ) {
                 continue;
             }
             out.push((
@@ -1279,16 +1277,21 @@ fn candidates(
 /// its priors. Without a box from the points the candidate is tried as it is, and its verdict
 /// says why it fails; under a term that breaks the design (whose polygons stage 1 refuses)
 /// it is not tried, and `untried` says why. `false`: the model with the box has no layout (not
-/// offered). Without steady-state points there is nothing to do.
+/// offered). Nothing to do without steady-state points, or where the candidate neither adds
+/// an input-side block (`input_block`) nor has a term that breaks the design.
 fn with_design_prior(
     m: &mut ModelSpec,
     layout: &crate::model::Layout,
     steady: Option<&SteadyStateData>,
+    input_block: bool,
     given: &mut Vec<(String, [f64; 2])>,
     untried: &mut Option<String>,
     what: &str,
 ) -> bool {
-    let Some(steady) = steady else {
+    // Where a box may be needed: behind the input-side block the candidate adds, or under a
+    // term (the candidate's or one declared before) that leaves the polygons unusable.
+    let Some(steady) = steady.filter(|_| input_block || m.term_breaking_steady_design().is_some())
+    else {
         return true;
     };
     match design_prior_for(m, layout, steady) {
