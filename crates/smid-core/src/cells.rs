@@ -140,7 +140,17 @@ fn bisect(
     b: &Budget,
     below_resolution: bool,
 ) -> Option<[(Vec<Interval>, Vec<u32>); 2]> {
-    let ratio = |k: usize| (cell[k].hi - cell[k].lo) / b.resolution.get(k).copied().unwrap_or(0.0);
+    // A parameter split at its geometric mean counts its span in halvings of the span as well
+    // (at least 1 while it spans more than GEOMETRIC_SPAN: its width may already be under the
+    // resolution at the low end, where a slope's cell still spans an order of magnitude).
+    let ratio = |k: usize| {
+        let linear = (cell[k].hi - cell[k].lo) / b.resolution.get(k).copied().unwrap_or(0.0);
+        if cell[k].lo > 0.0 && cell[k].hi > GEOMETRIC_SPAN * cell[k].lo {
+            linear.max((cell[k].hi / cell[k].lo).log2() / GEOMETRIC_SPAN.log2())
+        } else {
+            linear
+        }
+    };
     let k = (0..cell.len())
         .filter(|&k| {
             depth[k] < b.depth
@@ -150,7 +160,7 @@ fn bisect(
                 && (below_resolution || ratio(k) > 1.0)
         })
         .max_by(|&i, &j| ratio(i).total_cmp(&ratio(j)).then(j.cmp(&i)))?;
-    let mid = cell[k].center();
+    let mid = split_point(cell[k]);
     let mut a = cell.to_vec();
     let mut b = cell.to_vec();
     a[k].hi = mid;
@@ -159,6 +169,23 @@ fn bisect(
     d[k] += 1;
     Some([(a, d.clone()), (b, d)])
 }
+
+/// Where a cell's parameter is halved: its centre, or, for a positive parameter spanning
+/// more than [`GEOMETRIC_SPAN`] times its lower end (a slope whose box comes from points that
+/// barely bound it), its geometric mean, so that each order of magnitude gets its share of the
+/// halvings instead of the top one taking them all. Any split point keeps the partition exact.
+fn split_point(i: Interval) -> f64 {
+    if i.lo > 0.0 && i.hi > GEOMETRIC_SPAN * i.lo {
+        let g = (i.lo.sqrt() * i.hi.sqrt()).clamp(i.lo, i.hi);
+        if g > i.lo && g < i.hi {
+            return g;
+        }
+    }
+    i.center()
+}
+
+/// The span (`hi / lo`) beyond which a positive parameter is halved at its geometric mean.
+pub const GEOMETRIC_SPAN: f64 = 16.0;
 
 /// Run the search from `prior`. Each level's cells are `test`ed in parallel (a cheap necessary
 /// condition: `Infeasible` must be a proof) and the survivors halved; the cells that reach
@@ -681,6 +708,52 @@ mod tests {
                 .iter()
                 .any(|k| k.cell[0].contains(c[0]) && k.cell[1].contains(c[1])));
         }
+    }
+
+    /// A positive slope whose box spans four orders of magnitude (as a box from steady-state
+    /// points that barely bound it does): halved at its geometric mean, the cells around the
+    /// truth reach a width at which the finish decides them within a budget that halving at the
+    /// centre spends on the top decade (it would need ten levels to get below 1 near 0.25).
+    #[test]
+    fn a_slope_spanning_orders_of_magnitude_is_halved_at_its_geometric_mean() {
+        let truth = Interval::new(0.24, 0.26);
+        let meets = |c: &[Interval]| c[0].lo <= truth.hi && c[0].hi >= truth.lo;
+        let prior = [Interval::new(0.1, 1000.0)];
+        let r = search(
+            &prior,
+            Budget {
+                resolution: crate::nonlinearity::halved_widths(&prior, 6),
+                depth: 30,
+                max_cells: 12,
+                max_leaves: 100,
+            },
+            &|c| {
+                Ok(if meets(c) {
+                    Verdict::Feasible(())
+                } else {
+                    Verdict::Infeasible(incons(0))
+                })
+            },
+            &|c| {
+                Ok(if !meets(c) {
+                    Verdict::Infeasible(incons(0))
+                } else if c[0].hi - c[0].lo < 1.0 {
+                    Verdict::Feasible(c[0])
+                } else {
+                    Verdict::Undecided(UndecidedCause::Unbounded, "wide".into())
+                })
+            },
+            &|_| {},
+        )
+        .unwrap();
+        let Outcome::Consistent(s) = r else {
+            panic!("{r:?}")
+        };
+        assert!(!s.budget_stopped);
+        assert!(s.leaves.iter().all(|l| l.value.is_some()), "{:?}", s.leaves);
+        assert!(s.leaves.iter().any(|l| l.cell[0].contains(0.25)));
+        let h = s.hull();
+        assert!(h[0].lo >= 0.1 && h[0].hi < 1.01, "{h:?}");
     }
 
     #[test]
