@@ -38,3 +38,52 @@ fn random_chains_from_the_registry_hold_the_truth() {
         "the draws must include input-side and output-side blocks: {shapes:?}"
     );
 }
+
+mod common;
+
+/// An output block whose wide cells leave the steady-state points without a bound on the
+/// nonlinearity (a second play after the backlash: read back through a play of up to 1, the
+/// points let the backlash's slope reach 0 where the play passes 0.75): the run still answers. Those cells are listed with
+/// stage 1's cause and hold the nonlinearity's and θ's parameters unbounded; the block's own
+/// plays stay bounded, and every bound holds the truth. Before, the run failed with stage 1's
+/// error once such a cell was left when the budget ran out.
+#[test]
+fn cells_whose_steady_points_bound_no_nonlinearity_give_a_partial_answer() {
+    use smid_core::outcome::Outcome;
+    let text = common::paper_plant_spec(
+        "second-play",
+        1,
+        "    output: [ { type: output_backlash, m_l: 1.0, c_l: 0.25, m_r: 1.0, c_r: 0.2 } ]\n",
+        "  steady_state: { amplitudes: 50, min: 0.6, max: 3.0, shuffle: true }\n  dynamic: { length: 300, amplitude: 1.0, hold: 1 }\n",
+        "  unit_gain: true\n  output: [ { type: output_backlash } ]\n  prior:\n    out1.m_l: [1, 1]\n    out1.m_r: [1, 1]\n    out1.c_l: [0, 1]\n    out1.c_r: [0, 1]\n",
+        "  cells: { max_cells: 800, max_leaves: 64 }\n",
+    );
+    let spec = smid::parse_spec(&text, std::path::Path::new("<second-play>"))
+        .unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let id = match smid::run_spec(&spec, std::path::Path::new("."), &|_| {}) {
+        Ok(Outcome::Consistent(id)) => id,
+        other => panic!("expected a partial answer: {other:?}\n{text}"),
+    };
+    let s = &id.model.search;
+    assert!(
+        s.unbounded
+            .iter()
+            .any(|u| u.detail.contains("do not bound `m_")),
+        "{s:?}"
+    );
+    for name in ["m_l", "c_r", "a1"] {
+        let p = id.parameter(name).unwrap();
+        assert!(
+            !p.lower.is_finite() && !p.upper.is_finite(),
+            "{name}: {p:?}"
+        );
+    }
+    for (name, truth) in [("out1.c_l", 0.25), ("out1.c_r", 0.2)] {
+        let p = id.parameter(name).unwrap();
+        assert!(
+            p.lower.is_finite() && p.upper.is_finite() && p.lower <= truth && truth <= p.upper,
+            "{name}: {p:?}"
+        );
+    }
+    assert_eq!(id.all_contain_truth(), Some(true));
+}

@@ -261,6 +261,57 @@ pub struct ParameterBound {
     pub interval: Interval,
 }
 
+/// The stage-1 set of a cell whose steady-state points do not bound the nonlinearity (a slope
+/// that may reach 0 once an output block's play is subtracted): every parameter in
+/// `(-∞, ∞)`, every inner-signal sample unknown. Only a leaf the branch and bound leaves
+/// undecided holds it, so that a run still reports what the other cells bound instead of
+/// failing; its θ is unbounded too, and the search summary lists the cell with its cause.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct UnboundedSet {
+    /// The nonlinearity's parameter names, in report order.
+    pub names: Vec<String>,
+}
+
+impl UnboundedSet {
+    fn unknown(n: usize) -> Vec<InnerBound> {
+        vec![
+            InnerBound {
+                interval: Interval::entire(),
+                kind: InnerKind::Unknown,
+            };
+            n
+        ]
+    }
+}
+
+#[typetag::serde(name = "unbounded")]
+impl NonlinearitySet for UnboundedSet {
+    fn parameters(&self) -> Vec<ParameterBound> {
+        self.names
+            .iter()
+            .map(|n| ParameterBound {
+                name: n.clone(),
+                interval: Interval::entire(),
+            })
+            .collect()
+    }
+    fn invert(&self, y: &[f64], _dy: &[f64]) -> Result<Vec<InnerBound>> {
+        Ok(Self::unknown(y.len()))
+    }
+    fn propagate(&self, u: &[f64]) -> Result<Vec<InnerBound>> {
+        Ok(Self::unknown(u.len()))
+    }
+    fn propagate_intervals(&self, v: &[Interval]) -> Result<Vec<InnerBound>> {
+        Ok(Self::unknown(v.len()))
+    }
+    fn invert_steady(&self, _y: f64, _dy: f64) -> Result<Interval> {
+        Ok(Interval::entire())
+    }
+    fn propagate_steady(&self, _u: f64) -> Result<Interval> {
+        Ok(Interval::entire())
+    }
+}
+
 /// A two-dimensional feasible region for plots: a polygon in the plugin's linear coordinates.
 #[derive(Debug, Clone, Serialize)]
 pub struct Region {

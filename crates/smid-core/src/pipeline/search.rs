@@ -13,7 +13,7 @@ use crate::model::{
     BoundSource, CellSet, Layout, ModelSet, SearchSummary, Training, UnboundedCell, UndecidedCause,
 };
 use crate::noise;
-use crate::nonlinearity::{NonlinearitySet, Structure};
+use crate::nonlinearity::{NonlinearitySet, Structure, UnboundedSet};
 use crate::outcome::{Falsification, Outcome};
 use crate::spec::{AlphaSpec, ModelSpec, Spec};
 
@@ -333,8 +333,19 @@ pub fn identify_with(
                     cause,
                     detail,
                 });
+                // A cell whose steady-state points bound no nonlinearity (left undecided for
+                // it) keeps every one of its parameters unbounded; the other cells still
+                // report theirs.
+                let nonlinearity =
+                    match stage1(model, &layout, training.steady.as_ref(), &leaf.cell) {
+                        Ok(set) => set,
+                        Err(SmidError::Unbounded { .. }) => Box::new(UnboundedSet {
+                            names: crate::registry::parameter_names(&model.nonlinearity_tag()),
+                        }),
+                        Err(e) => return Err(e),
+                    };
                 kept.push(CellSet {
-                    nonlinearity: stage1(model, &layout, training.steady.as_ref(), &leaf.cell)?,
+                    nonlinearity,
                     theta: vec![Interval::entire(); layout.theta_names.len()],
                     unsettled: None,
                     cell: leaf.cell,
@@ -352,8 +363,15 @@ pub fn identify_with(
         .iter()
         .map(|b| b.name.clone())
         .collect();
-    for (k, name) in gnames.iter().enumerate() {
-        let h = hull(kept.iter().map(|c| c.nonlinearity.parameters()[k].interval));
+    for name in &gnames {
+        // By name: an undecided cell's [`UnboundedSet`] names them from the registry.
+        let h = hull(kept.iter().map(|c| {
+            c.nonlinearity
+                .parameters()
+                .into_iter()
+                .find(|b| &b.name == name)
+                .map_or(Interval::entire(), |b| b.interval)
+        }));
         parameters.push(ParamResult::new(name, h, truth_of(name)));
     }
     for (k, name) in layout.theta_names.iter().enumerate() {
