@@ -42,11 +42,14 @@ fn random_chains_from_the_registry_hold_the_truth() {
 mod common;
 
 /// An output block whose wide cells leave the steady-state points without a bound on the
-/// nonlinearity (a second play after the backlash: read back through a play of up to 1, the
-/// points let the backlash's slope reach 0 where the play passes 0.75): the run still answers. Those cells are listed with
-/// stage 1's cause and hold the nonlinearity's and θ's parameters unbounded; the block's own
-/// plays stay bounded, and every bound holds the truth. Before, the run failed with stage 1's
-/// error once such a cell was left when the budget ran out.
+/// nonlinearity: a play after a gain written without [`NonlinearityModel::keeps_steps_monotone`]
+/// (the worked example of CONTRIBUTING), so the play is read back with any history, its whole
+/// dead band, and where the play passes 0.75 the points no longer bound the gain away from 0.
+/// The run still answers: those cells are listed with stage 1's cause and hold the gain and θ
+/// unbounded; the block's own plays stay bounded, and every bound holds the truth. Before, the
+/// run failed with stage 1's error once such a cell was left when the budget ran out.
+///
+/// [`NonlinearityModel::keeps_steps_monotone`]: smid_core::nonlinearity::NonlinearityModel::keeps_steps_monotone
 #[test]
 fn cells_whose_steady_points_bound_no_nonlinearity_give_a_partial_answer() {
     use smid_core::outcome::Outcome;
@@ -58,6 +61,13 @@ fn cells_whose_steady_points_bound_no_nonlinearity_give_a_partial_answer() {
         "  unit_gain: true\n  output: [ { type: output_backlash } ]\n  prior:\n    out1.m_l: [1, 1]\n    out1.m_r: [1, 1]\n    out1.c_l: [0, 1]\n    out1.c_r: [0, 1]\n",
         "  cells: { max_cells: 800, max_leaves: 64 }\n",
     );
+    let plant =
+        "nonlinearity: { type: output_backlash, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 }";
+    let model = "nonlinearity: { type: output_backlash }\n";
+    assert!(text.contains(plant) && text.contains(model), "{text}");
+    let text = text
+        .replace(plant, "nonlinearity: { type: example_gain, k: 0.25 }")
+        .replace(model, "nonlinearity: { type: example_gain }\n");
     let spec = smid::parse_spec(&text, std::path::Path::new("<second-play>"))
         .unwrap_or_else(|e| panic!("{e}\n{text}"));
     let id = match smid::run_spec(&spec, std::path::Path::new("."), &|_| {}) {
@@ -68,10 +78,10 @@ fn cells_whose_steady_points_bound_no_nonlinearity_give_a_partial_answer() {
     assert!(
         s.unbounded
             .iter()
-            .any(|u| u.detail.contains("do not bound `m_")),
+            .any(|u| u.detail.contains("do not bound `k`")),
         "{s:?}"
     );
-    for name in ["m_l", "c_r", "a1"] {
+    for name in ["k", "a1"] {
         let p = id.parameter(name).unwrap();
         assert!(
             !p.lower.is_finite() && !p.upper.is_finite(),

@@ -196,20 +196,67 @@ pub fn backward_steady(
 ) -> Result<(f64, f64)> {
     let (mut c, mut r) = (y, dy);
     for b in blocks.iter().rev() {
-        let i = b.invert_steady(c, r).map_err(|e| match e {
-            SmidError::Inconsistent(f) => SmidError::inconsistent(
-                Stage::SteadyState,
-                index,
-                format!("steady-state point {index}: {}", f.detail),
-            ),
-            e => e,
-        })?;
+        let i = b.invert_steady(c, r).map_err(at_point(index))?;
         if !i.is_finite() {
             return Ok((0.0, f64::INFINITY));
         }
         (c, r) = centre_radius(i);
     }
     Ok((c, r))
+}
+
+/// A block's inconsistency found at steady-state point `index`, named there (stage 1).
+fn at_point(index: usize) -> impl Fn(SmidError) -> SmidError {
+    move |e| match e {
+        SmidError::Inconsistent(f) => SmidError::inconsistent(
+            Stage::SteadyState,
+            index,
+            format!("steady-state point {index}: {}", f.detail),
+        ),
+        e => e,
+    }
+}
+
+/// [`backward_steady`] for a point of the designed experiment whose step started at the
+/// steady output `before` (`y0 ± dy0`, the previous point's) and over which the first output
+/// block's input moved monotonically but for an overshoot of at most `alpha` against the step's
+/// direction (`rising`): that block is inverted with
+/// [`NonlinearitySet::invert_steady_step`] and widened by `alpha` on the side the overshoot
+/// could leave its input (below the branch after a rising step, above after a falling one);
+/// the blocks after it, and the previous output through them, with any history.
+pub fn backward_steady_step(
+    blocks: &[&dyn NonlinearitySet],
+    index: usize,
+    before: (f64, f64),
+    (y, dy): (f64, f64),
+    rising: bool,
+    alpha: f64,
+) -> Result<(f64, f64)> {
+    let Some((first, rest)) = blocks.split_first() else {
+        return Ok((y, dy));
+    };
+    let (c, r) = backward_steady(rest, index, y, dy)?;
+    if !r.is_finite() {
+        return Ok((0.0, f64::INFINITY));
+    }
+    // The previous point is checked as itself; here it only serves when it inverts.
+    let (c0, r0) = match backward_steady(rest, index, before.0, before.1) {
+        Ok((c0, r0)) if r0.is_finite() => (c0, r0),
+        _ => return backward_steady(&[*first], index, c, r),
+    };
+    let i = first
+        .invert_steady_step(c0, r0, c, r)
+        .map_err(at_point(index))?;
+    if !i.is_finite() {
+        return Ok((0.0, f64::INFINITY));
+    }
+    let i = if rising {
+        Interval::new(i.lo - alpha, i.hi)
+    } else {
+        Interval::new(i.lo, i.hi + alpha)
+    }
+    .outward();
+    Ok(centre_radius(i))
 }
 
 /// A steady input `v` (an interval) carried forward through the input blocks (signal order) at

@@ -371,6 +371,14 @@ pub trait NonlinearityModel: Debug + Send + Sync {
     fn accepts_input_radius(&self) -> bool {
         false
     }
+    /// Whether every member, as the Wiener nonlinearity, turns a monotone step of its input
+    /// (from rest to rest) into a monotone step of its output: a nondecreasing static map, a
+    /// play with positive slopes. Then the first block after it sees each designed step
+    /// (Section 3, no overshoot but α) as a monotone one, and stage 1 inverts that block with
+    /// [`NonlinearitySet::invert_steady_step`]. Default: no (any history is assumed there).
+    fn keeps_steps_monotone(&self) -> bool {
+        false
+    }
     /// A prior box for the plugin's parameters from the range `seen` of the signal the plugin
     /// sees in the training data (the input for Hammerstein, the output for Wiener), when a
     /// diagnosis offers this plugin as a candidate for a model without a nonlinearity (slopes
@@ -535,6 +543,17 @@ pub trait NonlinearitySet: Debug + Send + Sync {
     /// must allow for). A unit-gain filter returns `[y - dy, y + dy]`.
     fn invert_steady(&self, y: f64, dy: f64) -> Result<Interval> {
         Ok(self.invert(&[y], &[dy])?[0].interval)
+    }
+    /// The block's input at the end of a step during which that input moved **monotonically**
+    /// from one steady state to another, from the steady outputs before (`y0 ± dy0`) and after
+    /// (`y ± dy`). Only stage 1's designed experiment asks, for the block right after a
+    /// nonlinearity that [`NonlinearityModel::keeps_steps_monotone`]. Contract: the interval
+    /// holds for every member whenever the input was monotone over the step. Default: the
+    /// step is not used ([`NonlinearitySet::invert_steady`], any history). A play overrides
+    /// it: an output that moved by more than the noise was pushed along one branch, which the
+    /// input then sits on, where any history leaves the whole dead band.
+    fn invert_steady_step(&self, _y0: f64, _dy0: f64, y: f64, dy: f64) -> Result<Interval> {
+        self.invert_steady(y, dy)
     }
     /// Whether steady-state points stay valid through this block on the input side: the
     /// designed filter keeps the linear block's response to the filtered square wave free of

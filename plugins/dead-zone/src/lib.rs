@@ -188,6 +188,10 @@ pub fn branch_polygons(data: &SteadyStateData) -> Result<DeadZoneSet> {
 
 #[typetag::serde(name = "dead_zone")]
 impl NonlinearityModel for DeadZoneModel {
+    /// Nondecreasing for every member (positive slopes), so a monotone step stays one.
+    fn keeps_steps_monotone(&self) -> bool {
+        true
+    }
     fn bound_steady_state(&self, data: &SteadyStateData) -> Result<Box<dyn NonlinearitySet>> {
         Ok(Box::new(branch_polygons(data)?))
     }

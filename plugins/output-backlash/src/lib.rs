@@ -194,6 +194,11 @@ pub fn branch_polygons(data: &SteadyStateData) -> Result<BacklashSet> {
 
 #[typetag::serde(name = "output_backlash")]
 impl NonlinearityModel for OutputBacklashModel {
+    /// A play with positive slopes: under a monotone input its output follows one branch or
+    /// holds, so a monotone step stays one.
+    fn keeps_steps_monotone(&self) -> bool {
+        true
+    }
     fn bound_steady_state(&self, data: &SteadyStateData) -> Result<Box<dyn NonlinearitySet>> {
         Ok(Box::new(branch_polygons(data)?))
     }
@@ -207,9 +212,17 @@ impl NonlinearityModel for OutputBacklashModel {
     fn set_from_box(&self, cell: &[Interval]) -> Result<Box<dyn NonlinearitySet>> {
         Ok(Box::new(box_polygons(cell)?))
     }
-    /// Unit slopes, half-plays up to a quarter of the range seen.
-    fn default_prior(&self, _s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
-        let c = Interval::new(0.0, 0.25 * (seen.1 - seen.0).max(0.0));
+    /// Unit slopes; each half-play up to a quarter of the range its input spans. Before the
+    /// linear block (Hammerstein) the range seen is the play's input: `c <= range / 4`. After
+    /// it (Wiener) the range seen is the play's output, narrower by `c_l + c_r <= range_in / 2`,
+    /// so `range_in <= 2 range` and `c <= range / 2`. (A quarter of the output's range, as
+    /// before, left out a half-play of 0.446 whose output spanned 1.66.)
+    fn default_prior(&self, s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
+        let share = match s {
+            Structure::Hammerstein => 0.25,
+            Structure::Wiener => 0.5,
+        };
+        let c = Interval::new(0.0, share * (seen.1 - seen.0).max(0.0));
         let one = Interval::new(1.0, 1.0);
         Some(vec![one, c, one, c])
     }
@@ -274,6 +287,13 @@ impl NonlinearitySet for BacklashSet {
         true
     }
 
+    /// Over a monotone step the two steady outputs are two samples of one monotone run: an
+    /// output that moved by more than the noise ends on the branch it moved along (Prop 2, eqs
+    /// 24-27), whatever happened between them.
+    fn invert_steady_step(&self, y0: f64, dy0: f64, y: f64, dy: f64) -> Result<Interval> {
+        Ok(self.invert(&[y0, y], &[dy0, dy])?[1].interval)
+    }
+
     fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
         check_outputs(y, dy)?;
         let mut out = Vec::with_capacity(y.len());
@@ -318,6 +338,54 @@ mod tests {
         m_r: 0.252,
         c_r: 0.0349,
     };
+
+    /// A play after the backlash, on random monotone steps from random rest states: read from
+    /// the two steady outputs, its input at the step's end lies in the inverted interval for
+    /// every member of the cell, and after a move past the noise that interval is the branch,
+    /// narrower than the dead band that any history leaves.
+    #[test]
+    fn a_monotone_step_is_inverted_on_the_branch_it_moved_along() {
+        use smid_core::rand::{rngs::StdRng, Rng, SeedableRng};
+        let mut rng = StdRng::seed_from_u64(11);
+        let mut narrower = 0;
+        for _ in 0..2000 {
+            let (cl, cr) = (rng.gen_range(0.05..0.4), rng.gen_range(0.05..0.4));
+            let cell = [
+                Interval::new(1.0, 1.0),
+                Interval::new(cl - 0.01, cl + 0.01),
+                Interval::new(1.0, 1.0),
+                Interval::new(cr - 0.01, cr + 0.01),
+            ];
+            let set = box_polygons(&cell).unwrap();
+            let b = Backlash {
+                m_l: 1.0,
+                c_l: cl,
+                m_r: 1.0,
+                c_r: cr,
+            };
+            // A history, then a monotone step in a few samples to a new level.
+            let mut x: Vec<f64> = (0..5).map(|_| rng.gen_range(-2.0..2.0)).collect();
+            let start = *x.last().unwrap();
+            x.extend(std::iter::repeat(start).take(3));
+            let end = rng.gen_range(-2.0..2.0);
+            for k in 1..=4 {
+                x.push(start + (end - start) * k as f64 / 4.0);
+            }
+            let w = b.simulate(&x);
+            let (y0, y) = (w[7], *w.last().unwrap());
+            let d = 1e-3;
+            let (y0, y) = (y0 + rng.gen_range(-d..d), y + rng.gen_range(-d..d));
+            let i = set.invert_steady_step(y0, d, y, d).unwrap();
+            assert!(i.contains(end), "{i:?} misses {end} (y0 {y0}, y {y})");
+            let any = set.invert_steady(y, d).unwrap();
+            assert!(i.hi - i.lo <= any.hi - any.lo + 1e-12);
+            if (y - y0).abs() > 2.0 * d {
+                assert!(i.hi - i.lo < 0.1, "moved but not on a branch: {i:?}");
+                narrower += 1;
+            }
+        }
+        assert!(narrower > 500, "{narrower}");
+    }
 
     #[test]
     fn eq2_branches_and_dead_band() {

@@ -257,6 +257,10 @@ pub fn staircases(data: &SteadyStateData) -> Result<SaturationSet> {
 
 #[typetag::serde(name = "saturation")]
 impl NonlinearityModel for SaturationModel {
+    /// Nondecreasing for every member (positive slopes), so a monotone step stays one.
+    fn keeps_steps_monotone(&self) -> bool {
+        true
+    }
     fn bound_steady_state(&self, data: &SteadyStateData) -> Result<Box<dyn NonlinearitySet>> {
         Ok(Box::new(staircases(data)?))
     }

@@ -152,13 +152,24 @@ fn stage1_with(
             ));
         }
     }
+    let before = steps_before(model, &slices, steady, !outputs.is_empty())?;
     for p in &mut data.points {
         // The measured steady input, which the terms' shift at rest reads.
         let measured = Interval::new(p.u - p.du, p.u + p.du);
         (p.y, p.dy) = effect::true_output(&model.effects, &slices, p.time, p.y, p.dy)?
             .ok_or_else(|| no_true_output(p.index))?;
         if !outputs.is_empty() {
-            (p.y, p.dy) = chain::backward_steady(&outputs, p.index, p.y, p.dy)?;
+            (p.y, p.dy) = match before.get(&p.index) {
+                Some(&b) => chain::backward_steady_step(
+                    &outputs,
+                    p.index,
+                    b,
+                    (p.y, p.dy),
+                    p.rising,
+                    p.alpha,
+                )?,
+                None => chain::backward_steady(&outputs, p.index, p.y, p.dy)?,
+            };
         }
         if !inputs.is_empty() {
             // The steady input through the input blocks over their cell: an interval.
@@ -188,6 +199,48 @@ fn stage1_with(
     // out of stage 1 (fewer points can only widen the set).
     data.points.retain(|p| p.dy.is_finite());
     model.nonlinearity.bound_steady_state(&data)
+}
+
+/// For stage 1's polygons behind output blocks: each point whose designed step began at the
+/// point before it (the previous steady input is where this step started: `ū ∓ step`, and it
+/// came earlier), keyed by its index, with that previous point's true output (the sensor terms
+/// removed). Under the design (no overshoot but α) a Wiener nonlinearity that
+/// [`crate::nonlinearity::NonlinearityModel::keeps_steps_monotone`] hands the first output
+/// block a monotone step, which [`chain::backward_steady_step`] inverts from the two outputs.
+/// Empty when there is no output block or the nonlinearity does not keep steps monotone (any
+/// history is then assumed, as before).
+fn steps_before(
+    model: &ModelSpec,
+    slices: &[&[Interval]],
+    steady: &SteadyStateData,
+    outputs: bool,
+) -> Result<std::collections::HashMap<usize, (f64, f64)>> {
+    let mut out = std::collections::HashMap::new();
+    if !outputs
+        || model.structure != Structure::Wiener
+        || !model.nonlinearity.keeps_steps_monotone()
+    {
+        return Ok(out);
+    }
+    for w in steady.points.windows(2) {
+        let (q, p) = (&w[0], &w[1]);
+        let start = if p.rising {
+            p.u - p.step_height()
+        } else {
+            p.u + p.step_height()
+        };
+        let tol = 1e-9 * (p.u.abs() + p.step_height()) + p.du + q.du;
+        let earlier = match (q.time, p.time) {
+            (Some(a), Some(b)) => a < b,
+            _ => true,
+        };
+        if earlier && (q.u - start).abs() <= tol {
+            if let Some(b) = effect::true_output(&model.effects, slices, q.time, q.y, q.dy)? {
+                out.insert(p.index, b);
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// Steady-state points as a necessary test of a cell whose nonlinearity is bisected over a
