@@ -366,7 +366,7 @@ mod tests {
             // A history, then a monotone step in a few samples to a new level.
             let mut x: Vec<f64> = (0..5).map(|_| rng.gen_range(-2.0..2.0)).collect();
             let start = *x.last().unwrap();
-            x.extend(std::iter::repeat(start).take(3));
+            x.extend(std::iter::repeat_n(start, 3));
             let end = rng.gen_range(-2.0..2.0);
             for k in 1..=4 {
                 x.push(start + (end - start) * k as f64 / 4.0);
