@@ -221,9 +221,10 @@ fn at_point(index: usize) -> impl Fn(SmidError) -> SmidError {
 /// steady output `before` (`y0 ± dy0`, the previous point's) and over which the first output
 /// block's input moved monotonically but for an overshoot of at most `alpha` against the step's
 /// direction (`rising`): that block is inverted with
-/// [`NonlinearitySet::invert_steady_step`] and widened by `alpha` on the side the overshoot
-/// could leave its input (below the branch after a rising step, above after a falling one);
-/// the blocks after it, and the previous output through them, with any history.
+/// [`NonlinearitySet::invert_steady_step`], widened by `alpha` on the side the overshoot
+/// could leave its input (below the branch after a rising step, above after a falling one) and
+/// cut to its any-history inversion (a block that does not read the step keeps that one
+/// exactly); the blocks after it, and the previous output through them, with any history.
 pub fn backward_steady_step(
     blocks: &[&dyn NonlinearitySet],
     index: usize,
@@ -244,18 +245,26 @@ pub fn backward_steady_step(
         Ok((c0, r0)) if r0.is_finite() => (c0, r0),
         _ => return backward_steady(&[*first], index, c, r),
     };
-    let i = first
-        .invert_steady_step(c0, r0, c, r)
+    // Any history holds whatever the step did; the step's reading, widened by the overshoot
+    // allowance, can only cut it down (a block that does not read the step gives it back).
+    let any = first.invert_steady(c, r).map_err(at_point(index))?;
+    let step = first
+        .invert_steady_step(c0, r0, c, r, rising)
         .map_err(at_point(index))?;
+    let i = if step == any || !step.is_finite() {
+        any
+    } else {
+        let wide = if rising {
+            Interval::new(step.lo - alpha, step.hi)
+        } else {
+            Interval::new(step.lo, step.hi + alpha)
+        }
+        .outward();
+        wide.intersect(&any).unwrap_or(any)
+    };
     if !i.is_finite() {
         return Ok((0.0, f64::INFINITY));
     }
-    let i = if rising {
-        Interval::new(i.lo - alpha, i.hi)
-    } else {
-        Interval::new(i.lo, i.hi + alpha)
-    }
-    .outward();
     Ok(centre_radius(i))
 }
 

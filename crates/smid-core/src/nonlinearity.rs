@@ -284,7 +284,7 @@ impl UnboundedSet {
     }
 }
 
-#[typetag::serde(name = "unbounded")]
+#[typetag::serde(name = "smid_unbounded")]
 impl NonlinearitySet for UnboundedSet {
     fn parameters(&self) -> Vec<ParameterBound> {
         self.names
@@ -545,14 +545,23 @@ pub trait NonlinearitySet: Debug + Send + Sync {
         Ok(self.invert(&[y], &[dy])?[0].interval)
     }
     /// The block's input at the end of a step during which that input moved **monotonically**
-    /// from one steady state to another, from the steady outputs before (`y0 ± dy0`) and after
-    /// (`y ± dy`). Only stage 1's designed experiment asks, for the block right after a
-    /// nonlinearity that [`NonlinearityModel::keeps_steps_monotone`]. Contract: the interval
-    /// holds for every member whenever the input was monotone over the step. Default: the
-    /// step is not used ([`NonlinearitySet::invert_steady`], any history). A play overrides
-    /// it: an output that moved by more than the noise was pushed along one branch, which the
-    /// input then sits on, where any history leaves the whole dead band.
-    fn invert_steady_step(&self, _y0: f64, _dy0: f64, y: f64, dy: f64) -> Result<Interval> {
+    /// (up when `rising`) from one steady state to another, from the steady outputs before
+    /// (`y0 ± dy0`) and after (`y ± dy`). Only stage 1's designed experiment asks, for the
+    /// block right after a nonlinearity that [`NonlinearityModel::keeps_steps_monotone`]: the
+    /// premise is the polygons' own (eqs 13-20), that each designed step ends on the branch of
+    /// its direction. Contract: the interval holds for every member whenever the input was
+    /// monotone in that direction over the step. Default: the step is not used
+    /// ([`NonlinearitySet::invert_steady`], any history). A play overrides it: an output that
+    /// moved by more than the noise **in the step's direction** was pushed along that branch,
+    /// which the input then sits on, where any history leaves the whole dead band.
+    fn invert_steady_step(
+        &self,
+        _y0: f64,
+        _dy0: f64,
+        y: f64,
+        dy: f64,
+        _rising: bool,
+    ) -> Result<Interval> {
         self.invert_steady(y, dy)
     }
     /// Whether steady-state points stay valid through this block on the input side: the

@@ -288,10 +288,23 @@ impl NonlinearitySet for BacklashSet {
     }
 
     /// Over a monotone step the two steady outputs are two samples of one monotone run: an
-    /// output that moved by more than the noise ends on the branch it moved along (Prop 2, eqs
-    /// 24-27), whatever happened between them.
-    fn invert_steady_step(&self, y0: f64, dy0: f64, y: f64, dy: f64) -> Result<Interval> {
-        Ok(self.invert(&[y0, y], &[dy0, dy])?[1].interval)
+    /// output that moved by more than the noise in the step's direction ends on that branch
+    /// (Prop 2, eqs 24-27), whatever happened between them. An output that did not move, or
+    /// moved against the step (which a monotone input cannot do), is read with any history.
+    fn invert_steady_step(
+        &self,
+        y0: f64,
+        dy0: f64,
+        y: f64,
+        dy: f64,
+        rising: bool,
+    ) -> Result<Interval> {
+        let moved = if rising { y - y0 } else { y0 - y };
+        if moved > dy + dy0 {
+            Ok(self.invert(&[y0, y], &[dy0, dy])?[1].interval)
+        } else {
+            self.invert_steady(y, dy)
+        }
     }
 
     fn invert(&self, y: &[f64], dy: &[f64]) -> Result<Vec<InnerBound>> {
@@ -375,7 +388,7 @@ mod tests {
             let (y0, y) = (w[7], *w.last().unwrap());
             let d = 1e-3;
             let (y0, y) = (y0 + rng.gen_range(-d..d), y + rng.gen_range(-d..d));
-            let i = set.invert_steady_step(y0, d, y, d).unwrap();
+            let i = set.invert_steady_step(y0, d, y, d, end > start).unwrap();
             assert!(i.contains(end), "{i:?} misses {end} (y0 {y0}, y {y})");
             let any = set.invert_steady(y, d).unwrap();
             assert!(i.hi - i.lo <= any.hi - any.lo + 1e-12);
@@ -385,6 +398,28 @@ mod tests {
             }
         }
         assert!(narrower > 500, "{narrower}");
+        // A step that dips before it rises (against the premise: an inverse response) from the
+        // left branch: the output falls along it and the rise stays inside the band, so the
+        // output moved against the step. That reading is not taken; any history holds.
+        let b = Backlash {
+            m_l: 1.0,
+            c_l: 0.3,
+            m_r: 1.0,
+            c_r: 0.3,
+        };
+        let cell = [
+            Interval::new(1.0, 1.0),
+            Interval::new(0.29, 0.31),
+            Interval::new(1.0, 1.0),
+            Interval::new(0.29, 0.31),
+        ];
+        let set = box_polygons(&cell).unwrap();
+        let x = [2.0, 0.0, 0.0, -0.5, -0.3, 0.1];
+        let w = b.simulate(&x);
+        let (y0, y) = (w[2], w[5]);
+        assert!(y < y0 - 0.1, "the output must fall: {w:?}");
+        let i = set.invert_steady_step(y0, 1e-3, y, 1e-3, true).unwrap();
+        assert!(i.contains(0.1), "{i:?}");
     }
 
     #[test]

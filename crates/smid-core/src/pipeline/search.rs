@@ -357,7 +357,17 @@ pub fn identify_with(
 
     // Hulls over the cells, in report order: nonlinearity, θ, ψ.
     let mut parameters: Vec<ParamResult> = Vec::new();
-    let gnames: Vec<String> = kept[0]
+    // Names from a cell with a set of its own (an undecided cell's [`UnboundedSet`] names them
+    // from the registry, which a plugin registered without an example leaves empty).
+    let gnames: Vec<String> = kept
+        .iter()
+        .find(|c| {
+            c.nonlinearity
+                .parameters()
+                .iter()
+                .any(|b| b.interval.is_finite())
+        })
+        .unwrap_or(&kept[0])
         .nonlinearity
         .parameters()
         .iter()

@@ -152,7 +152,7 @@ fn stage1_with(
             ));
         }
     }
-    let before = steps_before(model, &slices, steady, !outputs.is_empty())?;
+    let before = steps_before(model, &slices, steady, !outputs.is_empty());
     for p in &mut data.points {
         // The measured steady input, which the terms' shift at rest reads.
         let measured = Interval::new(p.u - p.du, p.u + p.du);
@@ -202,45 +202,51 @@ fn stage1_with(
 }
 
 /// For stage 1's polygons behind output blocks: each point whose designed step began at the
-/// point before it (the previous steady input is where this step started: `ū ∓ step`, and it
-/// came earlier), keyed by its index, with that previous point's true output (the sensor terms
-/// removed). Under the design (no overshoot but α) a Wiener nonlinearity that
+/// point before it, keyed by its index, with that previous point's true output (the sensor
+/// terms removed). Under the design a Wiener nonlinearity that
 /// [`crate::nonlinearity::NonlinearityModel::keeps_steps_monotone`] hands the first output
 /// block a monotone step, which [`chain::backward_steady_step`] inverts from the two outputs.
-/// Empty when there is no output block or the nonlinearity does not keep steps monotone (any
-/// history is then assumed, as before).
+/// A point qualifies only when the records say its predecessor: both points carry a time and
+/// this one its step height, the previous one is the record's point just before (consecutive
+/// indices, an earlier time, no gap longer than 1.5 times the shortest between points, which a
+/// point left out would leave) and its input is where this step began (`ū ∓ step`). Empty when
+/// there is no output block or the nonlinearity does not keep steps monotone (any history is
+/// then assumed, as before).
 fn steps_before(
     model: &ModelSpec,
     slices: &[&[Interval]],
     steady: &SteadyStateData,
     outputs: bool,
-) -> Result<std::collections::HashMap<usize, (f64, f64)>> {
+) -> std::collections::HashMap<usize, (f64, f64)> {
     let mut out = std::collections::HashMap::new();
     if !outputs
         || model.structure != Structure::Wiener
         || !model.nonlinearity.keeps_steps_monotone()
     {
-        return Ok(out);
+        return out;
     }
+    let gaps = |w: &[crate::nonlinearity::SteadyPoint]| match (w[0].time, w[1].time) {
+        (Some(a), Some(b)) if b > a => Some(b - a),
+        _ => None,
+    };
+    let Some(shortest) = steady.points.windows(2).filter_map(gaps).min() else {
+        return out;
+    };
     for w in steady.points.windows(2) {
         let (q, p) = (&w[0], &w[1]);
-        let start = if p.rising {
-            p.u - p.step_height()
-        } else {
-            p.u + p.step_height()
+        let (Some(gap), Some(step)) = (gaps(w), p.step) else {
+            continue;
         };
-        let tol = 1e-9 * (p.u.abs() + p.step_height()) + p.du + q.du;
-        let earlier = match (q.time, p.time) {
-            (Some(a), Some(b)) => a < b,
-            _ => true,
-        };
-        if earlier && (q.u - start).abs() <= tol {
-            if let Some(b) = effect::true_output(&model.effects, slices, q.time, q.y, q.dy)? {
+        let start = if p.rising { p.u - step } else { p.u + step };
+        let tol = 1e-9 * (p.u.abs() + step) + p.du + q.du;
+        if q.index + 1 == p.index && 2 * gap <= 3 * shortest && (q.u - start).abs() <= tol {
+            // A previous point whose output the terms cannot read is only left unused here.
+            if let Ok(Some(b)) = effect::true_output(&model.effects, slices, q.time, q.y, q.dy) {
                 out.insert(p.index, b);
             }
         }
     }
-    Ok(out)
+    out
 }
 
 /// Steady-state points as a necessary test of a cell whose nonlinearity is bisected over a
