@@ -145,7 +145,7 @@ fn bisect(
     // resolution at the low end, where a slope's cell still spans an order of magnitude).
     let ratio = |k: usize| {
         let linear = (cell[k].hi - cell[k].lo) / b.resolution.get(k).copied().unwrap_or(0.0);
-        if cell[k].lo > 0.0 && cell[k].hi > GEOMETRIC_SPAN * cell[k].lo {
+        if geometric(cell[k]) {
             linear.max((cell[k].hi / cell[k].lo).log2() / GEOMETRIC_SPAN.log2())
         } else {
             linear
@@ -175,13 +175,18 @@ fn bisect(
 /// barely bound it), its geometric mean, so that each order of magnitude gets its share of the
 /// halvings instead of the top one taking them all. Any split point keeps the partition exact.
 fn split_point(i: Interval) -> f64 {
-    if i.lo > 0.0 && i.hi > GEOMETRIC_SPAN * i.lo {
+    if geometric(i) {
         let g = (i.lo.sqrt() * i.hi.sqrt()).clamp(i.lo, i.hi);
         if g > i.lo && g < i.hi {
             return g;
         }
     }
     i.center()
+}
+
+/// Whether a cell's parameter is halved at its geometric mean (see [`split_point`]).
+fn geometric(i: Interval) -> bool {
+    i.lo > 0.0 && i.hi > GEOMETRIC_SPAN * i.lo
 }
 
 /// The span (`hi / lo`) beyond which a positive parameter is halved at its geometric mean.

@@ -357,28 +357,21 @@ pub fn identify_with(
 
     // Hulls over the cells, in report order: nonlinearity, θ, ψ.
     let mut parameters: Vec<ParamResult> = Vec::new();
-    // Names from a cell with a set of its own (an undecided cell's [`UnboundedSet`] names them
-    // from the registry, which a plugin registered without an example leaves empty).
-    let gnames: Vec<String> = kept
+    // Each cell's nonlinearity bounds, read once. The names come from a cell with a set of
+    // its own (an undecided cell's [`UnboundedSet`] names them from the registry, which a
+    // plugin registered without an example leaves empty); the hull is taken by name.
+    let bounds: Vec<Vec<crate::nonlinearity::ParameterBound>> =
+        kept.iter().map(|c| c.nonlinearity.parameters()).collect();
+    let gnames: Vec<String> = bounds
         .iter()
-        .find(|c| {
-            c.nonlinearity
-                .parameters()
-                .iter()
-                .any(|b| b.interval.is_finite())
-        })
-        .unwrap_or(&kept[0])
-        .nonlinearity
-        .parameters()
+        .find(|b| b.iter().any(|b| b.interval.is_finite()))
+        .unwrap_or(&bounds[0])
         .iter()
         .map(|b| b.name.clone())
         .collect();
     for name in &gnames {
-        // By name: an undecided cell's [`UnboundedSet`] names them from the registry.
-        let h = hull(kept.iter().map(|c| {
-            c.nonlinearity
-                .parameters()
-                .into_iter()
+        let h = hull(bounds.iter().map(|c| {
+            c.iter()
                 .find(|b| &b.name == name)
                 .map_or(Interval::entire(), |b| b.interval)
         }));
