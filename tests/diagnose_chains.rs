@@ -337,6 +337,37 @@ fn every_block_after_the_backlash_is_named_with_the_truth_inside() {
     }
 }
 
+/// Every registered effect whose term switches while the designed square wave settles
+/// (`EquationTerm::keeps_steady_design` says no: Coulomb friction) is named on seed 1, with the
+/// truth inside and the held-out records passed. Its steady-state points lie off the polygons'
+/// branches even as if the design held, so the model's own nonlinearity gets a box from the
+/// points' scale (`NonlinearityModel::scale_prior`, reported), which the points then prune
+/// with any history. Before, such a candidate was not tried, and a parallel linear path was
+/// named instead.
+#[test]
+fn effects_that_break_the_design_are_named_with_the_truth_inside() {
+    use smid::diagnose_check::{cases, CaseKind};
+    let names: Vec<String> = cases()
+        .into_iter()
+        .filter(|c| match c.kind {
+            CaseKind::Effect(tag) => smid_core::effect::effects()
+                .into_iter()
+                .find(|e| e.tag == tag)
+                .is_some_and(|e| {
+                    (e.example)()
+                        .as_equation()
+                        .is_some_and(|t| !t.keeps_steady_design())
+                }),
+            _ => false,
+        })
+        .map(|c| c.name)
+        .collect();
+    assert!(names.iter().any(|n| n == "coulomb_friction"), "{names:?}");
+    for n in &names {
+        named_trial(n, 1);
+    }
+}
+
 /// Seed `seed` of the `diagnose-check` case `name` on the built-in simulator: it runs, names
 /// the case, passes on held-out records and holds the truth.
 fn named_trial(name: &str, seed: u64) -> smid::diagnose_check::TrialOutcome {

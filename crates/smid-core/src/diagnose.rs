@@ -1276,7 +1276,8 @@ fn candidates(
 /// nonlinearity's parameters were in the model already: bisected now, not added), listed with
 /// its priors. Without a box from the points the candidate is tried as it is, and its verdict
 /// says why it fails; under a term that breaks the design (whose polygons stage 1 refuses)
-/// it is not tried, and `untried` says why. `false`: the model with the box has no layout (not
+/// it gets the box of [`crate::pipeline::scale_prior`] (reported), or, where the plugin offers
+/// none, it is not tried, and `untried` says why. `false`: the model with the box has no layout (not
 /// offered). Nothing to do without steady-state points, or where the candidate neither adds
 /// an input-side block (`input_block`) nor has a term that breaks the design.
 fn with_design_prior(
@@ -1306,6 +1307,20 @@ fn with_design_prior(
         Err(e) => {
             log::info!(target: "smid::diagnose", "{what}: no prior box for the nonlinearity from the steady-state points: {e}");
             if let Some(term) = m.term_breaking_steady_design() {
+                // The points are off their branches even as if the design held: a box from
+                // their scale alone, pruned by them with any history.
+                if let Some(boxes) = crate::pipeline::scale_prior(m, steady) {
+                    let mut tried = m.duplicate();
+                    for (n, p) in &boxes {
+                        tried.prior.insert(n.clone(), [p.lo, p.hi]);
+                    }
+                    if tried.layout().is_ok() {
+                        log::info!(target: "smid::diagnose", "{what}: the nonlinearity's prior from the scale of the steady-state points");
+                        *m = tried;
+                        given.extend(boxes.into_iter().map(|(n, p)| (n, [p.lo, p.hi])));
+                        return true;
+                    }
+                }
                 *untried = Some(format!(
                     "not tried: `{}` breaks the designed steady-state experiment, so stage 1 refuses the polygons, and the steady-state points give no box for the nonlinearity even as if the design held ({e}); {}",
                     term.label(),

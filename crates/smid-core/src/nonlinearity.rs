@@ -387,6 +387,22 @@ pub trait NonlinearityModel: Debug + Send + Sync {
     fn default_prior(&self, _structure: Structure, _seen: (f64, f64)) -> Option<Vec<Interval>> {
         None
     }
+    /// A prior box for the plugin's parameters as the model's **own** nonlinearity (slopes
+    /// free: the linear block has unit gain), from the ranges `input` and `output` that its
+    /// input and output span at the steady-state points. A diagnosis gives it, reported, to a
+    /// candidate whose steady-state points give no box even as if the designed experiment held
+    /// (a term that switches while the square wave settles moves every point off its branch);
+    /// the branch and bound then prunes its cells by the points with any history, so the
+    /// bounds hold wherever the truth lies in this box. `None` (default): such a candidate is
+    /// not tried. [`two_branch_scale_prior`] serves plugins with `(m_l, c_l, m_r, c_r)`.
+    fn scale_prior(
+        &self,
+        _structure: Structure,
+        _input: (f64, f64),
+        _output: (f64, f64),
+    ) -> Option<Vec<Interval>> {
+        None
+    }
     /// The branch and bound's resolution of each parameter over its prior box: a cell narrower
     /// than this is not halved further. `halvings` is the spec's
     /// `method.cells.nonlinearity_halvings`, `delta` the output noise bound. Default: the
@@ -416,6 +432,40 @@ pub trait NonlinearityModel: Debug + Send + Sync {
     fn check_draw(&self, _structure: Structure, _rng: &mut dyn RngCore) -> Option<CheckDraw> {
         None
     }
+}
+
+/// Share of its input's range that a branch offset (`c_l`, `c_r`) of a
+/// [`two_branch_scale_prior`] may reach: a band `c_l + c_r` up to half the range.
+pub const SCALE_PRIOR_OFFSET_SHARE: f64 = 0.25;
+/// Factor by which a slope of a [`two_branch_scale_prior`] may lie below or above the ratio of
+/// the output's range to the input's.
+pub const SCALE_PRIOR_SLOPE_FACTOR: f64 = 8.0;
+
+/// [`NonlinearityModel::scale_prior`] for a two-branch plugin `(m_l, c_l, m_r, c_r)` with
+/// slopes `m > 0` and offsets `c >= 0` in input units (a play, a dead zone): with `r` the
+/// ratio of the output's range to the input's, each slope in `[r/8, 8r]`
+/// ([`SCALE_PRIOR_SLOPE_FACTOR`]) and each offset in `[0, range/4]`
+/// ([`SCALE_PRIOR_OFFSET_SHARE`]). It holds every such map whose slopes lie within a factor 4
+/// of each other and whose offsets are below a quarter of the range, seen at points that reach
+/// both ends of the range on their branches, the two ends within a factor 2 of each other in
+/// magnitude (the designed experiment's ± amplitudes): then `r/6 <= m <= 5.4 r` (`tests::a_scale_prior_holds_every_two_branch_map_within_its_ranges`).
+/// `None` where either range is empty or not finite.
+///
+/// ```
+/// use smid_core::nonlinearity::two_branch_scale_prior;
+/// let b = two_branch_scale_prior((-3.0, 3.0), (-0.75, 0.75)).unwrap();
+/// assert!(b[0].contains(0.25) && b[1].contains(0.1) && b[1].lo == 0.0);
+/// assert!(two_branch_scale_prior((1.0, 1.0), (0.0, 1.0)).is_none());
+/// ```
+pub fn two_branch_scale_prior(input: (f64, f64), output: (f64, f64)) -> Option<Vec<Interval>> {
+    let (si, so) = (input.1 - input.0, output.1 - output.0);
+    if !(si.is_finite() && so.is_finite() && si > 0.0 && so > 0.0) {
+        return None;
+    }
+    let r = so / si;
+    let m = Interval::new(r / SCALE_PRIOR_SLOPE_FACTOR, r * SCALE_PRIOR_SLOPE_FACTOR);
+    let c = Interval::new(0.0, SCALE_PRIOR_OFFSET_SHARE * si);
+    Some(vec![m, c, m, c])
 }
 
 /// Each interval's width halved `halvings` times: the default resolution of a plugin's
@@ -618,4 +668,55 @@ pub fn tag_of_model(m: &dyn NonlinearityModel) -> String {
         .ok()
         .and_then(|v| v.get("type").and_then(|t| t.as_str()).map(String::from))
         .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// The claim of [`two_branch_scale_prior`]: random two-branch maps (a play's or a dead
+    /// zone's branches `y = m_r (x - c_r)`, `y = m_l (x + c_l)`), slopes within a factor 4,
+    /// offsets below a quarter of the range, seen at random steady points that reach both ends
+    /// of a range (its ends within a factor 2 in magnitude) on their branches, lie in the box
+    /// from the points' ranges.
+    #[test]
+    fn a_scale_prior_holds_every_two_branch_map_within_its_ranges() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(59);
+        for _ in 0..2000 {
+            let hi = rng.gen_range(0.1..10.0);
+            let lo = -hi * 2f64.powf(rng.gen_range(-1.0..1.0));
+            let span: f64 = hi - lo;
+            let m_l = 10f64.powf(rng.gen_range(-3.0..3.0));
+            let m_r = m_l * 4f64.powf(rng.gen_range(-1.0..1.0));
+            let c_l = rng.gen_range(0.0..0.25) * span;
+            let c_r = rng.gen_range(0.0..0.25) * span;
+            let mut xs: Vec<f64> = vec![lo, hi];
+            xs.extend((0..rng.gen_range(0..20)).map(|_| rng.gen_range(lo..hi)));
+            let ys: Vec<f64> = xs
+                .iter()
+                .map(|&x| {
+                    if x == lo || (x != hi && rng.gen_bool(0.5)) {
+                        m_l * (x + c_l)
+                    } else {
+                        m_r * (x - c_r)
+                    }
+                })
+                .collect();
+            let range = |v: &[f64]| {
+                v.iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                        (a.min(x), b.max(x))
+                    })
+            };
+            let b = two_branch_scale_prior(range(&xs), range(&ys)).unwrap();
+            let truth = [m_l, c_l, m_r, c_r];
+            for (i, (p, t)) in b.iter().zip(truth).enumerate() {
+                assert!(
+                    p.contains(t),
+                    "parameter {i}: {t} not in {p:?} (truth {truth:?})"
+                );
+            }
+        }
+    }
 }

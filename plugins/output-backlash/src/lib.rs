@@ -217,6 +217,16 @@ impl NonlinearityModel for OutputBacklashModel {
     /// it (Wiener) the range seen is the play's output, narrower by `c_l + c_r <= range_in / 2`,
     /// so `range_in <= 2 range` and `c <= range / 2`. (A quarter of the output's range, as
     /// before, left out a half-play of 0.446 whose output spanned 1.66.)
+    /// Slopes around the ratio of the ranges, offsets up to a quarter of the input's range
+    /// ([`smid_core::nonlinearity::two_branch_scale_prior`]).
+    fn scale_prior(
+        &self,
+        _s: Structure,
+        input: (f64, f64),
+        output: (f64, f64),
+    ) -> Option<Vec<Interval>> {
+        smid_core::nonlinearity::two_branch_scale_prior(input, output)
+    }
     fn default_prior(&self, s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
         let share = match s {
             Structure::Hammerstein => 0.25,

@@ -76,6 +76,33 @@ pub fn design_prior(
         .collect())
 }
 
+/// A box for the model's own nonlinearity from the **scale** of its steady-state points
+/// ([`crate::nonlinearity::NonlinearityModel::scale_prior`]): the range its input spans
+/// (`ū` itself: the linear block has unit gain, and at rest an equation term that vanishes with
+/// the velocity adds nothing) and the range its output spans (`ȳ`). It assumes no designed
+/// step, so it serves where [`design_prior`] finds the points inconsistent even as if the design
+/// held; the branch and bound then prunes its cells by the points with any history. `None`:
+/// the plugin offers none, the model has an input-side block (its input's range is not `ū`'s)
+/// or no unit gain (the slopes and the gain are not separable), or the points span nothing.
+pub fn scale_prior(model: &ModelSpec, steady: &SteadyStateData) -> Option<Vec<(String, Interval)>> {
+    if !model.unit_gain || !model.input.is_empty() || steady.points.is_empty() {
+        return None;
+    }
+    let span = |f: &dyn Fn(&crate::nonlinearity::SteadyPoint) -> f64| {
+        steady
+            .points
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(f(p)), hi.max(f(p)))
+            })
+    };
+    let names = crate::registry::parameter_names(&model.nonlinearity_tag());
+    let b = model
+        .nonlinearity
+        .scale_prior(model.structure, span(&|p| p.u), span(&|p| p.y))?;
+    (b.len() == names.len()).then(|| names.into_iter().zip(b).collect())
+}
+
 /// [`stage1`]; `assume_design`: steady-state points pass every input block as if it kept the
 /// designed experiment valid (only [`design_prior`] asks for this).
 fn stage1_with(
