@@ -439,16 +439,16 @@ pub trait NonlinearityModel: Debug + Send + Sync {
 pub const SCALE_PRIOR_OFFSET_SHARE: f64 = 0.25;
 /// Factor by which a slope of a [`two_branch_scale_prior`] may lie below or above the ratio of
 /// the output's range to the input's.
-pub const SCALE_PRIOR_SLOPE_FACTOR: f64 = 8.0;
+pub const SCALE_PRIOR_SLOPE_FACTOR: f64 = 4.0;
 
 /// [`NonlinearityModel::scale_prior`] for a two-branch plugin `(m_l, c_l, m_r, c_r)` with
 /// slopes `m > 0` and offsets `c >= 0` in input units (a play, a dead zone): with `r` the
-/// ratio of the output's range to the input's, each slope in `[r/8, 8r]`
+/// ratio of the output's range to the input's, each slope in `[r/4, 4r]`
 /// ([`SCALE_PRIOR_SLOPE_FACTOR`]) and each offset in `[0, range/4]`
-/// ([`SCALE_PRIOR_OFFSET_SHARE`]). It holds every such map whose slopes lie within a factor 4
+/// ([`SCALE_PRIOR_OFFSET_SHARE`]). It holds every such map whose slopes lie within a factor 2
 /// of each other and whose offsets are below a quarter of the range, seen at points that reach
 /// both ends of the range on their branches, the two ends within a factor 2 of each other in
-/// magnitude (the designed experiment's ± amplitudes): then `r/6 <= m <= 5.4 r` (`tests::a_scale_prior_holds_every_two_branch_map_within_its_ranges`).
+/// magnitude (the designed experiment's ± amplitudes): then `r/3 <= m <= 3.5 r` (`tests::a_scale_prior_holds_every_two_branch_map_within_its_ranges`).
 /// `None` where either range is empty or not finite.
 ///
 /// ```
@@ -676,7 +676,7 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     /// The claim of [`two_branch_scale_prior`]: random two-branch maps (a play's or a dead
-    /// zone's branches `y = m_r (x - c_r)`, `y = m_l (x + c_l)`), slopes within a factor 4,
+    /// zone's branches `y = m_r (x - c_r)`, `y = m_l (x + c_l)`), slopes within a factor 2,
     /// offsets below a quarter of the range, seen at random steady points that reach both ends
     /// of a range (its ends within a factor 2 in magnitude) on their branches, lie in the box
     /// from the points' ranges.
@@ -688,7 +688,7 @@ mod tests {
             let lo = -hi * 2f64.powf(rng.gen_range(-1.0..1.0));
             let span: f64 = hi - lo;
             let m_l = 10f64.powf(rng.gen_range(-3.0..3.0));
-            let m_r = m_l * 4f64.powf(rng.gen_range(-1.0..1.0));
+            let m_r = m_l * 2f64.powf(rng.gen_range(-1.0..1.0));
             let c_l = rng.gen_range(0.0..0.25) * span;
             let c_r = rng.gen_range(0.0..0.25) * span;
             let mut xs: Vec<f64> = vec![lo, hi];
