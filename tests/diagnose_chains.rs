@@ -590,3 +590,34 @@ fn a_term_that_breaks_the_design_is_tried_in_a_box_from_the_steady_state_points(
         }
     }
 }
+
+/// The before column's bound search stops, and says why, where the data cannot be made
+/// consistent with a bounded set: an undeclared drift as large as the registry's example
+/// (1e-5 per sample) leaves the declared model inconsistent at every bound that still bounds
+/// the backlash's slope. The search takes the first bound at which they no longer bound it as a
+/// ceiling (a larger bound only widens the set), and reports both ends with the real proof
+/// (its stage and sample). Before, it doubled the bound 30 times up to 4e5 and reported
+/// "stage 3, first offending sample 0", which was not a proof.
+#[test]
+fn the_bound_search_stops_where_the_data_no_longer_bound_the_set() {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/paper-drift.yaml"),
+    )
+    .unwrap()
+    .replace("rate: 2.0e-7", "rate: 1.0e-5");
+    let path = std::env::temp_dir().join(format!("smid-drift-{}.yaml", std::process::id()));
+    std::fs::write(&path, text).unwrap();
+    let (spec, data) = smid::load_simulated(&path).unwrap();
+    let _ = std::fs::remove_file(&path);
+    match diagnose::identify_consistent(&spec, &data).unwrap() {
+        smid_core::outcome::Outcome::Falsified(f) => {
+            let m = f.message();
+            assert!(m.contains("no longer bound the set"), "{m}");
+            assert_eq!(f.stage, smid_core::finding::Stage::SteadyState, "{m}");
+        }
+        smid_core::outcome::Outcome::Consistent((id, _)) => panic!(
+            "the declared model is consistent and bounded at {:?}",
+            id.model.delta
+        ),
+    }
+}

@@ -1831,7 +1831,9 @@ pub struct Column {
 /// Identify a model at the smallest noise bound (≥ the declared one) that makes the training
 /// data consistent: the declared bound when it suffices, else bisection between the last
 /// failing and the first passing of doubled bounds (relative resolution 2 %, at most 40
-/// identifications). `Falsified` when no bound tried makes them consistent.
+/// identifications). `Falsified` when no bound tried makes them consistent, or none below the
+/// first at which the data no longer bound the set (a ceiling: a larger bound only widens it);
+/// its proof is the last inconsistent bound's, and its detail names both ends.
 pub fn identify_consistent(
     spec: &Spec,
     data: &ExperimentData,
@@ -1850,7 +1852,15 @@ fn identify_consistent_at(
         return Ok(Outcome::Consistent((id, false)));
     }
     let d0 = spec.noise.delta()?;
-    let at = |d: f64| -> Result<Option<Identification>> {
+    /// What one trial bound gave.
+    enum Tried {
+        Found(Box<Identification>),
+        /// Not shown consistent: falsified (the proof), or solver trouble (`None`).
+        Inconsistent(Option<Falsification>),
+        /// Consistent, but the data no longer bound the set (why): nor at any larger bound.
+        Unbounded(String),
+    }
+    let at = |d: f64| -> Result<Tried> {
         let mut v = serde_json::to_value(spec).expect("specs serialise");
         v["noise"] = serde_json::json!({ "delta": d, "simulate": spec.noise.simulated()? });
         let mut s: Spec = serde_json::from_value(v).expect("a serialised spec deserialises");
@@ -1869,31 +1879,69 @@ fn identify_consistent_at(
         // is then only larger (this bound serves the before/after table, not a guarantee).
         match identify(&s, d2, &[]) {
             // Cells left without a finite θ bound: no usable model at this bound either.
-            Ok(Outcome::Consistent(id)) if !id.model.search.unbounded.is_empty() => Ok(None),
-            Ok(Outcome::Consistent(id)) => Ok(Some(id)),
-            Ok(Outcome::Falsified(_))
-            | Err(SmidError::Unbounded { .. })
-            | Err(SmidError::Solver(_)) => Ok(None),
+            Ok(Outcome::Consistent(id)) if !id.model.search.unbounded.is_empty() => {
+                Ok(Tried::Unbounded(format!(
+                    "{} cell(s) left without a finite θ bound",
+                    id.model.search.unbounded.len()
+                )))
+            }
+            Ok(Outcome::Consistent(id)) => Ok(Tried::Found(Box::new(id))),
+            Ok(Outcome::Falsified(f)) => Ok(Tried::Inconsistent(Some(f))),
+            Err(e @ SmidError::Unbounded { .. }) => Ok(Tried::Unbounded(e.to_string())),
+            Err(SmidError::Solver(_)) => Ok(Tried::Inconsistent(None)),
             Err(e) => Err(e),
         }
     };
+    // Doubling until a bound makes the data consistent. A bound at which they no longer bound
+    // the set is a ceiling (a larger bound only widens the set): the search then bisects
+    // below it, and stops where no bound between the last inconsistent one and the ceiling is
+    // left, saying both.
     let (mut lo, mut hi) = (d0, 2.0 * d0);
+    let mut ceiling: Option<(f64, String)> = None;
+    let mut proof: Option<Falsification> = None;
     let mut best = None;
     let mut checks = 0;
+    let stopped = |lo: f64, proof: &Option<Falsification>, tail: String| {
+        let mut f = proof
+            .clone()
+            .unwrap_or_else(|| Falsification::new(Stage::Linear, 0, String::new()));
+        let first = if f.detail.is_empty() {
+            String::new()
+        } else {
+            format!("{}; ", f.detail)
+        };
+        f.detail = format!(
+            "{first}the training data stay inconsistent up to a noise bound of {lo:.3e}{tail}"
+        );
+        Ok(Outcome::Falsified(f))
+    };
     while best.is_none() {
         checks += 1;
         if checks > 30 {
-            return Ok(Outcome::Falsified(Falsification::new(
-                Stage::Linear,
-                0,
-                format!("the training data stay inconsistent up to a noise bound of {hi:.3e}"),
-            )));
+            return stopped(lo, &proof, String::new());
         }
         match at(hi)? {
-            Some(id) => best = Some(id),
-            None => {
+            Tried::Found(id) => best = Some(*id),
+            Tried::Inconsistent(f) => {
                 lo = hi;
-                hi *= 2.0;
+                proof = f.or(proof);
+                hi = match &ceiling {
+                    Some((c, _)) => 0.5 * (lo + c),
+                    None => 2.0 * hi,
+                };
+            }
+            Tried::Unbounded(why) => {
+                ceiling = Some((hi, why));
+                hi = 0.5 * (lo + hi);
+            }
+        }
+        if let Some((c, why)) = &ceiling {
+            if best.is_none() && c - lo <= 0.02 * c {
+                return stopped(
+                    lo,
+                    &proof,
+                    format!(", and from {c:.3e} on they no longer bound the set ({why})"),
+                );
             }
         }
     }
@@ -1902,11 +1950,13 @@ fn identify_consistent_at(
         let mid = 0.5 * (lo + hi);
         checks += 1;
         match at(mid)? {
-            Some(id) => {
-                best = id;
+            Tried::Found(id) => {
+                best = *id;
                 hi = mid;
             }
-            None => lo = mid,
+            Tried::Inconsistent(_) => lo = mid,
+            // Not below a bound found consistent and bounded: solver trouble's kin.
+            Tried::Unbounded(_) => lo = mid,
         }
     }
     best.model.simulation_member =
