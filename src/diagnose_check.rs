@@ -598,6 +598,18 @@ pub fn case_count(only: &[String]) -> usize {
         .count()
 }
 
+/// A fit column's cell: the median over the trials with a model to validate, and how many
+/// had none (a column whose model the training data falsify at every bound that bounds it).
+fn fit_cell(v: Vec<f64>) -> String {
+    let n = v.len();
+    let without = v.iter().filter(|x| !x.is_finite()).count();
+    match without {
+        0 => format!("{:.2} %", median(v)),
+        w if w == n => format!("- (no model in {n})"),
+        w => format!("{:.2} % ({w} of {n} without a model)", median(v)),
+    }
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.retain(|x| x.is_finite());
     if v.is_empty() {
@@ -627,13 +639,13 @@ pub fn format(outcomes: &[TrialOutcome]) -> String {
         let c = |f: &dyn Fn(&TrialOutcome) -> bool| o.iter().filter(|x| f(x)).count();
         let _ = writeln!(
             s,
-            "| {name} | {}/{n} | {}/{n} | {}/{n} | {:.2} % | {:.2} % | {:.2} % |",
+            "| {name} | {}/{n} | {}/{n} | {}/{n} | {} | {} | {} |",
             c(&|x| x.named),
             c(&|x| x.heldout_pass),
             c(&|x| x.truth_inside),
-            median(o.iter().map(|x| x.fit_before).collect()),
-            median(o.iter().map(|x| x.fit_after).collect()),
-            median(o.iter().map(|x| x.fit_baseline).collect()),
+            fit_cell(o.iter().map(|x| x.fit_before).collect()),
+            fit_cell(o.iter().map(|x| x.fit_after).collect()),
+            fit_cell(o.iter().map(|x| x.fit_baseline).collect()),
         );
     }
     for case in cases() {
@@ -703,4 +715,22 @@ pub fn meets_bar(outcomes: &[TrialOutcome]) -> bool {
                     .filter(|x| x.named)
                     .all(|x| x.heldout_pass && x.truth_inside))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fit_cell;
+
+    /// A trial without a model to validate is counted in its cell, not dropped from the
+    /// median silently.
+    #[test]
+    fn a_fit_cell_counts_the_trials_without_a_model() {
+        let none = f64::NEG_INFINITY;
+        assert_eq!(fit_cell(vec![90.0, 99.0, 95.0]), "95.00 %");
+        assert_eq!(
+            fit_cell(vec![90.0, none, 99.0]),
+            "94.50 % (1 of 3 without a model)"
+        );
+        assert_eq!(fit_cell(vec![none, none]), "- (no model in 2)");
+    }
 }
