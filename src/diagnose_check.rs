@@ -598,15 +598,16 @@ pub fn case_count(only: &[String]) -> usize {
         .count()
 }
 
-/// A fit column's cell: the median over the trials with a model to validate, and how many
-/// had none (a column whose model the training data falsify at every bound that bounds it).
+/// A fit column's cell: the median over the trials with a finite fit, and how many had none
+/// (no model to validate: the training data falsify it at every bound that bounds it, or the
+/// trial stopped with an error; or a free run that diverged).
 fn fit_cell(v: Vec<f64>) -> String {
     let n = v.len();
     let without = v.iter().filter(|x| !x.is_finite()).count();
     match without {
         0 => format!("{:.2} %", median(v)),
-        w if w == n => format!("- (no model in {n})"),
-        w => format!("{:.2} % ({w} of {n} without a model)", median(v)),
+        w if w == n => format!("- (no finite fit in {n})"),
+        w => format!("{:.2} % ({w} of {n} without a finite fit)", median(v)),
     }
 }
 
@@ -721,16 +722,16 @@ pub fn meets_bar(outcomes: &[TrialOutcome]) -> bool {
 mod tests {
     use super::fit_cell;
 
-    /// A trial without a model to validate is counted in its cell, not dropped from the
-    /// median silently.
+    /// A trial without a finite fit (no model to validate, or a diverging free run) is
+    /// counted in its cell, not dropped from the median silently.
     #[test]
     fn a_fit_cell_counts_the_trials_without_a_model() {
         let none = f64::NEG_INFINITY;
         assert_eq!(fit_cell(vec![90.0, 99.0, 95.0]), "95.00 %");
         assert_eq!(
             fit_cell(vec![90.0, none, 99.0]),
-            "94.50 % (1 of 3 without a model)"
+            "94.50 % (1 of 3 without a finite fit)"
         );
-        assert_eq!(fit_cell(vec![none, none]), "- (no model in 2)");
+        assert_eq!(fit_cell(vec![none, none]), "- (no finite fit in 2)");
     }
 }

@@ -1295,35 +1295,50 @@ fn with_design_prior(
     else {
         return true;
     };
-    match design_prior_for(m, layout, steady) {
-        Ok(Some(boxes)) => {
-            for (n, p) in boxes {
-                m.prior.insert(n.clone(), [p.lo, p.hi]);
-                given.push((n, [p.lo, p.hi]));
-            }
-            m.layout().is_ok()
+    // The model with `boxes` as its nonlinearity's prior, listed with the candidate's priors;
+    // `None` where that model has no layout.
+    let give = |m: &ModelSpec, boxes: Vec<(String, crate::interval::Interval)>| {
+        let mut with = m.duplicate();
+        for (n, p) in &boxes {
+            with.prior.insert(n.clone(), [p.lo, p.hi]);
         }
+        with.layout().is_ok().then(|| {
+            let listed: Vec<(String, [f64; 2])> =
+                boxes.into_iter().map(|(n, p)| (n, [p.lo, p.hi])).collect();
+            (with, listed)
+        })
+    };
+    match design_prior_for(m, layout, steady) {
+        Ok(Some(boxes)) => match give(m, boxes) {
+            Some((with, listed)) => {
+                *m = with;
+                given.extend(listed);
+                true
+            }
+            None => false,
+        },
         Ok(None) => true,
         Err(e) => {
             log::info!(target: "smid::diagnose", "{what}: no prior box for the nonlinearity from the steady-state points: {e}");
             if let Some(term) = m.term_breaking_steady_design() {
                 // The points are off their branches even as if the design held: a box from
                 // their scale alone, pruned by them with any history.
-                if let Some(boxes) = crate::pipeline::scale_prior(m, steady) {
-                    let mut tried = m.duplicate();
-                    for (n, p) in &boxes {
-                        tried.prior.insert(n.clone(), [p.lo, p.hi]);
-                    }
-                    if tried.layout().is_ok() {
-                        log::info!(target: "smid::diagnose", "{what}: the nonlinearity's prior from the scale of the steady-state points");
-                        *m = tried;
-                        given.extend(boxes.into_iter().map(|(n, p)| (n, [p.lo, p.hi])));
-                        return true;
-                    }
+                let scale = crate::pipeline::scale_prior(m, steady);
+                let from_scale = scale.is_some();
+                if let Some((with, listed)) = scale.and_then(|b| give(m, b)) {
+                    log::info!(target: "smid::diagnose", "{what}: the nonlinearity's prior from the scale of the steady-state points");
+                    *m = with;
+                    given.extend(listed);
+                    return true;
                 }
                 *untried = Some(format!(
-                    "not tried: `{}` breaks the designed steady-state experiment, so stage 1 refuses the polygons, and the steady-state points give no box for the nonlinearity even as if the design held ({e}); {}",
+                    "not tried: `{}` breaks the designed steady-state experiment, so stage 1 refuses the polygons, and the steady-state points give no box for the nonlinearity even as if the design held ({e}), {}; {}",
                     term.label(),
+                    if from_scale {
+                        "and the box from their scale leaves the model without a layout"
+                    } else {
+                        "nor from their scale (`NonlinearityModel::scale_prior`: the plugin offers none, the chain has blocks, the gain is not unit or the points span nothing)"
+                    },
                     crate::pipeline::prior_box_to_give(m)
                 ));
             }
@@ -1848,9 +1863,10 @@ fn identify_consistent_at(
     spec: &Spec,
     data: &ExperimentData,
 ) -> Result<Outcome<(Identification, bool)>> {
-    if let Outcome::Consistent(id) = identify(spec, data.clone(), &[])? {
-        return Ok(Outcome::Consistent((id, false)));
-    }
+    let declared = match identify(spec, data.clone(), &[])? {
+        Outcome::Consistent(id) => return Ok(Outcome::Consistent((id, false))),
+        Outcome::Falsified(f) => f,
+    };
     let d0 = spec.noise.delta()?;
     /// What one trial bound gave.
     enum Tried {
@@ -1878,12 +1894,24 @@ fn identify_consistent_at(
         // Solver trouble at a trial bound counts as "not shown consistent": the bound found
         // is then only larger (this bound serves the before/after table, not a guarantee).
         match identify(&s, d2, &[]) {
-            // Cells left without a finite θ bound: no usable model at this bound either.
+            // Cells left without a finite θ bound: no usable model at this bound either. Only
+            // where stage 3 found them unbounded is this a ceiling; cells a solver failure
+            // left open are "not shown consistent", as solver trouble is.
             Ok(Outcome::Consistent(id)) if !id.model.search.unbounded.is_empty() => {
-                Ok(Tried::Unbounded(format!(
-                    "{} cell(s) left without a finite θ bound",
-                    id.model.search.unbounded.len()
-                )))
+                let open = &id.model.search.unbounded;
+                Ok(
+                    if open
+                        .iter()
+                        .all(|c| c.cause == crate::cells::UndecidedCause::Unbounded)
+                    {
+                        Tried::Unbounded(format!(
+                            "{} cell(s) left without a finite θ bound",
+                            open.len()
+                        ))
+                    } else {
+                        Tried::Inconsistent(None)
+                    },
+                )
             }
             Ok(Outcome::Consistent(id)) => Ok(Tried::Found(Box::new(id))),
             Ok(Outcome::Falsified(f)) => Ok(Tried::Inconsistent(Some(f))),
@@ -1898,33 +1926,45 @@ fn identify_consistent_at(
     // left, saying both.
     let (mut lo, mut hi) = (d0, 2.0 * d0);
     let mut ceiling: Option<(f64, String)> = None;
-    let mut proof: Option<Falsification> = None;
+    // The last bound shown inconsistent, and its proof (the declared bound's to begin with).
+    let mut proof = declared;
     let mut best = None;
     let mut checks = 0;
-    let stopped = |lo: f64, proof: &Option<Falsification>, tail: String| {
-        let mut f = proof
-            .clone()
-            .unwrap_or_else(|| Falsification::new(Stage::Linear, 0, String::new()));
-        let first = if f.detail.is_empty() {
-            String::new()
+    // `proven`: the bound the proof is for; `lo`: the largest bound not shown consistent
+    // (larger than `proven` where solver trouble stopped a trial).
+    let mut proven = d0;
+    let stopped = |lo: f64, proven: f64, proof: &Falsification, ceiling: &Option<(f64, String)>| {
+        let mut f = proof.clone();
+        let tail = match ceiling {
+            Some((c, why)) => {
+                format!(", and from {c:.3e} on they no longer bound the set ({why})")
+            }
+            None => String::new(),
+        };
+        let shown = if proven < lo {
+            format!(" (the proof is at {proven:.3e}; above it the solvers did not conclude)")
         } else {
-            format!("{}; ", f.detail)
+            String::new()
         };
         f.detail = format!(
-            "{first}the training data stay inconsistent up to a noise bound of {lo:.3e}{tail}"
+            "{}; the training data stay inconsistent up to a noise bound of {lo:.3e}{shown}{tail}",
+            f.detail
         );
         Ok(Outcome::Falsified(f))
     };
     while best.is_none() {
         checks += 1;
         if checks > 30 {
-            return stopped(lo, &proof, String::new());
+            return stopped(lo, proven, &proof, &ceiling);
         }
         match at(hi)? {
             Tried::Found(id) => best = Some(*id),
             Tried::Inconsistent(f) => {
                 lo = hi;
-                proof = f.or(proof);
+                if let Some(f) = f {
+                    proof = f;
+                    proven = hi;
+                }
                 hi = match &ceiling {
                     Some((c, _)) => 0.5 * (lo + c),
                     None => 2.0 * hi,
@@ -1935,13 +1975,9 @@ fn identify_consistent_at(
                 hi = 0.5 * (lo + hi);
             }
         }
-        if let Some((c, why)) = &ceiling {
+        if let Some((c, _)) = &ceiling {
             if best.is_none() && c - lo <= 0.02 * c {
-                return stopped(
-                    lo,
-                    &proof,
-                    format!(", and from {c:.3e} on they no longer bound the set ({why})"),
-                );
+                return stopped(lo, proven, &proof, &ceiling);
             }
         }
     }

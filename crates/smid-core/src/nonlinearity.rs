@@ -449,20 +449,29 @@ pub const SCALE_PRIOR_SLOPE_FACTOR: f64 = 4.0;
 /// of each other and whose offsets are below a quarter of the range, seen at points that reach
 /// both ends of the range on their branches, the two ends within a factor 2 of each other in
 /// magnitude (the designed experiment's ± amplitudes): then `r/3 <= m <= 3.5 r` (`tests::a_scale_prior_holds_every_two_branch_map_within_its_ranges`).
-/// `None` where either range is empty or not finite.
+/// `None` where either range is empty or not finite, or where the input's range does not
+/// straddle 0 with its ends within a factor 2 in magnitude (the claim's premise).
 ///
 /// ```
 /// use smid_core::nonlinearity::two_branch_scale_prior;
 /// let b = two_branch_scale_prior((-3.0, 3.0), (-0.75, 0.75)).unwrap();
 /// assert!(b[0].contains(0.25) && b[1].contains(0.1) && b[1].lo == 0.0);
 /// assert!(two_branch_scale_prior((1.0, 1.0), (0.0, 1.0)).is_none());
+/// assert!(two_branch_scale_prior((0.6, 3.0), (0.1, 0.7)).is_none()); // one-sided
 /// ```
 pub fn two_branch_scale_prior(input: (f64, f64), output: (f64, f64)) -> Option<Vec<Interval>> {
     let (si, so) = (input.1 - input.0, output.1 - output.0);
-    if !(si.is_finite() && so.is_finite() && si > 0.0 && so > 0.0) {
+    let straddles = input.0 < 0.0 && input.1 > 0.0 && {
+        let (a, b) = (-input.0, input.1);
+        a.max(b) <= 2.0 * a.min(b)
+    };
+    if !(si.is_finite() && so.is_finite() && si > 0.0 && so > 0.0 && straddles) {
         return None;
     }
     let r = so / si;
+    if !(r.is_normal() && (r * SCALE_PRIOR_SLOPE_FACTOR).is_finite()) {
+        return None;
+    }
     let m = Interval::new(r / SCALE_PRIOR_SLOPE_FACTOR, r * SCALE_PRIOR_SLOPE_FACTOR);
     let c = Interval::new(0.0, SCALE_PRIOR_OFFSET_SHARE * si);
     Some(vec![m, c, m, c])
@@ -678,8 +687,8 @@ mod tests {
     /// The claim of [`two_branch_scale_prior`]: random two-branch maps (a play's or a dead
     /// zone's branches `y = m_r (x - c_r)`, `y = m_l (x + c_l)`), slopes within a factor 2,
     /// offsets below a quarter of the range, seen at random steady points that reach both ends
-    /// of a range (its ends within a factor 2 in magnitude) on their branches, lie in the box
-    /// from the points' ranges.
+    /// of a range (its ends within a factor 2 in magnitude) on their branches, the others on a
+    /// branch or inside the band, lie in the box from the points' ranges.
     #[test]
     fn a_scale_prior_holds_every_two_branch_map_within_its_ranges() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(59);
@@ -696,10 +705,18 @@ mod tests {
             let ys: Vec<f64> = xs
                 .iter()
                 .map(|&x| {
-                    if x == lo || (x != hi && rng.gen_bool(0.5)) {
-                        m_l * (x + c_l)
+                    let (left, right) = (m_l * (x + c_l), m_r * (x - c_r));
+                    if x == lo {
+                        left
+                    } else if x == hi {
+                        right
+                    } else if left > right && rng.gen_bool(0.3) {
+                        // Inside a play's band (a point a switching term left off its branch).
+                        right + rng.gen_range(0.0..1.0) * (left - right)
+                    } else if rng.gen_bool(0.5) {
+                        left
                     } else {
-                        m_r * (x - c_r)
+                        right
                     }
                 })
                 .collect();

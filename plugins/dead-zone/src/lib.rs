@@ -204,16 +204,6 @@ impl NonlinearityModel for DeadZoneModel {
     /// the zone's output `y = w - c`, whose input reaches `|y|max + c`: `c <= (|y|max + c)/2`,
     /// that is `c <= |y|max`. (Half the output's range, as before, left out zones of 0.40 and
     /// 0.47 whose outputs reached 0.69 and 0.81.)
-    /// Slopes around the ratio of the ranges, offsets up to a quarter of the input's range
-    /// ([`smid_core::nonlinearity::two_branch_scale_prior`]).
-    fn scale_prior(
-        &self,
-        _s: Structure,
-        input: (f64, f64),
-        output: (f64, f64),
-    ) -> Option<Vec<Interval>> {
-        smid_core::nonlinearity::two_branch_scale_prior(input, output)
-    }
     fn default_prior(&self, s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
         let share = match s {
             Structure::Hammerstein => 0.5,
@@ -223,6 +213,16 @@ impl NonlinearityModel for DeadZoneModel {
         let cl = Interval::new(0.0, share * (-seen.0).max(0.0));
         let cr = Interval::new(0.0, share * seen.1.max(0.0));
         Some(vec![one, cl, one, cr])
+    }
+    /// Slopes around the ratio of the ranges, offsets up to a quarter of the input's range
+    /// ([`smid_core::nonlinearity::two_branch_scale_prior`]).
+    fn scale_prior(
+        &self,
+        _s: Structure,
+        input: (f64, f64),
+        output: (f64, f64),
+    ) -> Option<Vec<Interval>> {
+        smid_core::nonlinearity::two_branch_scale_prior(input, output)
     }
     /// A box of `(m_l, c_l, m_r, c_r)`: each branch's exact image in `(m, m·c)`.
     fn set_from_box(&self, cell: &[Interval]) -> Result<Box<dyn NonlinearitySet>> {

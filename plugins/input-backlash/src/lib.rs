@@ -119,16 +119,6 @@ impl NonlinearityModel for InputBacklashModel {
     /// A box of `(m_l, c_l, m_r, c_r)`: the branch images of the output backlash; the interval
     /// simulation takes `L`, `R` over their vertices, so it holds for every member.
     /// Unit slopes, half-plays up to a quarter of the range seen.
-    /// Slopes around the ratio of the ranges, offsets up to a quarter of the input's range
-    /// ([`smid_core::nonlinearity::two_branch_scale_prior`]).
-    fn scale_prior(
-        &self,
-        _s: Structure,
-        input: (f64, f64),
-        output: (f64, f64),
-    ) -> Option<Vec<Interval>> {
-        smid_core::nonlinearity::two_branch_scale_prior(input, output)
-    }
     fn default_prior(&self, _s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
         let c = Interval::new(0.0, 0.25 * (seen.1 - seen.0).max(0.0));
         let one = Interval::new(1.0, 1.0);

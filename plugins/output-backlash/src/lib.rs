@@ -217,6 +217,15 @@ impl NonlinearityModel for OutputBacklashModel {
     /// it (Wiener) the range seen is the play's output, narrower by `c_l + c_r <= range_in / 2`,
     /// so `range_in <= 2 range` and `c <= range / 2`. (A quarter of the output's range, as
     /// before, left out a half-play of 0.446 whose output spanned 1.66.)
+    fn default_prior(&self, s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
+        let share = match s {
+            Structure::Hammerstein => 0.25,
+            Structure::Wiener => 0.5,
+        };
+        let c = Interval::new(0.0, share * (seen.1 - seen.0).max(0.0));
+        let one = Interval::new(1.0, 1.0);
+        Some(vec![one, c, one, c])
+    }
     /// Slopes around the ratio of the ranges, offsets up to a quarter of the input's range
     /// ([`smid_core::nonlinearity::two_branch_scale_prior`]).
     fn scale_prior(
@@ -226,15 +235,6 @@ impl NonlinearityModel for OutputBacklashModel {
         output: (f64, f64),
     ) -> Option<Vec<Interval>> {
         smid_core::nonlinearity::two_branch_scale_prior(input, output)
-    }
-    fn default_prior(&self, s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
-        let share = match s {
-            Structure::Hammerstein => 0.25,
-            Structure::Wiener => 0.5,
-        };
-        let c = Interval::new(0.0, share * (seen.1 - seen.0).max(0.0));
-        let one = Interval::new(1.0, 1.0);
-        Some(vec![one, c, one, c])
     }
     /// After the linear block: a random physical backlash over `|x| <= 3`, steady-state
     /// amplitudes 0.6 to 3, a PRBS that crosses the dead band often (`1 + 4 (c_l + c_r)`).

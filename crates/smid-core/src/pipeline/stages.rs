@@ -79,13 +79,16 @@ pub fn design_prior(
 /// A box for the model's own nonlinearity from the **scale** of its steady-state points
 /// ([`crate::nonlinearity::NonlinearityModel::scale_prior`]): the range its input spans
 /// (`ū` itself: the linear block has unit gain, and at rest an equation term that vanishes with
-/// the velocity adds nothing) and the range its output spans (`ȳ`). It assumes no designed
-/// step, so it serves where [`design_prior`] finds the points inconsistent even as if the design
-/// held; the branch and bound then prunes its cells by the points with any history. `None`:
-/// the plugin offers none, the model has an input-side block (its input's range is not `ū`'s)
-/// or no unit gain (the slopes and the gain are not separable), or the points span nothing.
+/// the velocity adds nothing) and the range its output spans (`ȳ`, each end moved by the
+/// points' largest noise bound both ways: the hull of the plugin's boxes for the narrowest
+/// and the widest true range). It assumes no designed step, so it serves where
+/// [`design_prior`] finds the points inconsistent even as if the design held; the branch and
+/// bound then prunes its cells by the points with any history. `None`: the plugin offers
+/// none, the model has a block on either side (its nonlinearity's input is then not `ū`, or
+/// its output not `ȳ`) or no unit gain (the slopes and the gain are not separable), or the
+/// points span nothing.
 pub fn scale_prior(model: &ModelSpec, steady: &SteadyStateData) -> Option<Vec<(String, Interval)>> {
-    if !model.unit_gain || !model.input.is_empty() || steady.points.is_empty() {
+    if !model.unit_gain || model.has_blocks() || steady.points.is_empty() {
         return None;
     }
     let span = |f: &dyn Fn(&crate::nonlinearity::SteadyPoint) -> f64| {
@@ -96,11 +99,27 @@ pub fn scale_prior(model: &ModelSpec, steady: &SteadyStateData) -> Option<Vec<(S
                 (lo.min(f(p)), hi.max(f(p)))
             })
     };
+    let d = steady.points.iter().fold(0.0f64, |m, p| m.max(p.dy));
+    let (input, (ylo, yhi)) = (span(&|p| p.u), span(&|p| p.y));
     let names = crate::registry::parameter_names(&model.nonlinearity_tag());
-    let b = model
-        .nonlinearity
-        .scale_prior(model.structure, span(&|p| p.u), span(&|p| p.y))?;
-    (b.len() == names.len()).then(|| names.into_iter().zip(b).collect())
+    let of = |out: (f64, f64)| {
+        model
+            .nonlinearity
+            .scale_prior(model.structure, input, out)
+            .filter(|b| b.len() == names.len())
+    };
+    let narrow = (ylo + d, yhi - d);
+    let wide = of((ylo - d, yhi + d))?;
+    let b: Vec<Interval> = match (narrow.0 < narrow.1).then(|| of(narrow)).flatten() {
+        Some(n) => n
+            .iter()
+            .zip(&wide)
+            .map(|(a, b)| Interval::new(a.lo.min(b.lo), a.hi.max(b.hi)))
+            .collect(),
+        // The noise could hide the whole range: the slopes may be as small as any.
+        None => return None,
+    };
+    Some(names.into_iter().zip(b).collect())
 }
 
 /// [`stage1`]; `assume_design`: steady-state points pass every input block as if it kept the
