@@ -591,15 +591,16 @@ fn a_term_that_breaks_the_design_is_tried_in_a_box_from_the_steady_state_points(
     }
 }
 
-/// The before column's bound search stops, and says why, where the data cannot be made
+/// The before column's bound search says why it stopped where the data cannot be made
 /// consistent with a bounded set: an undeclared drift as large as the registry's example
 /// (1e-5 per sample) leaves the declared model inconsistent at every bound that still bounds
 /// the backlash's slope. The search takes the first bound at which they no longer bound it as a
-/// ceiling (a larger bound only widens the set), and reports both ends with the real proof
-/// (its stage and sample). Before, it doubled the bound 30 times up to 4e5 and reported
+/// ceiling (a larger bound only widens the exact set), bisects below it for a window where
+/// the model is consistent and bounded, doubles on past it, and reports both ends with the
+/// real proof (its stage and sample). Before, it doubled the bound 30 times up to 4e5 and reported
 /// "stage 3, first offending sample 0", which was not a proof.
 #[test]
-fn the_bound_search_stops_where_the_data_no_longer_bound_the_set() {
+fn the_bound_search_says_where_the_data_stop_bounding_the_set() {
     let text = std::fs::read_to_string(
         Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/paper-drift.yaml"),
     )
@@ -612,7 +613,7 @@ fn the_bound_search_stops_where_the_data_no_longer_bound_the_set() {
     match diagnose::identify_consistent(&spec, &data).unwrap() {
         smid_core::outcome::Outcome::Falsified(f) => {
             let m = f.message();
-            assert!(m.contains("no longer bound the set"), "{m}");
+            assert!(m.contains("not shown to bound the set"), "{m}");
             assert_eq!(f.stage, smid_core::finding::Stage::SteadyState, "{m}");
         }
         smid_core::outcome::Outcome::Consistent((id, _)) => panic!(

@@ -1846,9 +1846,10 @@ pub struct Column {
 /// Identify a model at the smallest noise bound (≥ the declared one) that makes the training
 /// data consistent: the declared bound when it suffices, else bisection between the last
 /// failing and the first passing of doubled bounds (relative resolution 2 %, at most 40
-/// identifications). `Falsified` when no bound tried makes them consistent, or none below the
-/// first at which the data no longer bound the set (a ceiling: a larger bound only widens it);
-/// its proof is the last inconsistent bound's, and its detail names both ends.
+/// identifications; below the first bound at which the data are shown not to bound the set,
+/// a bisection for a window first). `Falsified` when no bound tried makes them consistent with
+/// a bounded set; its proof is the last inconsistent bound's, and its detail names where the
+/// data stopped bounding the set.
 pub fn identify_consistent(
     spec: &Spec,
     data: &ExperimentData,
@@ -1871,7 +1872,8 @@ fn identify_consistent_at(
     /// What one trial bound gave.
     enum Tried {
         Found(Box<Identification>),
-        /// Not shown consistent: falsified (the proof), or solver trouble (`None`).
+        /// Not shown consistent: falsified (the proof), or solver trouble or cells the budget
+        /// left open (`None`).
         Inconsistent(Option<Falsification>),
         /// Consistent, but the data no longer bound the set (why): nor at any larger bound.
         Unbounded(String),
@@ -1894,24 +1896,12 @@ fn identify_consistent_at(
         // Solver trouble at a trial bound counts as "not shown consistent": the bound found
         // is then only larger (this bound serves the before/after table, not a guarantee).
         match identify(&s, d2, &[]) {
-            // Cells left without a finite θ bound: no usable model at this bound either. Only
-            // where stage 3 found them unbounded is this a ceiling; cells a solver failure
-            // left open are "not shown consistent", as solver trouble is.
+            // Cells left without a finite θ bound: no usable model at this bound either, but
+            // not a ceiling: which cells the budget leaves open depends on how the bound's
+            // larger box was cut (a larger bound has found every cell bounded), as solver
+            // trouble is not a proof either.
             Ok(Outcome::Consistent(id)) if !id.model.search.unbounded.is_empty() => {
-                let open = &id.model.search.unbounded;
-                Ok(
-                    if open
-                        .iter()
-                        .all(|c| c.cause == crate::cells::UndecidedCause::Unbounded)
-                    {
-                        Tried::Unbounded(format!(
-                            "{} cell(s) left without a finite θ bound",
-                            open.len()
-                        ))
-                    } else {
-                        Tried::Inconsistent(None)
-                    },
-                )
+                Ok(Tried::Inconsistent(None))
             }
             Ok(Outcome::Consistent(id)) => Ok(Tried::Found(Box::new(id))),
             Ok(Outcome::Falsified(f)) => Ok(Tried::Inconsistent(Some(f))),
@@ -1920,43 +1910,39 @@ fn identify_consistent_at(
             Err(e) => Err(e),
         }
     };
-    // Doubling until a bound makes the data consistent. A bound at which they no longer bound
-    // the set is a ceiling (a larger bound only widens the set): the search then bisects
-    // below it, and stops where no bound between the last inconsistent one and the ceiling is
-    // left, saying both.
+    // Doubling until a bound makes the data consistent. The first bound at which the data are
+    // shown not to bound the set (`SmidError::Unbounded`: a slope reaching 0, θ unbounded
+    // without cells) is searched below first: a larger bound only widens the exact set, so a
+    // window where the model is consistent and bounded lies between the last inconsistent
+    // bound and it, and is bisected for. Without one, the doubling goes on past it (the
+    // computed sets are outer approximations, and one was seen bounded again at a larger
+    // bound), and where it stops the column says both ends.
     let (mut lo, mut hi) = (d0, 2.0 * d0);
     let mut ceiling: Option<(f64, String)> = None;
+    // Below the ceiling (bisecting for the window) or past it (doubling again).
+    let mut past = false;
     // The last bound shown inconsistent, and its proof (the declared bound's to begin with).
     let mut proof = declared;
-    let mut best = None;
-    let mut checks = 0;
-    // `proven`: the bound the proof is for; `lo`: the largest bound not shown consistent
-    // (larger than `proven` where solver trouble stopped a trial).
     let mut proven = d0;
-    let stopped = |lo: f64, proven: f64, proof: &Falsification, ceiling: &Option<(f64, String)>| {
-        let mut f = proof.clone();
-        let tail = match ceiling {
-            Some((c, why)) => {
-                format!(", and from {c:.3e} on they no longer bound the set ({why})")
-            }
-            None => String::new(),
-        };
-        let shown = if proven < lo {
-            format!(" (the proof is at {proven:.3e}; above it the solvers did not conclude)")
-        } else {
-            String::new()
-        };
-        f.detail = format!(
-            "{}; the training data stay inconsistent up to a noise bound of {lo:.3e}{shown}{tail}",
-            f.detail
-        );
-        Ok(Outcome::Falsified(f))
-    };
+    let mut best = None;
+    let (mut checks, mut doublings) = (0, 0);
     while best.is_none() {
         checks += 1;
-        if checks > 30 {
-            return stopped(lo, proven, &proof, &ceiling);
+        if doublings >= 30 || checks > 45 {
+            let tail = match &ceiling {
+                Some((c, why)) => format!(
+                    "; from {c:.3e} on the data are not shown to bound the set ({why}), and no bound up to {lo:.3e} made them consistent with a bounded one"
+                ),
+                None => format!("; no bound up to {lo:.3e} made them consistent"),
+            };
+            let mut f = proof;
+            f.detail = format!(
+                "{}; the training data are inconsistent at a noise bound of {proven:.3e}{tail}",
+                f.detail
+            );
+            return Ok(Outcome::Falsified(f));
         }
+        let bisecting = !past && ceiling.is_some();
         match at(hi)? {
             Tried::Found(id) => best = Some(*id),
             Tried::Inconsistent(f) => {
@@ -1965,19 +1951,30 @@ fn identify_consistent_at(
                     proof = f;
                     proven = hi;
                 }
-                hi = match &ceiling {
-                    Some((c, _)) => 0.5 * (lo + c),
-                    None => 2.0 * hi,
+                hi = match (&ceiling, bisecting) {
+                    (Some((c, _)), true) => 0.5 * (lo + c),
+                    _ => {
+                        doublings += 1;
+                        2.0 * hi
+                    }
                 };
             }
-            Tried::Unbounded(why) => {
+            Tried::Unbounded(why) if !past => {
                 ceiling = Some((hi, why));
                 hi = 0.5 * (lo + hi);
             }
+            Tried::Unbounded(_) => {
+                lo = hi;
+                doublings += 1;
+                hi *= 2.0;
+            }
         }
-        if let Some((c, _)) = &ceiling {
-            if best.is_none() && c - lo <= 0.02 * c {
-                return stopped(lo, proven, &proof, &ceiling);
+        if let (Some((c, _)), false, None) = (&ceiling, past, &best) {
+            if c - lo <= 0.02 * c {
+                // No window below the ceiling: double on from it.
+                past = true;
+                lo = *c;
+                hi = 2.0 * c;
             }
         }
     }
