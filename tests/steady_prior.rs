@@ -298,3 +298,50 @@ fn steady_points_give_polygons_through_a_block_that_passes_their_steps() {
         }
     }
 }
+
+/// `pipeline::scale_prior` allows for the noise at the ends of the output's range: a play near
+/// the edge of `two_branch_scale_prior`'s claim (slopes 0.5 and 1, a factor 2 apart; plays
+/// 0.7 on a range of 3 from -2 to 1), its two end points measured with noise of 0.12 pulling
+/// both in, keeps every true value in the box. From the measured range alone the right slope,
+/// 1, would lie above the box's 0.97.
+#[test]
+fn the_scale_prior_allows_for_noise_at_the_ends_of_the_output_range() {
+    use smid_core::nonlinearity::{SteadyPoint, SteadyStateData};
+    smid::link_plugins();
+    let text = "name: scale
+plant:
+  data:
+    dynamic: { file: none.csv, u: u, y: y }
+noise: { delta: 0.12 }
+model:
+  nonlinearity: { type: output_backlash }
+  na: 2
+  nb: 2
+";
+    let spec = smid_core::spec::Spec::parse(text, std::path::Path::new("<test>")).unwrap();
+    let (m_l, c_l, m_r, c_r, d) = (0.5, 0.7, 1.0, 0.7, 0.12);
+    let point = |index: usize, u: f64, y: f64| SteadyPoint {
+        u,
+        y,
+        dy: d,
+        alpha: 0.0,
+        rising: u > 0.0,
+        index,
+        time: None,
+        step: None,
+        du: 0.0,
+    };
+    let steady = SteadyStateData {
+        points: vec![
+            point(0, -2.0, m_l * (-2.0 + c_l) + d),
+            point(1, 1.0, m_r * (1.0 - c_r) - d),
+            point(2, -1.0, m_l * (-1.0 + c_l)),
+            point(3, 0.9, m_r * (0.9 - c_r)),
+        ],
+    };
+    let b = smid::core::pipeline::scale_prior(&spec.model, &steady).expect("a box");
+    for (n, t) in [("m_l", m_l), ("c_l", c_l), ("m_r", m_r), ("c_r", c_r)] {
+        let (_, i) = b.iter().find(|(name, _)| name == n).unwrap();
+        assert!(i.contains(t), "{n} = {t} not in {i:?}: {b:?}");
+    }
+}
