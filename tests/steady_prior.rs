@@ -320,17 +320,7 @@ model:
 ";
     let spec = smid_core::spec::Spec::parse(text, std::path::Path::new("<test>")).unwrap();
     let (m_l, c_l, m_r, c_r, d) = (0.5, 0.7, 1.0, 0.7, 0.12);
-    let point = |index: usize, u: f64, y: f64| SteadyPoint {
-        u,
-        y,
-        dy: d,
-        alpha: 0.0,
-        rising: u > 0.0,
-        index,
-        time: None,
-        step: None,
-        du: 0.0,
-    };
+    let point = |index: usize, u: f64, y: f64| SteadyPoint::new(index, u, y, d);
     let steady = SteadyStateData {
         points: vec![
             point(0, -2.0, m_l * (-2.0 + c_l) + d),

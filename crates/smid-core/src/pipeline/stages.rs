@@ -88,37 +88,30 @@ pub fn design_prior(
 /// its output not `ȳ`) or no unit gain (the slopes and the gain are not separable), or the
 /// points span nothing.
 pub fn scale_prior(model: &ModelSpec, steady: &SteadyStateData) -> Option<Vec<(String, Interval)>> {
-    if !model.unit_gain || model.has_blocks() || steady.points.is_empty() {
+    if !model.unit_gain || model.has_blocks() {
         return None;
     }
-    let span = |f: &dyn Fn(&crate::nonlinearity::SteadyPoint) -> f64| {
-        steady
-            .points
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-                (lo.min(f(p)), hi.max(f(p)))
-            })
-    };
+    let input = Interval::hull_of(steady.points.iter().map(|p| p.u))?;
+    let y = Interval::hull_of(steady.points.iter().map(|p| p.y))?;
     let d = steady.points.iter().fold(0.0f64, |m, p| m.max(p.dy));
-    let (input, (ylo, yhi)) = (span(&|p| p.u), span(&|p| p.y));
     let names = crate::registry::parameter_names(&model.nonlinearity_tag());
-    let of = |out: (f64, f64)| {
-        model
-            .nonlinearity
-            .scale_prior(model.structure, input, out)
+    let of = |lo: f64, hi: f64| {
+        (lo < hi)
+            .then(|| {
+                model
+                    .nonlinearity
+                    .scale_prior(model.structure, (input.lo, input.hi), (lo, hi))
+            })
+            .flatten()
             .filter(|b| b.len() == names.len())
     };
-    let narrow = (ylo + d, yhi - d);
-    let wide = of((ylo - d, yhi + d))?;
-    let b: Vec<Interval> = match (narrow.0 < narrow.1).then(|| of(narrow)).flatten() {
-        Some(n) => n
-            .iter()
-            .zip(&wide)
-            .map(|(a, b)| Interval::new(a.lo.min(b.lo), a.hi.max(b.hi)))
-            .collect(),
-        // The noise could hide the whole range: the slopes may be as small as any.
-        None => return None,
-    };
+    // The noise could hide the whole range (no narrow box): the slopes may be as small as any.
+    let narrow = of(y.lo + d, y.hi - d)?;
+    let wide = of(y.lo - d, y.hi + d)?;
+    let b = narrow
+        .iter()
+        .zip(&wide)
+        .map(|(a, b)| Interval::new(a.lo.min(b.lo), a.hi.max(b.hi)));
     Some(names.into_iter().zip(b).collect())
 }
 
