@@ -53,6 +53,7 @@ pub fn source_from_json(text: &str, path: &Path) -> Result<Source> {
     };
     let v: serde_json::Value =
         serde_json::from_str(text).map_err(|e| bad("", format!("not JSON: {e}")))?;
+    check_format(&v).map_err(|m| bad("format", m))?;
     let model: ModelSet = serde_json::from_value(v.get("model").cloned().ok_or_else(|| {
         bad(
             "model",
@@ -76,6 +77,30 @@ pub fn source_from_json(text: &str, path: &Path) -> Result<Source> {
         base,
         model: Some(model),
     })
+}
+
+/// `Err(what is wrong)` unless `result.json`'s `format` is [`smid_core::report::RESULT_FORMAT`]
+/// (a file of another layout is refused by name, never misread).
+fn check_format(v: &serde_json::Value) -> std::result::Result<(), String> {
+    let expected = smid_core::report::RESULT_FORMAT;
+    let rerun = "rerun `smid run` on the spec with this version";
+    let written_by = v
+        .get("smid_version")
+        .and_then(|s| s.as_str())
+        .map(|s| format!(" (written by smid {s})"))
+        .unwrap_or_default();
+    match v.get("format").map(|f| (f, f.as_u64())) {
+        Some((_, Some(f))) if f == expected => Ok(()),
+        Some((_, Some(f))) => Err(format!(
+            "result format {f}{written_by}, this smid reads format {expected}: {rerun}"
+        )),
+        Some((f, None)) => Err(format!(
+            "expected the result format as a whole number ({expected}), found {f}"
+        )),
+        None => Err(format!(
+            "no result format: not a `result.json` of this smid (format {expected}); {rerun}"
+        )),
+    }
 }
 
 /// The training data of a source: the spec's experiments (run on its plant, or its measured

@@ -135,6 +135,28 @@ fn result_json_carries_the_whole_model_set() {
     let b = validate_on(&back, &fresh);
     assert_eq!(a.smallest_bound, b.smallest_bound);
     assert_eq!(a.free_run.rms, b.free_run.rms);
+    // A file of another result format (or none) is refused by its `format` field, with the
+    // version that wrote it, instead of being misread.
+    let text = std::fs::read_to_string(dir.path().join("result.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let current = v["format"].as_u64().expect("result.json states its format");
+    let written = v["smid_version"].as_str().unwrap().to_string();
+    let refused = |v: &serde_json::Value| -> String {
+        match closeloop::source_from_json(&v.to_string(), Path::new("old/result.json")) {
+            Ok(_) => panic!("a result of another format was read: {}", v["format"]),
+            Err(e) => e.to_string(),
+        }
+    };
+    v["format"] = serde_json::json!(current + 1);
+    let e = refused(&v);
+    assert!(
+        e.contains("old/result.json") && e.contains("format") && e.contains(&written),
+        "{e}"
+    );
+    v["format"] = serde_json::json!("1");
+    assert!(refused(&v).contains("whole number"));
+    v.as_object_mut().unwrap().remove("format");
+    assert!(refused(&v).contains("no result format"));
 }
 
 fn training_of(spec_path: &Path) -> (smid::core::spec::Spec, pipeline::ExperimentData) {

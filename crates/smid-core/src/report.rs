@@ -140,9 +140,17 @@ pub fn table(id: &Identification) -> String {
     s
 }
 
+/// The layout of `result.json`'s model set (`model`, `spec`), written as its `format` field
+/// and checked by every reader (`smid validate` and `smid diagnose` of a `result.json`). Raise
+/// it whenever a change to [`crate::model::ModelSet`] or [`crate::spec::Spec`] would make an
+/// older file read differently, so such a file is refused by name instead of misread.
+pub const RESULT_FORMAT: u64 = 1;
+
 /// `result.json` content.
 pub fn result_json(id: &Identification) -> serde_json::Value {
     serde_json::json!({
+        "format": RESULT_FORMAT,
+        "smid_version": env!("CARGO_PKG_VERSION"),
         "name": id.name,
         "consistent": true,
         "delta_eta": id.delta_eta,
