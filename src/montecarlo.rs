@@ -49,6 +49,27 @@ pub fn prbs_amplitude(b: &Backlash) -> f64 {
     1.0 + 4.0 * (b.c_l + b.c_r)
 }
 
+/// The model a random trial is identified with: `nonlinearity` on its side
+/// (`structure`), a linear block of orders 2/2 with `b0 = 0` and unit gain, nothing else.
+pub(crate) fn trial_model(
+    structure: smid_core::nonlinearity::Structure,
+    nonlinearity: Box<dyn smid_core::nonlinearity::NonlinearityModel>,
+) -> ModelSpec {
+    ModelSpec {
+        structure,
+        nonlinearity,
+        na: 2,
+        nb: 2,
+        fixed: [("b0".to_string(), 0.0)].into_iter().collect(),
+        unit_gain: true,
+        nk: 0,
+        input: Vec::new(),
+        output: Vec::new(),
+        effects: Vec::new(),
+        prior: Default::default(),
+        stable: false,
+    }
+}
 impl Trial {
     /// Draw a trial from a seed, redrawing until the backlash is physical over the range the
     /// experiments reach (steady-state amplitudes up to 3; the PRBS response up to the L1 norm
@@ -94,20 +115,7 @@ impl Trial {
                 estimate: None,
             },
             experiment,
-            model: ModelSpec {
-                structure: Default::default(),
-                nonlinearity: Box::new(OutputBacklashModel::default()),
-                na: 2,
-                nb: 2,
-                fixed: [("b0".to_string(), 0.0)].into_iter().collect(),
-                unit_gain: true,
-                nk: 0,
-                input: Vec::new(),
-                output: Vec::new(),
-                effects: Vec::new(),
-                prior: Default::default(),
-                stable: false,
-            },
+            model: trial_model(Default::default(), Box::new(OutputBacklashModel::default())),
             method: MethodSpec::default(),
         }
     }

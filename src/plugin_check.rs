@@ -20,7 +20,7 @@ use smid_core::noise::NoiseSpec;
 use smid_core::nonlinearity::{Nonlinearity, NonlinearityModel, Structure};
 use smid_core::pipeline::{self, Identification};
 use smid_core::plant::SimulatedPlant;
-use smid_core::spec::{EivMethod, ExperimentSpec, MethodSpec, ModelSpec, PlantSpec, Spec};
+use smid_core::spec::{EivMethod, ExperimentSpec, MethodSpec, PlantSpec, Spec};
 use smid_core::{registry, Outcome, Result, SmidError};
 
 /// The check cases `smid check --plugin` knows, derived from the registry
@@ -100,20 +100,7 @@ impl PluginTrial {
                 estimate: None,
             },
             experiment,
-            model: ModelSpec {
-                structure: self.structure,
-                nonlinearity: self.model,
-                na: 2,
-                nb: 2,
-                fixed: [("b0".to_string(), 0.0)].into_iter().collect(),
-                unit_gain: true,
-                nk: 0,
-                input: Vec::new(),
-                output: Vec::new(),
-                effects: Vec::new(),
-                prior: Default::default(),
-                stable: false,
-            },
+            model: montecarlo::trial_model(self.structure, self.model),
             method: MethodSpec::default(),
         };
         (spec, self.nonlinearity, self.linear)
