@@ -70,6 +70,7 @@ pub(crate) fn trial_model(
         stable: false,
     }
 }
+
 impl Trial {
     /// Draw a trial from a seed, redrawing until the backlash is physical over the range the
     /// experiments reach (steady-state amplitudes up to 3; the PRBS response up to the L1 norm
