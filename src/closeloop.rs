@@ -95,7 +95,7 @@ fn check_format(v: &serde_json::Value) -> std::result::Result<(), String> {
             "result format {f}{written_by}, this smid reads format {expected}: {rerun}"
         )),
         Some((f, None)) => Err(format!(
-            "expected the result format as a whole number ({expected}), found {f}"
+            "expected the result format as a whole number ({expected}), found {f}{written_by}: {rerun}"
         )),
         None => Err(format!(
             "no result format: not a `result.json` of this smid (format {expected}); {rerun}"

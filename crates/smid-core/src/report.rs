@@ -141,7 +141,9 @@ pub fn table(id: &Identification) -> String {
 }
 
 /// The layout of `result.json`'s model set (`model`, `spec`), written as its `format` field
-/// and checked by every reader (`smid validate` and `smid diagnose` of a `result.json`). Raise
+/// and checked by every reader (`smid::closeloop::source_from_json`: `smid validate` and
+/// `smid diagnose` of a `result.json`, and the Python package's `validate`, `diagnose` and
+/// `simulate` of a model set). Raise
 /// it whenever a change to [`crate::model::ModelSet`] or [`crate::spec::Spec`] would make an
 /// older file read differently, so such a file is refused by name instead of misread.
 pub const RESULT_FORMAT: u64 = 1;
