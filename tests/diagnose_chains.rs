@@ -544,24 +544,32 @@ fn a_term_that_breaks_the_design_is_tried_in_a_box_from_the_steady_state_points(
         )
         .unwrap()
     };
-    let choice = choose("paper-offset.yaml");
+    // The first round's candidates among those terms, each checked to list a box for every
+    // parameter of the model's nonlinearity among its priors.
     let nonlinearity = smid_core::registry::parameter_names("output_backlash");
-    let tried: Vec<&diagnose::Evidence> = choice.rounds[0]
-        .candidates
-        .iter()
-        .filter(|e| tags.contains(&e.tag))
-        .collect();
-    assert!(!tried.is_empty(), "{}", choice.summary());
-    for e in &tried {
-        for n in &nonlinearity {
-            assert!(
-                e.priors.iter().any(|(p, _)| p == n),
-                "{}: no box for `{n}` from the points: {:?}\n{}",
-                e.label,
-                e.priors,
-                choice.summary()
-            );
+    let boxed = |choice: &diagnose::Choice| -> Vec<diagnose::Evidence> {
+        let tried: Vec<diagnose::Evidence> = choice.rounds[0]
+            .candidates
+            .iter()
+            .filter(|e| tags.contains(&e.tag))
+            .cloned()
+            .collect();
+        assert!(!tried.is_empty(), "{}", choice.summary());
+        for e in &tried {
+            for n in &nonlinearity {
+                assert!(
+                    e.priors.iter().any(|(p, _)| p == n),
+                    "{}: no box for `{n}` from the points: {:?}\n{}",
+                    e.label,
+                    e.priors,
+                    choice.summary()
+                );
+            }
         }
+        tried
+    };
+    let choice = choose("paper-offset.yaml");
+    for e in &boxed(&choice) {
         assert!(
             matches!(e.train, diagnose::TrainVerdict::Consistent { .. }),
             "{}: {:?}\n{}",
@@ -574,22 +582,7 @@ fn a_term_that_breaks_the_design_is_tried_in_a_box_from_the_steady_state_points(
     // held: such a candidate gets a box from the points' scale (`pipeline::scale_prior`),
     // listed with its priors, and is tried in it. Before, it was not tried.
     let choice = choose("paper-drift.yaml");
-    let tried: Vec<&diagnose::Evidence> = choice.rounds[0]
-        .candidates
-        .iter()
-        .filter(|e| tags.contains(&e.tag))
-        .collect();
-    assert!(!tried.is_empty(), "{}", choice.summary());
-    for e in tried {
-        for n in &nonlinearity {
-            assert!(
-                e.priors.iter().any(|(p, _)| p == n),
-                "{}: no box for `{n}` from the points' scale: {:?}\n{}",
-                e.label,
-                e.priors,
-                choice.summary()
-            );
-        }
+    for e in &boxed(&choice) {
         if let diagnose::TrainVerdict::Failed { message } = &e.train {
             assert!(!message.starts_with("not tried"), "{}: {message}", e.label);
         }
