@@ -516,6 +516,9 @@ fn verdict_text(t: &diagnose::TrainVerdict) -> String {
             "inconsistent at the bar {bar:.3e} ({test}): its bound would be above it, not bracketed further"
         ),
         diagnose::TrainVerdict::Failed { message } => format!("failed: {message}"),
+        diagnose::TrainVerdict::Reproduced { residual, draws } => format!(
+            "not identified: the base model reproduces its free runs exactly (equation error at most {residual:.1e} of the range over {draws} draws of its parameters), so its smallest consistent bound cannot be lower"
+        ),
     }
 }
 

@@ -109,6 +109,12 @@ pub enum TrainVerdict {
     },
     /// Identification failed otherwise (unbounded parameters, solver trouble...).
     Failed { message: String },
+    /// Not identified: the base model's class reproduces the candidate's outputs exactly
+    /// ([`reproduced_by_base`]: at each of `draws` draws of its parameters, the base model's
+    /// equation, refitted by least squares, leaves an error of at most `residual` of the
+    /// outputs' range), so its exact smallest consistent bound cannot be below the base
+    /// model's: a lower one would be the relaxation's slack, not the data's.
+    Reproduced { residual: f64, draws: usize },
 }
 
 impl TrainVerdict {
@@ -140,7 +146,7 @@ impl TrainVerdict {
                 }
             }
             TrainVerdict::AboveBar { .. } => (3, 0, 0),
-            TrainVerdict::Failed { .. } => (0, 0, 0),
+            TrainVerdict::Failed { .. } | TrainVerdict::Reproduced { .. } => (0, 0, 0),
         }
     }
 }
@@ -1031,6 +1037,121 @@ fn try_model_with(
     }
 }
 
+/// Draws of a candidate's added parameters in [`reproduced_by_base`], as fractions of each
+/// prior box (rotated over the parameters, so that no two draws move them together).
+const REPRODUCTION_DRAWS: [f64; 3] = [0.25, 0.6, 0.9];
+
+/// A base model's equation reproduces a candidate's free run when its least-squares error is
+/// at most this fraction of the run's range (rounding, against effects of at least a
+/// thousandth: [`ACTIVE`]).
+const REPRODUCED: f64 = 1e-8;
+
+/// A draw tells something only when the candidate's free run moves away from the base model's
+/// own by more than this fraction of its range.
+const ACTIVE: f64 = 1e-3;
+
+/// Mark the candidates whose outputs the base model's class reproduces exactly
+/// ([`reproduced_by_base`]): they are not identified, their verdict says why, and they are
+/// listed as equivalent to the model as declared.
+fn screen_reproduced(base: &ModelSet, cands: &mut [(ModelSpec, Evidence)]) {
+    use rayon::prelude::*;
+    cands.par_iter_mut().for_each(|(m, ev)| {
+        if ev.untried.is_some() {
+            return;
+        }
+        if let Some(residual) = reproduced_by_base(base, m) {
+            log::info!(target: "smid::diagnose", "{}: reproduced by the base model (equation error {residual:.1e} of the range): not identified", ev.label);
+            ev.train = TrainVerdict::Reproduced {
+                residual,
+                draws: REPRODUCTION_DRAWS.len(),
+            };
+            ev.equivalent_to.push(AS_DECLARED.into());
+        }
+    });
+}
+
+/// Whether the class of `base` (identified, consistent) holds every free run of the candidate
+/// class `cand` on the training inputs, by sampling: the candidate at the base model's
+/// representative values, its added bisected parameters at [`REPRODUCTION_DRAWS`] of their
+/// priors, simulated from rest; the base model's `θ` refitted to each run by equation-error
+/// least squares ([`crate::members::theta_reproducing`]). `Some(largest error / range)` when
+/// every draw moves the run ([`ACTIVE`]) and every refit reproduces it ([`REPRODUCED`]): a
+/// sensor offset, or a bias before or after the linear block, beside a constant term. Then
+/// every noise sequence consistent with the candidate is consistent with the base model at the
+/// same bound (the equation holds sample by sample), so the candidate's exact smallest
+/// consistent bound is not below the base model's.
+///
+/// Only a base whose outputs are its linear block's (no bisected parameter, no chain block,
+/// an identity nonlinearity on its runs) and a candidate with the same `θ` names (no order
+/// or equation term added) are compared; any other pair, or any draw that fails, gives `None`
+/// and the candidate is identified as before.
+pub fn reproduced_by_base(base: &ModelSet, cand: &ModelSpec) -> Option<f64> {
+    let bl = base.layout().ok()?;
+    let cl = cand.layout().ok()?;
+    if !bl.dims.is_empty() || !bl.blocks.is_empty() || cl.theta_names != bl.theta_names {
+        return None;
+    }
+    let values = crate::members::representative_values(base).ok()?;
+    let bp = crate::members::point(base, &values).ok()?;
+    let records = &base.training.records;
+    // The base model's own runs: its output must be its linear block's.
+    let own: Vec<crate::members::Simulation> =
+        records.iter().map(|r| bp.simulate(&r.u, r.dt)).collect();
+    let range = |ys: &[Vec<f64>]| {
+        let (lo, hi) = ys
+            .iter()
+            .flatten()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+                (l.min(*v), h.max(*v))
+            });
+        hi - lo
+    };
+    let own_y: Vec<Vec<f64>> = own.iter().map(|s| s.y.clone()).collect();
+    let own_range = range(&own_y);
+    if !(own_range.is_finite() && own_range > 0.0)
+        || own
+            .iter()
+            .flat_map(|s| s.x.iter().zip(&s.y))
+            .any(|(x, y)| (x - y).abs() > 1e-12 * own_range)
+    {
+        return None;
+    }
+    let added: Vec<&crate::model::CellDim> = cl
+        .dims
+        .iter()
+        .filter(|d| !values.iter().any(|(k, _)| *k == d.name))
+        .collect();
+    if added.is_empty() || added.iter().any(|d| !d.prior.is_finite()) {
+        return None;
+    }
+    let mut worst: f64 = 0.0;
+    for k in 0..REPRODUCTION_DRAWS.len() {
+        let mut v = values.clone();
+        for (j, d) in added.iter().enumerate() {
+            let f = REPRODUCTION_DRAWS[(k + j) % REPRODUCTION_DRAWS.len()];
+            v.push((d.name.clone(), d.prior.lo + f * (d.prior.hi - d.prior.lo)));
+        }
+        let cp = crate::members::point_of_spec(cand, &v).ok()?;
+        let runs: Vec<Vec<f64>> = records.iter().map(|r| cp.simulate(&r.u, r.dt).y).collect();
+        let r = range(&runs);
+        if !(r.is_finite() && r > 0.0) || max_deviation(&runs, &own_y, 0) <= ACTIVE * r {
+            return None;
+        }
+        let (_, sse) = crate::members::theta_reproducing(base, &[], &runs).ok()??;
+        let o = bl.orders;
+        let rows: usize = runs
+            .iter()
+            .map(|y| y.len().saturating_sub(o.na.max(o.nb + o.nk)))
+            .sum();
+        let error = (sse / rows.max(1) as f64).sqrt() / r;
+        if !(error <= REPRODUCED) {
+            return None;
+        }
+        worst = worst.max(error);
+    }
+    Some(worst)
+}
+
 /// The largest estimated bound a candidate adding `added` parameters may have to be kept,
 /// against a base model estimated at `base_bound`.
 fn bar(base_bound: f64, added: usize) -> f64 {
@@ -1064,6 +1185,10 @@ fn try_candidates(
                 progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
                 return None;
             }
+            if matches!(ev.train, TrainVerdict::Reproduced { .. }) {
+                progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+                return None;
+            }
             let start = std::time::Instant::now();
             let (t, id) = try_model(
                 spec,
@@ -1086,8 +1211,10 @@ pub fn training_fit(m: &ModelSet) -> Result<f64> {
 }
 
 /// The candidates that extend `base`: every registered effect's candidates not declared yet,
-/// with default priors for their bisected parameters.
-fn candidates(
+/// with default priors for their bisected parameters (from `scale`), and every registered
+/// plugin with a default prior as a chain block at each open end; `steady_data`: the training
+/// steady-state points as stage 1 reads them, for the design priors of input-side blocks.
+pub fn candidates(
     base: &ModelSpec,
     scale: &DataScale,
     opts: &Options,
@@ -1557,6 +1684,11 @@ fn rounds(
     let steady = steady_as_stage1_reads(spec, training);
     while (estimated || !base_train.admissible()) && added.len() < opts.max_effects {
         let mut cands = candidates(&base, scale, opts, steady.as_ref());
+        if estimated && base_train.admissible() {
+            if let Some(b) = &base_set {
+                screen_reproduced(b, &mut cands);
+            }
+        }
         let mut sets = try_candidates(
             spec,
             full,

@@ -498,7 +498,46 @@ pub fn point(set: &ModelSet, values: &[(String, f64)]) -> Result<ModelPoint> {
         .iter()
         .map(|b| (b.name.clone(), get(&b.name).unwrap_or(b.interval.center())))
         .collect();
-    let nonlinearity = crate::registry::instantiate(&set.model.nonlinearity_tag(), &gamma)?;
+    assemble(&set.model, layout, gamma, &get)
+}
+
+/// A point of the model class `model` before any identification: every parameter by name from
+/// `values`, a bisected one left out at the centre of its prior, a `θ` entry left out at zero
+/// (its fixed value where `model.fixed` gives one). The nonlinearity's parameters (those of
+/// its registered simulation plugin) must all be given. What a diagnosis simulates a candidate
+/// class at before it is identified.
+pub fn point_of_spec(
+    model: &crate::spec::ModelSpec,
+    values: &[(String, f64)],
+) -> Result<ModelPoint> {
+    let layout = model.layout()?;
+    let get = |n: &str| values.iter().find(|(k, _)| k == n).map(|(_, v)| *v);
+    let tag = model.nonlinearity_tag();
+    let gamma = crate::registry::parameter_names(&tag)
+        .into_iter()
+        .map(|n| {
+            let v = get(&n).ok_or_else(|| {
+                SmidError::invalid(
+                    "values",
+                    format!("no value for `{n}`, a parameter of the nonlinearity `{tag}`"),
+                )
+            })?;
+            Ok((n, v))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    assemble(model, &layout, gamma, &get)
+}
+
+/// The member of `model` with its nonlinearity at `gamma` and every other parameter from `get`
+/// (the chain's blocks and bisected parameters at their prior centres, `θ` at zero, where it
+/// gives none), the fixed coefficients and the unit gain (eq 8) applied.
+fn assemble(
+    model: &crate::spec::ModelSpec,
+    layout: &crate::model::Layout,
+    gamma: Vec<(String, f64)>,
+    get: &dyn Fn(&str) -> Option<f64>,
+) -> Result<ModelPoint> {
+    let nonlinearity = crate::registry::instantiate(&model.nonlinearity_tag(), &gamma)?;
     // The chain's other blocks at their values (`in1.c_l` -> the plugin's `c_l`).
     let mut input = Vec::new();
     let mut output = Vec::new();
@@ -520,9 +559,10 @@ pub fn point(set: &ModelSet, values: &[(String, f64)]) -> Result<ModelPoint> {
     let mut theta: Vec<f64> = layout
         .theta_names
         .iter()
-        .map(|n| get(n).unwrap_or(0.0))
+        .zip(&layout.fixed)
+        .map(|(n, f)| get(n).or(*f).unwrap_or(0.0))
         .collect();
-    if set.model.unit_gain {
+    if model.unit_gain {
         // Σb − Σa = 1 (eq 8): spread the defect over the free b's.
         let free_b: Vec<usize> = (o.na..=o.na + o.nb)
             .filter(|&k| layout.fixed[k].is_none())
@@ -541,7 +581,7 @@ pub fn point(set: &ModelSet, values: &[(String, f64)]) -> Result<ModelPoint> {
         .map(|d| get(&d.name).unwrap_or(d.prior.center()))
         .collect();
     Ok(ModelPoint {
-        structure: set.model.structure,
+        structure: model.structure,
         nonlinearity,
         input,
         output,
@@ -552,7 +592,7 @@ pub fn point(set: &ModelSet, values: &[(String, f64)]) -> Result<ModelPoint> {
         nk: o.nk,
         extras: theta[o.na + o.nb + 1..].to_vec(),
         psi,
-        effects: set.model.effects.clone(),
+        effects: model.effects.clone(),
         effect_cells: layout.effect_cells.clone(),
     })
 }
