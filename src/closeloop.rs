@@ -517,7 +517,7 @@ fn verdict_text(t: &diagnose::TrainVerdict) -> String {
         ),
         diagnose::TrainVerdict::Failed { message } => format!("failed: {message}"),
         diagnose::TrainVerdict::Reproduced { residual, draws } => format!(
-            "not identified: the base model reproduces its free runs exactly (equation error at most {residual:.1e} of the range over {draws} draws of its parameters), so its smallest consistent bound cannot be lower"
+            "not identified: the base model reproduces its free runs exactly (equation error at most {residual:.1e} of the range at {draws} draws of its parameters: the corners of their prior box and three inside), so its smallest consistent bound is not lower"
         ),
     }
 }

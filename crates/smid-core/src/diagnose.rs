@@ -110,10 +110,11 @@ pub enum TrainVerdict {
     /// Identification failed otherwise (unbounded parameters, solver trouble...).
     Failed { message: String },
     /// Not identified: the base model's class reproduces the candidate's outputs exactly
-    /// ([`reproduced_by_base`]: at each of `draws` draws of its parameters, the base model's
-    /// equation, refitted by least squares, leaves an error of at most `residual` of the
-    /// outputs' range), so its exact smallest consistent bound cannot be below the base
-    /// model's: a lower one would be the relaxation's slack, not the data's.
+    /// ([`reproduced_by_base`]: at each of `draws` draws of its parameters, the corners of
+    /// their prior box and some inside it, the base model's equation, refitted by least
+    /// squares, leaves an error of at most `residual` of the outputs' range), so its exact
+    /// smallest consistent bound is not below the base model's (as far as the draws show): a
+    /// lower one would be the relaxation's slack, not the data's.
     Reproduced { residual: f64, draws: usize },
 }
 
@@ -1037,55 +1038,60 @@ fn try_model_with(
     }
 }
 
-/// Draws of a candidate's added parameters in [`reproduced_by_base`], as fractions of each
-/// prior box (rotated over the parameters, so that no two draws move them together).
+/// Interior draws of a candidate's added parameters in [`reproduced_by_base`], as fractions of
+/// each prior box (rotated over the parameters), beside the box's corners.
 const REPRODUCTION_DRAWS: [f64; 3] = [0.25, 0.6, 0.9];
 
-/// A base model's equation reproduces a candidate's free run when its least-squares error is
-/// at most this fraction of the run's range (rounding, against effects of at least a
-/// thousandth: [`ACTIVE`]).
+/// At most this many added parameters are screened (their box has `2^k` corners).
+const SCREENED_DIMS: usize = 6;
+
+/// A base model's equation reproduces a candidate's free run when the root of its summed
+/// squared least-squares error is at most this fraction of the run's range (rounding, against
+/// effects of at least a thousandth: [`ACTIVE`]).
 const REPRODUCED: f64 = 1e-8;
 
 /// A draw tells something only when the candidate's free run moves away from the base model's
-/// own by more than this fraction of its range.
+/// own by more than this fraction of its range; at least one draw must.
 const ACTIVE: f64 = 1e-3;
 
 /// Mark the candidates whose outputs the base model's class reproduces exactly
 /// ([`reproduced_by_base`]): they are not identified, their verdict says why, and they are
-/// listed as equivalent to the model as declared.
+/// listed as equivalent to the round's base model.
 fn screen_reproduced(base: &ModelSet, cands: &mut [(ModelSpec, Evidence)]) {
     use rayon::prelude::*;
     cands.par_iter_mut().for_each(|(m, ev)| {
         if ev.untried.is_some() {
             return;
         }
-        if let Some(residual) = reproduced_by_base(base, m) {
-            log::info!(target: "smid::diagnose", "{}: reproduced by the base model (equation error {residual:.1e} of the range): not identified", ev.label);
-            ev.train = TrainVerdict::Reproduced {
-                residual,
-                draws: REPRODUCTION_DRAWS.len(),
-            };
+        if let Some((residual, draws)) = reproduced_by_base(base, m) {
+            log::info!(target: "smid::diagnose", "{}: reproduced by the base model (equation error {residual:.1e} of the range at {draws} draws): not identified", ev.label);
+            ev.train = TrainVerdict::Reproduced { residual, draws };
             ev.equivalent_to.push(AS_DECLARED.into());
         }
     });
 }
 
-/// Whether the class of `base` (identified, consistent) holds every free run of the candidate
-/// class `cand` on the training inputs, by sampling: the candidate at the base model's
-/// representative values, its added bisected parameters at [`REPRODUCTION_DRAWS`] of their
-/// priors, simulated from rest; the base model's `θ` refitted to each run by equation-error
-/// least squares ([`crate::members::theta_reproducing`]). `Some(largest error / range)` when
-/// every draw moves the run ([`ACTIVE`]) and every refit reproduces it ([`REPRODUCED`]): a
-/// sensor offset, or a bias before or after the linear block, beside a constant term. Then
-/// every noise sequence consistent with the candidate is consistent with the base model at the
-/// same bound (the equation holds sample by sample), so the candidate's exact smallest
-/// consistent bound is not below the base model's.
+/// Whether the class of `base` (identified, consistent) holds the candidate class `cand`'s
+/// free runs on the training inputs, by sampling: the candidate at the base model's
+/// representative values with its added bisected parameters at every corner of their prior box
+/// and at [`REPRODUCTION_DRAWS`] inside it, simulated from rest; the base model's `θ` refitted
+/// to each run by equation-error least squares ([`crate::members::theta_reproducing`]).
+/// `Some((largest error / range, draws))` when some draw moves the run ([`ACTIVE`]) and every
+/// refit reproduces its run ([`REPRODUCED`]): a sensor offset, or a bias before or after the
+/// linear block, beside a constant term. Where the class does hold the candidate's runs, every
+/// noise sequence consistent with the candidate is consistent with the base model at the same
+/// bound (the equation holds sample by sample), so the candidate's exact smallest consistent
+/// bound is not below the base model's. The corners are there for blocks that are affine on
+/// the data over part of their prior only (a dead zone whose thresholds stay below the inputs
+/// shifts them; at the prior's end it cuts the smallest); the sampling is evidence, not a
+/// proof, and a block that is affine on the data at every draw but not between them would be
+/// screened wrongly.
 ///
-/// Only a base whose outputs are its linear block's (no bisected parameter, no chain block,
-/// an identity nonlinearity on its runs) and a candidate with the same `θ` names (no order
-/// or equation term added) are compared; any other pair, or any draw that fails, gives `None`
-/// and the candidate is identified as before.
-pub fn reproduced_by_base(base: &ModelSet, cand: &ModelSpec) -> Option<f64> {
+/// Only a base whose output is its linear block's (no bisected parameter, no chain block, and
+/// a Wiener base's nonlinearity passing every candidate run unchanged) and a candidate with the
+/// same `θ` names (no order or equation term added) are compared; any other pair, or any draw
+/// that fails, gives `None` and the candidate is identified as before.
+pub fn reproduced_by_base(base: &ModelSet, cand: &ModelSpec) -> Option<(f64, usize)> {
     let bl = base.layout().ok()?;
     let cl = cand.layout().ok()?;
     if !bl.dims.is_empty() || !bl.blocks.is_empty() || cl.theta_names != bl.theta_names {
@@ -1094,9 +1100,7 @@ pub fn reproduced_by_base(base: &ModelSet, cand: &ModelSpec) -> Option<f64> {
     let values = crate::members::representative_values(base).ok()?;
     let bp = crate::members::point(base, &values).ok()?;
     let records = &base.training.records;
-    // The base model's own runs: its output must be its linear block's.
-    let own: Vec<crate::members::Simulation> =
-        records.iter().map(|r| bp.simulate(&r.u, r.dt)).collect();
+    let own: Vec<Vec<f64>> = records.iter().map(|r| bp.simulate(&r.u, r.dt).y).collect();
     let range = |ys: &[Vec<f64>]| {
         let (lo, hi) = ys
             .iter()
@@ -1106,50 +1110,59 @@ pub fn reproduced_by_base(base: &ModelSet, cand: &ModelSpec) -> Option<f64> {
             });
         hi - lo
     };
-    let own_y: Vec<Vec<f64>> = own.iter().map(|s| s.y.clone()).collect();
-    let own_range = range(&own_y);
-    if !(own_range.is_finite() && own_range > 0.0)
-        || own
-            .iter()
-            .flat_map(|s| s.x.iter().zip(&s.y))
-            .any(|(x, y)| (x - y).abs() > 1e-12 * own_range)
-    {
-        return None;
-    }
     let added: Vec<&crate::model::CellDim> = cl
         .dims
         .iter()
         .filter(|d| !values.iter().any(|(k, _)| *k == d.name))
         .collect();
-    if added.is_empty() || added.iter().any(|d| !d.prior.is_finite()) {
+    if added.is_empty() || added.len() > SCREENED_DIMS || added.iter().any(|d| !d.prior.is_finite())
+    {
         return None;
     }
+    let corners = (0..1usize << added.len()).map(|c| {
+        (0..added.len())
+            .map(|j| if c >> j & 1 == 1 { 1.0 } else { 0.0 })
+            .collect::<Vec<f64>>()
+    });
+    let inside = (0..REPRODUCTION_DRAWS.len()).map(|k| {
+        (0..added.len())
+            .map(|j| REPRODUCTION_DRAWS[(k + j) % REPRODUCTION_DRAWS.len()])
+            .collect::<Vec<f64>>()
+    });
     let mut worst: f64 = 0.0;
-    for k in 0..REPRODUCTION_DRAWS.len() {
+    let mut moved = false;
+    let mut draws = 0;
+    for fractions in corners.chain(inside) {
         let mut v = values.clone();
-        for (j, d) in added.iter().enumerate() {
-            let f = REPRODUCTION_DRAWS[(k + j) % REPRODUCTION_DRAWS.len()];
+        for (d, f) in added.iter().zip(&fractions) {
             v.push((d.name.clone(), d.prior.lo + f * (d.prior.hi - d.prior.lo)));
         }
         let cp = crate::members::point_of_spec(cand, &v).ok()?;
         let runs: Vec<Vec<f64>> = records.iter().map(|r| cp.simulate(&r.u, r.dt).y).collect();
         let r = range(&runs);
-        if !(r.is_finite() && r > 0.0) || max_deviation(&runs, &own_y, 0) <= ACTIVE * r {
+        if !(r.is_finite() && r > 0.0) {
             return None;
         }
-        let (_, sse) = crate::members::theta_reproducing(base, &[], &runs).ok()??;
-        let o = bl.orders;
-        let rows: usize = runs
-            .iter()
-            .map(|y| y.len().saturating_sub(o.na.max(o.nb + o.nk)))
-            .sum();
-        let error = (sse / rows.max(1) as f64).sqrt() / r;
+        // A Wiener base reads its output through its nonlinearity: it must pass the run.
+        if base.model.structure == crate::nonlinearity::Structure::Wiener
+            && runs.iter().any(|y| {
+                max_deviation(&[bp.nonlinearity.simulate(y)], std::slice::from_ref(y), 0)
+                    > 1e-12 * r
+            })
+        {
+            return None;
+        }
+        moved |= max_deviation(&runs, &own, 0) > ACTIVE * r;
+        let (_, sse) = crate::members::theta_reproducing(base, &values, &runs).ok()??;
+        // The whole error, not a mean over rows: rows the refit could not use only lower it.
+        let error = sse.sqrt() / r;
         if !(error <= REPRODUCED) {
             return None;
         }
         worst = worst.max(error);
+        draws += 1;
     }
-    Some(worst)
+    moved.then_some((worst, draws))
 }
 
 /// The largest estimated bound a candidate adding `added` parameters may have to be kept,
