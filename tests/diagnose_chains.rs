@@ -816,3 +816,47 @@ fn a_candidate_is_screened_out_exactly_when_the_base_model_reproduces_it() {
         "screened {screened:?}, kept {kept}"
     );
 }
+
+/// The screen runs inside the diagnosis: with an estimated bound, a linear model with a
+/// constant term on records of that class, the bias candidates come back "reproduced" (no set,
+/// listed as equivalent to the model as declared), and the rounds go on without them.
+#[test]
+fn the_diagnosis_does_not_identify_the_candidates_its_base_reproduces() {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand::rngs::StdRng::seed_from_u64(71);
+    let n = 300;
+    let mut u = vec![0.0; n];
+    let mut level = 0.0;
+    for (t, v) in u.iter_mut().enumerate() {
+        if t % 20 == 0 {
+            level = rng.gen_range(-2.0..2.0);
+        }
+        *v = level;
+    }
+    let mut y = vec![0.0; n];
+    for t in 1..n {
+        y[t] = 0.7 * y[t - 1] + 0.5 * u[t - 1] + 0.3;
+    }
+    let y: Vec<f64> = y.iter().map(|v| v + rng.gen_range(-0.01..0.01)).collect();
+    let rest = "noise: { estimate: 1.1 }\nmodel:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 1\n  nb: 0\n  nk: 1\n  unit_gain: false\n  stable: true\n  effects: [ { type: constant } ]\n";
+    let (spec, data) = common::measured("reproduced-rounds", &u, &y, rest);
+    let opts = Options {
+        max_effects: 1,
+        only: vec!["bias".into()],
+        ..Options::default()
+    };
+    let choice = diagnose::choose(&spec, &data, &opts, &|_, _| {}).unwrap();
+    let first = &choice.rounds[0].candidates;
+    assert!(!first.is_empty(), "{}", choice.summary());
+    for e in first {
+        assert!(
+            matches!(e.train, diagnose::TrainVerdict::Reproduced { .. })
+                && e.equivalent_to.iter().any(|l| l == diagnose::AS_DECLARED),
+            "{}: {:?}\n{}",
+            e.label,
+            e.train,
+            choice.summary()
+        );
+    }
+    assert!(choice.added.is_empty(), "{}", choice.summary());
+}

@@ -171,11 +171,12 @@ pub struct Evidence {
     /// accounts for, at the same parameter count ([`mark_ties`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub equivalent_to: Vec<String>,
-    /// Why the candidate is not identified at all, known before it is tried (its verdict then
-    /// says so): a term that breaks the designed experiment under which the steady-state points
-    /// give no box ([`with_design_prior`]).
+    /// The verdict of a candidate that is not identified at all, known before it is tried:
+    /// a term that breaks the designed experiment under which the steady-state points give no
+    /// box ([`with_design_prior`], a failure saying why), or a class the base model's
+    /// reproduces ([`screen_reproduced`]). [`try_candidates`] makes it the verdict.
     #[serde(skip)]
-    pub(crate) untried: Option<String>,
+    pub(crate) untried: Option<TrainVerdict>,
 }
 
 /// The label of the base model in equivalence lists.
@@ -316,19 +317,21 @@ fn warm_up(a: &ModelSet, b: &ModelSet, tol: f64) -> usize {
         .fold(0.0, f64::max);
     let records = &a.training.records;
     let shortest = records.iter().map(|r| r.y.len()).min().unwrap_or(0);
-    let (lo, hi) = records
-        .iter()
-        .flat_map(|r| r.y.iter())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| {
-            (l.min(*y), h.max(*y))
-        });
-    let range = hi - lo;
+    let range = spread(records.iter().flat_map(|r| r.y.iter()));
     let settle = if rho > 0.0 && rho < 1.0 && range > tol && tol > 0.0 {
         ((tol / range).ln() / rho.ln()).ceil() as usize
     } else {
         SKIP
     };
     settle.clamp(SKIP, (shortest / 4).max(SKIP))
+}
+
+/// The largest value less the smallest (−∞ for none).
+fn spread<'a>(values: impl Iterator<Item = &'a f64>) -> f64 {
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+        (l.min(*v), h.max(*v))
+    });
+    hi - lo
 }
 
 /// The largest sample deviation between two sets of runs after the first `skip` of each record
@@ -1065,7 +1068,7 @@ fn screen_reproduced(base: &ModelSet, cands: &mut [(ModelSpec, Evidence)]) {
         }
         if let Some((residual, draws)) = reproduced_by_base(base, m) {
             log::info!(target: "smid::diagnose", "{}: reproduced by the base model (equation error {residual:.1e} of the range at {draws} draws): not identified", ev.label);
-            ev.train = TrainVerdict::Reproduced { residual, draws };
+            ev.untried = Some(TrainVerdict::Reproduced { residual, draws });
             ev.equivalent_to.push(AS_DECLARED.into());
         }
     });
@@ -1101,15 +1104,6 @@ pub fn reproduced_by_base(base: &ModelSet, cand: &ModelSpec) -> Option<(f64, usi
     let bp = crate::members::point(base, &values).ok()?;
     let records = &base.training.records;
     let own: Vec<Vec<f64>> = records.iter().map(|r| bp.simulate(&r.u, r.dt).y).collect();
-    let range = |ys: &[Vec<f64>]| {
-        let (lo, hi) = ys
-            .iter()
-            .flatten()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
-                (l.min(*v), h.max(*v))
-            });
-        hi - lo
-    };
     let added: Vec<&crate::model::CellDim> = cl
         .dims
         .iter()
@@ -1139,7 +1133,7 @@ pub fn reproduced_by_base(base: &ModelSet, cand: &ModelSpec) -> Option<(f64, usi
         }
         let cp = crate::members::point_of_spec(cand, &v).ok()?;
         let runs: Vec<Vec<f64>> = records.iter().map(|r| cp.simulate(&r.u, r.dt).y).collect();
-        let r = range(&runs);
+        let r = spread(runs.iter().flatten());
         if !(r.is_finite() && r > 0.0) {
             return None;
         }
@@ -1193,12 +1187,8 @@ fn try_candidates(
     cands
         .par_iter_mut()
         .map(|(m, ev)| {
-            if let Some(why) = ev.untried.take() {
-                ev.train = TrainVerdict::Failed { message: why };
-                progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
-                return None;
-            }
-            if matches!(ev.train, TrainVerdict::Reproduced { .. }) {
+            if let Some(t) = ev.untried.take() {
+                ev.train = t;
                 progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
                 return None;
             }
@@ -1299,7 +1289,7 @@ pub fn candidates(
                     },
                     chosen: false,
                     equivalent_to: Vec::new(),
-                    untried,
+                    untried: untried.map(|message| TrainVerdict::Failed { message }),
                 },
             ));
         }
@@ -1404,7 +1394,7 @@ pub fn candidates(
                     },
                     chosen: false,
                     equivalent_to: Vec::new(),
-                    untried,
+                    untried: untried.map(|message| TrainVerdict::Failed { message }),
                 },
             ));
         }
