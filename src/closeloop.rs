@@ -515,6 +515,9 @@ fn verdict_text(t: &diagnose::TrainVerdict) -> String {
         diagnose::TrainVerdict::AboveBar { bar, test, .. } => format!(
             "inconsistent at the bar {bar:.3e} ({test}): its bound would be above it, not bracketed further"
         ),
+        diagnose::TrainVerdict::Bracketed { bound } => format!(
+            "bound {bound:.3e} (bracketed), not identified: above the chosen candidate's by more than the rule's step, so it could be neither chosen nor equivalent to the choice"
+        ),
         diagnose::TrainVerdict::Failed { message } => format!("failed: {message}"),
         diagnose::TrainVerdict::Reproduced { residual, draws } => format!(
             "not identified: the base model reproduces its free runs exactly (equation error at most {residual:.1e} of the range at {draws} draws of its parameters: the corners of their prior box and three inside), so its smallest consistent bound is not lower"

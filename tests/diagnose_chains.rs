@@ -860,3 +860,166 @@ fn the_diagnosis_does_not_identify_the_candidates_its_base_reproduces() {
     }
     assert!(choice.added.is_empty(), "{}", choice.summary());
 }
+
+/// With an estimated bound a round brackets every candidate's bound and identifies whole only
+/// the candidates the rule needs. On records of random linear plants with a random output
+/// saturation or input dead zone, and random sizes: every candidate is also identified whole
+/// here (the diagnosis's spec: its cells, its light member budget), and the rule applied to
+/// all of them, from its definition (the lowest bound under the bar `base · 0.9^k` among the
+/// candidates simulating within one point of the base model's fit; then fewer parameters),
+/// picks what the diagnosis picked; each candidate left bracketed has the bound of its whole
+/// identification, more than one rule step above the pick's.
+#[test]
+fn a_round_that_identifies_only_the_needed_candidates_picks_what_identifying_all_picks() {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand::rngs::StdRng::seed_from_u64(28_061);
+    let (mut bracketed, mut passed_over) = (0, 0);
+    for case in 0..3 {
+        let n = rng.gen_range(150..220);
+        let a = rng.gen_range(0.3..0.8);
+        let b = rng.gen_range(0.5..1.5);
+        let noise = rng.gen_range(0.005..0.02);
+        let saturate = rng.gen_bool(0.5);
+        let hold = rng.gen_range(12..25);
+        let mut u = vec![0.0f64; n];
+        let mut level = 0.0;
+        for (t, v) in u.iter_mut().enumerate() {
+            if t % hold == 0 {
+                level = rng.gen_range(-2.0..2.0);
+            }
+            *v = level;
+        }
+        let zone = rng.gen_range(0.3..0.6);
+        let mut x = vec![0.0f64; n];
+        for t in 1..n {
+            let v = if saturate {
+                u[t - 1]
+            } else {
+                u[t - 1].signum() * (u[t - 1].abs() - zone).max(0.0)
+            };
+            x[t] = a * x[t - 1] + b * v;
+        }
+        let span = x.iter().cloned().fold(0.0f64, |m, v| m.max(v.abs()));
+        let limit = rng.gen_range(0.5..0.8) * span;
+        let y: Vec<f64> = x
+            .iter()
+            .map(|v| if saturate { v.clamp(-limit, limit) } else { *v })
+            .map(|v| v + rng.gen_range(-noise..noise))
+            .collect();
+        let rest = "noise: { estimate: 1.1 }\nmodel:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 1\n  nb: 0\n  nk: 1\n  unit_gain: false\n  stable: true\n";
+        let (spec, data) = common::measured("lazy-round", &u, &y, rest);
+        let opts = Options {
+            max_effects: 1,
+            only: vec![
+                "saturation".into(),
+                "dead_zone".into(),
+                "actuator_lag".into(),
+                "extra_zero".into(),
+            ],
+            ..Options::default()
+        };
+        let choice = diagnose::choose(&spec, &data, &opts, &|_, _| {}).unwrap();
+        let round = &choice.rounds[0];
+        let diagnose::TrainVerdict::Consistent {
+            bound: base_bound,
+            fit_percent: base_fit,
+            ..
+        } = round.base_train
+        else {
+            panic!("case {case}: the base model: {:?}", round.base_train)
+        };
+        // The diagnosis's spec for a candidate: its cells, the light member budget.
+        let mut method = choice.method.clone();
+        method.member = smid_core::spec::MemberSpec::LIGHT;
+        let cands = diagnose::candidates(&spec.model, &pipeline::data_scale(&data), &opts, None);
+        let mut whole = Vec::new();
+        for (m, ev) in &cands {
+            let mut s = diagnose::with_model(&spec, m);
+            s.method = method.clone();
+            let mut out = pipeline::identify(&s, data.clone(), &[]);
+            if matches!(&out, Ok(smid_core::Outcome::Consistent(id)) if !id.model.search.unbounded.is_empty())
+            {
+                // As the diagnosis does: coarse cells that leave θ unbounded, again with the
+                // spec's own.
+                s.method.cells = spec.method.cells.clone();
+                out = pipeline::identify(&s, data.clone(), &[]);
+            }
+            let got = match out {
+                Ok(smid_core::Outcome::Consistent(id)) if id.model.search.unbounded.is_empty() => {
+                    Some((id.model.delta, diagnose::training_fit(&id.model).unwrap()))
+                }
+                _ => None,
+            };
+            whole.push((ev.label.clone(), ev.added_parameters, got));
+        }
+        let pick = whole
+            .iter()
+            .filter(|(_, k, g)| {
+                g.is_some_and(|(d, f)| {
+                    d <= base_bound * 0.9f64.powi((*k).max(1) as i32) && f >= base_fit - 1.0
+                })
+            })
+            .min_by(|(_, ka, ga), (_, kb, gb)| {
+                ga.unwrap().0.total_cmp(&gb.unwrap().0).then(ka.cmp(kb))
+            });
+        let chosen = round.candidates.iter().find(|e| e.chosen);
+        assert_eq!(
+            pick.map(|p| p.0.clone()),
+            chosen.map(|e| e.label.clone()),
+            "case {case}: {whole:?}\n{}",
+            diagnose_report(&choice)
+        );
+        for e in &round.candidates {
+            let w = whole
+                .iter()
+                .find(|w| w.0 == e.label)
+                .expect("the same candidates");
+            if let diagnose::TrainVerdict::Bracketed { bound } = e.train {
+                bracketed += 1;
+                let (d, _) = w.2.unwrap_or_else(|| {
+                    panic!(
+                        "case {case}: {} bracketed at {bound}, not identified whole",
+                        e.label
+                    )
+                });
+                assert!(
+                    (d - bound).abs() <= 1e-12 * d,
+                    "case {case}: {}: bracketed {bound}, identified whole at {d}",
+                    e.label
+                );
+                let (pd, _) = pick.unwrap().2.unwrap();
+                assert!(
+                    0.9 * d > pd,
+                    "case {case}: {} at {d} left bracketed beside the pick at {pd}",
+                    e.label
+                );
+            }
+            if e.train.admissible()
+                && !e.chosen
+                && w.2
+                    .is_some_and(|(d, _)| d <= pick.map_or(f64::INFINITY, |p| p.2.unwrap().0))
+            {
+                passed_over += 1;
+            }
+        }
+    }
+    eprintln!("{bracketed} candidates left bracketed, {passed_over} identified and passed over below the pick's bound");
+    assert!(bracketed > 0, "no round left a candidate bracketed");
+}
+
+fn diagnose_report(choice: &diagnose::Choice) -> String {
+    choice
+        .rounds
+        .iter()
+        .flat_map(|r| r.candidates.iter())
+        .map(|e| {
+            format!(
+                "{}: {:?}{}",
+                e.label,
+                e.train,
+                if e.chosen { " (chosen)" } else { "" }
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}

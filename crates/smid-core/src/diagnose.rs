@@ -38,7 +38,9 @@ use crate::interval::Interval;
 use crate::model::ModelSet;
 use crate::nonlinearity::SteadyStateData;
 use crate::outcome::{Falsification, Outcome};
-use crate::pipeline::{data_scale, identify, BelowBar, ExperimentData, Identification, Record};
+use crate::pipeline::{
+    data_scale, identify, BelowBar, Bracket, ExperimentData, Identification, Record,
+};
 use crate::spec::{CellSpec, ModelSpec, Spec};
 use crate::validate::{self, Validation};
 use serde::Serialize;
@@ -107,6 +109,11 @@ pub enum TrainVerdict {
         test: String,
         detail: String,
     },
+    /// With an estimated bound: bracketed, not identified. The bound it would be identified
+    /// with ([`crate::pipeline::bracket_below`]) is above the chosen candidate's by more than
+    /// the rule's step ([`PER_PARAMETER`]): the rule could neither choose it nor find it
+    /// equivalent to the choice, so it has no set, no member and no fit.
+    Bracketed { bound: f64 },
     /// Identification failed otherwise (unbounded parameters, solver trouble...).
     Failed { message: String },
     /// Not identified: the base model's class reproduces the candidate's outputs exactly
@@ -147,6 +154,8 @@ impl TrainVerdict {
                 }
             }
             TrainVerdict::AboveBar { .. } => (3, 0, 0),
+            // Consistent at its bound, as far as the bracket's verdicts say.
+            TrainVerdict::Bracketed { .. } => (4, usize::MAX, usize::MAX),
             TrainVerdict::Failed { .. } | TrainVerdict::Reproduced { .. } => (0, 0, 0),
         }
     }
@@ -948,8 +957,9 @@ fn try_model(
     model: &ModelSpec,
     data: &ExperimentData,
     bar: Option<f64>,
+    known: Option<Result<Bracket>>,
 ) -> (TrainVerdict, Option<Identification>) {
-    let first = try_model_with(spec, model, data, bar);
+    let first = try_model_with(spec, model, data, bar, known);
     let left_unbounded = matches!(
         &first,
         (TrainVerdict::Failed { .. }, Some(id)) if !id.model.search.unbounded.is_empty()
@@ -958,7 +968,7 @@ fn try_model(
         let mut finer = with_model(spec, &spec.model);
         finer.method.cells = full.clone();
         log::info!(target: "smid::diagnose", "{}: cells left unbounded with the diagnosis budget; again with the spec's", model.label());
-        let second = try_model_with(&finer, model, data, bar);
+        let second = try_model_with(&finer, model, data, bar, None);
         return offered(second);
     }
     offered(first)
@@ -976,15 +986,29 @@ fn offered(
 }
 
 /// [`try_model`] with one budget: the verdict, and the identification (also when it left
-/// cells unbounded, so that the caller can tell).
+/// cells unbounded, so that the caller can tell). With `known`, the model's bound was already
+/// bracketed with this budget ([`crate::pipeline::bracket_below`] at `bar`): it is identified
+/// at the bound kept (or its verdict is the bracket's), as [`crate::pipeline::identify_below`]
+/// would have.
 fn try_model_with(
     spec: &Spec,
     model: &ModelSpec,
     data: &ExperimentData,
     bar: Option<f64>,
+    known: Option<Result<Bracket>>,
 ) -> (TrainVerdict, Option<Identification>) {
     let s = with_model(spec, model);
-    let outcome = match crate::pipeline::identify_below(&s, data.clone(), bar) {
+    let below = match known {
+        Some(Ok(Bracket::Above { bar, test, detail })) => Ok(BelowBar::Above { bar, test, detail }),
+        Some(Ok(Bracket::Falsified(f))) => Ok(BelowBar::Identified(Outcome::Falsified(f))),
+        Some(Ok(Bracket::At(d))) => {
+            crate::pipeline::identify_at_estimate(&s, data, d, &[], &|_| {})
+                .map(BelowBar::Identified)
+        }
+        Some(Err(e)) => Err(e),
+        None => crate::pipeline::identify_below(&s, data.clone(), bar),
+    };
+    let outcome = match below {
         Ok(BelowBar::Above { bar, test, detail }) => {
             return (TrainVerdict::AboveBar { bar, test, detail }, None)
         }
@@ -1166,46 +1190,141 @@ fn bar(base_bound: f64, added: usize) -> f64 {
 }
 
 /// Identify each candidate on the training records: its verdict into its evidence, its set
-/// (when admissible) returned in the same order. With `base_bound` (an estimated bound), a
-/// candidate the training data falsify at its [`bar`] is not bracketed further: its verdict
-/// is [`TrainVerdict::AboveBar`] ([`crate::pipeline::identify_below`]), the rule's answer
-/// unchanged.
+/// (when admissible) returned in the same order.
+///
+/// With `base` (the verdict of the model an estimated-bound round extends), each candidate's
+/// bound is first bracketed alone ([`crate::pipeline::bracket_below`], in parallel): a
+/// candidate the training data falsify at its [`bar`] is not bracketed further (its verdict is
+/// [`TrainVerdict::AboveBar`]). Then only the candidates the rule needs are identified whole
+/// (the set, its member, its fit), one at a time in the order of their bracketed bounds (then
+/// fewer added parameters, then candidate order): until the rule's pick is found, and beyond
+/// it those whose bound is close enough to the pick's ([`PER_PARAMETER`]) to be marked
+/// equivalent to it. The rest keep [`TrainVerdict::Bracketed`]. The pick and its equivalents
+/// are the ones identifying every candidate gives, as long as a candidate's bound is the one
+/// its bracket kept (a candidate whose coarse cells leave `θ` unbounded is bracketed again
+/// with the spec's own budget, [`try_model`]; it is ranked by its first bracket).
 fn try_candidates(
     spec: &Spec,
     full: &CellSpec,
     cands: &mut [(ModelSpec, Evidence)],
     training: &ExperimentData,
-    base_bound: Option<f64>,
+    base: Option<&TrainVerdict>,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Vec<Option<ModelSet>> {
     use rayon::prelude::*;
     use std::sync::atomic::{AtomicUsize, Ordering};
-    // The candidates are independent: identified in parallel, results in candidate order (so
-    // the choice does not depend on the thread timing).
+    // The candidates are independent: identified (or bracketed) in parallel, results in
+    // candidate order (so the choice does not depend on the thread timing).
     let total = cands.len();
     let done = AtomicUsize::new(0);
-    cands
+    let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+    let bar_of = |ev: &Evidence| base.map(|b| bar(bound_of(b), ev.added_parameters));
+    let Some(base) = base else {
+        return cands
+            .par_iter_mut()
+            .map(|(m, ev)| {
+                if let Some(t) = ev.untried.take() {
+                    ev.train = t;
+                    tick();
+                    return None;
+                }
+                let start = std::time::Instant::now();
+                let (t, id) = try_model(spec, full, m, training, None, None);
+                log::info!(target: "smid::diagnose", "{}: {:.2} s", ev.label, start.elapsed().as_secs_f64());
+                ev.train = t;
+                tick();
+                id.map(|id| id.model)
+            })
+            .collect();
+    };
+    // Every candidate's bracket; the ones with a bound to identify at wait, the others get
+    // their verdict now.
+    let pending: Vec<Option<Result<Bracket>>> = cands
         .par_iter_mut()
         .map(|(m, ev)| {
             if let Some(t) = ev.untried.take() {
                 ev.train = t;
-                progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+                tick();
                 return None;
             }
             let start = std::time::Instant::now();
-            let (t, id) = try_model(
-                spec,
-                full,
-                m,
-                training,
-                base_bound.map(|b| bar(b, ev.added_parameters)),
-            );
-            log::info!(target: "smid::diagnose", "{}: {:.2} s", ev.label, start.elapsed().as_secs_f64());
+            let b = crate::pipeline::bracket_below(&with_model(spec, m), training, bar_of(ev));
+            log::info!(target: "smid::diagnose", "{}: bracketed in {:.2} s: {}", ev.label, start.elapsed().as_secs_f64(), match &b {
+                Ok(Bracket::At(d)) => format!("bound {d:.4e}"),
+                Ok(Bracket::Above { .. }) => "above its bar".into(),
+                Ok(Bracket::Falsified(_)) => "falsified".into(),
+                Err(e) => e.to_string().chars().take(60).collect(),
+            });
+            if matches!(b, Ok(Bracket::At(_))) {
+                return Some(b);
+            }
+            let (t, _) = try_model(spec, full, m, training, bar_of(ev), Some(b));
             ev.train = t;
-            progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
-            id.map(|id| id.model)
+            tick();
+            None
         })
-        .collect()
+        .collect();
+    let mut sets: Vec<Option<ModelSet>> = (0..cands.len()).map(|_| None).collect();
+    let order: Vec<(usize, f64)> = pending
+        .iter()
+        .enumerate()
+        .filter_map(|(i, b)| Some((i, b.as_ref()?.as_ref().ok()?.bound()?)))
+        .collect();
+    let mut pending = pending;
+    let mut evidence: Vec<Evidence> = cands.iter().map(|(_, e)| e.clone()).collect();
+    let models: Vec<&ModelSpec> = cands.iter().map(|(m, _)| m).collect();
+    identify_needed(&mut evidence, order, base, &mut |i, ev, d| {
+        let start = std::time::Instant::now();
+        let (t, id) = try_model(
+            spec,
+            full,
+            models[i],
+            training,
+            bar_of(ev),
+            pending[i].take(),
+        );
+        log::info!(target: "smid::diagnose", "{}: identified at {d:.4e} in {:.2} s", ev.label, start.elapsed().as_secs_f64());
+        tick();
+        sets[i] = id.map(|id| id.model);
+        t
+    });
+    for ((_, e), ev) in cands.iter_mut().zip(evidence) {
+        *e = ev;
+    }
+    sets
+}
+
+/// The candidates of an estimated-bound round that the rule needs identified whole, each by
+/// `identify(i, evidence, bound)` (its verdict): in the order of their bracketed bounds
+/// (`order`: index and bound; then fewer added parameters, then candidate order), until the
+/// rule's pick ([`estimated_pick`]) is found, and beyond it while a bound lies within one rule
+/// step ([`PER_PARAMETER`]) of the pick's (close enough to be marked equivalent to it,
+/// [`mark_equivalences`]). Every other candidate of `order` is left [`TrainVerdict::Bracketed`].
+fn identify_needed(
+    evidence: &mut [Evidence],
+    mut order: Vec<(usize, f64)>,
+    base: &TrainVerdict,
+    identify: &mut dyn FnMut(usize, &Evidence, f64) -> TrainVerdict,
+) {
+    order.sort_by(|(i, a), (j, b)| {
+        a.total_cmp(b)
+            .then(
+                evidence[*i]
+                    .added_parameters
+                    .cmp(&evidence[*j].added_parameters),
+            )
+            .then(i.cmp(j))
+    });
+    for (i, d) in order {
+        let needed = estimated_pick_of(evidence.iter(), base)
+            .map(|p| bound_of(&evidence[p].train))
+            .is_none_or(|pick| PER_PARAMETER * d <= pick);
+        evidence[i].train = if needed {
+            identify(i, &evidence[i], d)
+        } else {
+            TrainVerdict::Bracketed { bound: d }
+        };
+    }
 }
 
 /// Free-run fit % of the representative member (see [`crate::members::representative`]) on the model's own training records.
@@ -1569,15 +1688,22 @@ fn admissible_pick(cands: &[(ModelSpec, Evidence)], slack: f64) -> Option<usize>
 /// The rule's pick at an estimated bound: the lowest bound among the candidates under their
 /// [`bar`] that simulate no worse than the base model (by [`FIT_SLACK`]).
 fn estimated_pick(cands: &[(ModelSpec, Evidence)], base_train: &TrainVerdict) -> Option<usize> {
+    estimated_pick_of(cands.iter().map(|(_, e)| e), base_train)
+}
+
+/// [`estimated_pick`] over the candidates' evidence.
+fn estimated_pick_of<'a>(
+    evidence: impl Iterator<Item = &'a Evidence>,
+    base_train: &TrainVerdict,
+) -> Option<usize> {
     let base_bound = bound_of(base_train);
-    cands
-        .iter()
+    evidence
         .enumerate()
-        .filter(|(_, (_, e))| {
+        .filter(|(_, e)| {
             bound_of(&e.train) <= bar(base_bound, e.added_parameters)
                 && fit_of(&e.train) >= fit_of(base_train) - FIT_SLACK
         })
-        .min_by(|(_, (_, a)), (_, (_, b))| {
+        .min_by(|(_, a), (_, b)| {
             bound_of(&a.train)
                 .total_cmp(&bound_of(&b.train))
                 .then(a.added_parameters.cmp(&b.added_parameters))
@@ -1697,7 +1823,7 @@ fn rounds(
             full,
             &mut cands,
             training,
-            estimated.then(|| bound_of(&base_train)),
+            estimated.then_some(&base_train),
             progress,
         );
         let slack = fit_slack(training);
@@ -1873,7 +1999,7 @@ pub fn choose(
     method.member = member_budget;
     let spec = &dspec;
     let start = std::time::Instant::now();
-    let (base_train, first) = try_model(spec, &full, &base, training, None);
+    let (base_train, first) = try_model(spec, &full, &base, training, None, None);
     log::info!(target: "smid::diagnose", "the model as declared: {:.2} s", start.elapsed().as_secs_f64());
     // A model as declared that the training data falsify is the table's before column at its
     // smallest consistent bound whatever the rounds add: that search (training records only)
@@ -2314,6 +2440,50 @@ mod tests {
             equivalent_to: Vec::new(),
             untried: None,
         }
+    }
+
+    /// A round with an estimated bound identifies, in the order of the bracketed bounds, until
+    /// the rule's pick and past it within one rule step: a lowest-bound candidate that simulates
+    /// worse than the base model does not stop the search, one that fails does not either, and
+    /// a candidate farther than a step above the pick stays bracketed.
+    #[test]
+    fn a_round_identifies_up_to_the_pick_and_within_a_step_of_it() {
+        let base = TrainVerdict::Consistent {
+            fit_percent: 80.0,
+            bound: 1.0,
+            unsettled: None,
+        };
+        let mut ev: Vec<Evidence> = ["far", "worse", "fails", "pick", "near", "wider"]
+            .iter()
+            .map(|l| evidence(l, if *l == "wider" { 2 } else { 1 }, None))
+            .collect();
+        let order = vec![
+            (0, 0.8),
+            (1, 0.5),
+            (2, 0.55),
+            (3, 0.6),
+            (4, 0.62),
+            (5, 0.65),
+        ];
+        let fits = [90.0, 70.0, 0.0, 85.0, 84.0, 90.0];
+        let mut asked = Vec::new();
+        identify_needed(&mut ev, order, &base, &mut |i, _, d| {
+            asked.push(i);
+            if i == 2 {
+                return TrainVerdict::Failed {
+                    message: "unbounded".into(),
+                };
+            }
+            TrainVerdict::Consistent {
+                fit_percent: fits[i],
+                bound: d,
+                unsettled: None,
+            }
+        });
+        assert_eq!(asked, vec![1, 2, 3, 4, 5]);
+        assert!(matches!(ev[0].train, TrainVerdict::Bracketed { bound } if bound == 0.8));
+        let pick = estimated_pick_of(ev.iter(), &base);
+        assert_eq!(pick, Some(3));
     }
 
     /// The rule's ties are reported both ways, and only ties: the same parameter count and a

@@ -154,16 +154,35 @@ pub enum BelowBar {
     Identified(Outcome<Identification>),
 }
 
-/// Identification at an estimated noise bound (`noise.estimate`). The first try is at the
-/// margin times the smallest bound the cheap classical test finds consistent
-/// ([`estimate_bound`]). A tighter stage-3 method can prove the data inconsistent there: the
-/// bound is then doubled until the method finds them consistent, the bracket narrowed
-/// geometrically to 5 %, and the identification run at the margin times its upper end. The
-/// bracket's steps ask for the method's verdict alone ([`consistent_by_method`]: the search
-/// stops at the first cell with bounds); only the bound kept is identified whole. When
-/// the method's start set
-/// is unbounded at that bound, the error says what bounds it (a stable block, a prior, or the
-/// classical method at its own smaller bound).
+/// What the bracket of an estimated noise bound found, before any identification
+/// ([`bracket_below`]).
+#[derive(Debug, Clone)]
+pub enum Bracket {
+    /// The training data are inconsistent at the bar (as [`BelowBar::Above`]).
+    Above {
+        bar: f64,
+        test: String,
+        detail: String,
+    },
+    /// The data are inconsistent at every bound tried.
+    Falsified(Falsification),
+    /// The bound the model is identified with ([`identify_at_estimate`]): the margin times the
+    /// smallest bound the stage-3 method accepts (to 5 %).
+    At(f64),
+}
+
+impl Bracket {
+    /// The bound to identify at, when there is one.
+    pub fn bound(&self) -> Option<f64> {
+        match self {
+            Bracket::At(d) => Some(*d),
+            _ => None,
+        }
+    }
+}
+
+/// Identification at an estimated noise bound (`noise.estimate`): [`bracket_below`], then
+/// [`identify_at_estimate`] at the bound it kept.
 fn identify_estimated(
     spec: &Spec,
     data: &ExperimentData,
@@ -171,12 +190,32 @@ fn identify_estimated(
     progress: &(dyn Fn(&cells::Progress) + Sync),
     bar: Option<f64>,
 ) -> Result<BelowBar> {
+    Ok(match bracket_below(spec, data, bar)? {
+        Bracket::Above { bar, test, detail } => BelowBar::Above { bar, test, detail },
+        Bracket::Falsified(f) => BelowBar::Identified(Outcome::Falsified(f)),
+        Bracket::At(d) => {
+            BelowBar::Identified(identify_at_estimate(spec, data, d, truth, progress)?)
+        }
+    })
+}
+
+/// The bracket of an estimated noise bound (`noise.estimate`; the spec's declared bound, if
+/// any, is ignored), without identifying. With a `bar` (a positive number), the bar is tested
+/// first, by the classical test and then by the method's verdict; when either proves the data
+/// inconsistent there, the answer is [`Bracket::Above`] (the bound a bracket reports is one the
+/// method accepts, and a relaxation that rejects a bound rejects every smaller one) and the
+/// bracket is not run. The bracket's first try is at the smallest bound the cheap classical
+/// test finds consistent ([`estimate_bound`]). A tighter stage-3 method can prove
+/// the data inconsistent there: the bound is then doubled until the method finds them
+/// consistent, the bracket narrowed geometrically to 5 %, and the bound kept is the margin
+/// times its upper end. The steps ask for the method's verdict alone
+/// ([`consistent_by_method`]: the search stops at the first cell with bounds).
+pub fn bracket_below(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Result<Bracket> {
+    let bar = bar.filter(|b| b.is_finite() && *b > 0.0);
     let margin = spec.noise.estimate.unwrap_or(1.1).max(1.01);
-    // The bracket identifies without the member search; the member is searched once, for the
-    // bound kept.
     let first = match estimate_bound(spec, data)? {
         Outcome::Consistent(d) => d,
-        Outcome::Falsified(f) => return Ok(BelowBar::Identified(Outcome::Falsified(f))),
+        Outcome::Falsified(f) => return Ok(Bracket::Falsified(f)),
     };
     // Log lines name their model: a diagnosis brackets its candidates side by side.
     let label = spec.model.label();
@@ -195,27 +234,12 @@ fn identify_estimated(
         }, t0.elapsed().as_secs_f64());
         r
     };
-    let at = |d: f64| {
-        let t0 = std::time::Instant::now();
-        let r = identify_with(
-            &with_bound(&quiet, d),
-            data_with_bound(data, d),
-            truth,
-            progress,
-        );
-        log::info!(target: "smid::estimate", "{label}: noise bound {d:.4e}: {} ({:.2} s)", match &r {
-            Ok(Outcome::Consistent(_)) => "an answer".to_string(),
-            Ok(Outcome::Falsified(f)) => format!("falsified: {f}").chars().take(60).collect(),
-            Err(e) => e.to_string().chars().take(60).collect(),
-        }, t0.elapsed().as_secs_f64());
-        r
-    };
     // A bar first: when the data are inconsistent at it (classical test, then the method), the
     // bound the bracket would reach lies above it; the bracket is then not run.
     if let Some(b) = bar {
         if !consistent_at(spec, data, b)? {
             log::info!(target: "smid::estimate", "{label}: noise bound {b:.4e} (the bar): falsified by the classical test");
-            return Ok(BelowBar::Above {
+            return Ok(Bracket::Above {
                 bar: b,
                 test: "the classical test".into(),
                 detail: "no θ fits the equations of any cell (classical outer sets empty)".into(),
@@ -224,7 +248,7 @@ fn identify_estimated(
         // A verdict that failed (solver trouble) proves nothing: the bracket goes on as it
         // would without a bar, and reports such trouble itself.
         if let Ok(Outcome::Falsified(f)) = verdict(b) {
-            return Ok(BelowBar::Above {
+            return Ok(Bracket::Above {
                 bar: b,
                 test: format!("the stage-3 method `{}`", spec.method.eiv.name()),
                 detail: f.to_string(),
@@ -247,10 +271,10 @@ fn identify_estimated(
         }
     }
     if !found {
-        return Ok(BelowBar::Identified(Outcome::Falsified(Falsification::new(crate::error::Stage::Linear, 0, format!(
+        return Ok(Bracket::Falsified(Falsification::new(crate::error::Stage::Linear, 0, format!(
                 "the stage-3 method `{}` finds the training data inconsistent up to a noise bound of {hi:.3e}",
                 spec.method.eiv.name()
-            )))));
+            ))));
     }
     if hi > first {
         // Narrow [lo, hi] (inconsistent at lo, an answer at hi) to 5 %, then identify at the
@@ -265,17 +289,42 @@ fn identify_estimated(
         }
         hi *= margin;
     }
-    let mut best = at(hi);
+    Ok(Bracket::At(hi))
+}
+
+/// The identification of a model whose noise bound is estimated, at the bound `d` its
+/// [`bracket_below`] kept: the model set at `d` (without the member search), then its
+/// simulation member with the spec's own member options. When the method's start set is
+/// unbounded at `d`, the error says what bounds it (a stable block, a prior, or the classical
+/// method at its own smaller bound).
+pub fn identify_at_estimate(
+    spec: &Spec,
+    data: &ExperimentData,
+    d: f64,
+    truth: &[(String, f64)],
+    progress: &(dyn Fn(&cells::Progress) + Sync),
+) -> Result<Outcome<Identification>> {
+    let margin = spec.noise.estimate.unwrap_or(1.1).max(1.01);
+    let label = spec.model.label();
+    let mut quiet = with_bound(spec, d);
+    quiet.method.member.search = false;
+    let t0 = std::time::Instant::now();
+    let mut best = identify_with(&quiet, data_with_bound(data, d), truth, progress);
+    log::info!(target: "smid::estimate", "{label}: noise bound {d:.4e}: {} ({:.2} s)", match &best {
+        Ok(Outcome::Consistent(_)) => "an answer".to_string(),
+        Ok(Outcome::Falsified(f)) => format!("falsified: {f}").chars().take(60).collect(),
+        Err(e) => e.to_string().chars().take(60).collect(),
+    }, t0.elapsed().as_secs_f64());
     if let Ok(Outcome::Consistent(id)) = best.as_mut() {
         id.model.method.member = spec.method.member;
         id.model.simulation_member =
             crate::members::simulation_member(&id.model, &spec.method.member)?;
     }
-    best.map(BelowBar::Identified).map_err(|e| match e {
+    best.map_err(|e| match e {
         SmidError::Unbounded { parameter, message } if !spec.model.stable => SmidError::Unbounded {
             parameter,
             message: format!(
-                "{message}. At the estimated noise bound {hi:.4e} (the smallest the method `{}` finds consistent, within the margin {margin}) its start set is unbounded: declare `model.stable: true` if the linear block is stable (each a_i is then bounded by the binomial C(na, i)), give `model.prior` bounds for the a_i, or choose `method.eiv: classical`",
+                "{message}. At the estimated noise bound {d:.4e} (the smallest the method `{}` finds consistent, within the margin {margin}) its start set is unbounded: declare `model.stable: true` if the linear block is stable (each a_i is then bounded by the binomial C(na, i)), give `model.prior` bounds for the a_i, or choose `method.eiv: classical`",
                 spec.method.eiv.name()
             ),
         },
