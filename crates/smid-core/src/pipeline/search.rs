@@ -213,13 +213,10 @@ fn identify_estimated(
 pub fn bracket_below(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Result<Bracket> {
     let bar = bar.filter(|b| b.is_finite() && *b > 0.0);
     let margin = spec.noise.estimate.unwrap_or(1.1).max(1.01);
-    let first = match estimate_bound(spec, data)? {
-        Outcome::Consistent(d) => d,
-        Outcome::Falsified(f) => return Ok(Bracket::Falsified(f)),
-    };
     // Log lines name their model: a diagnosis brackets its candidates side by side.
     let label = spec.model.label();
-    let mut quiet = with_bound(spec, first);
+    // Each verdict sets its own bound.
+    let mut quiet = with_bound(spec, 1.0);
     quiet.method.member.search = false;
     // The bracket's steps ask only whether the method finds the data consistent at `d`: the
     // search stops at the first cell with bounds (the same verdict, a fraction of the cells
@@ -255,6 +252,13 @@ pub fn bracket_below(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Re
             });
         }
     }
+    // The bar's question needs no estimate, so it comes first: a candidate rejected there is
+    // not also asked for the classical estimate (minutes for a bisected prior whose coarse
+    // tests falsify no bound).
+    let first = match estimate_bound(spec, data)? {
+        Outcome::Consistent(d) => d,
+        Outcome::Falsified(f) => return Ok(Bracket::Falsified(f)),
+    };
     let mut lo = first;
     let mut hi = first;
     let mut found = false;
