@@ -516,7 +516,7 @@ fn verdict_text(t: &diagnose::TrainVerdict) -> String {
             "inconsistent at the bar {bar:.3e} ({test}): its bound would be above it, not bracketed further"
         ),
         diagnose::TrainVerdict::Bracketed { bound } => format!(
-            "bound {bound:.3e} (bracketed), not identified: above the chosen candidate's by more than the rule's step, so it could be neither chosen nor equivalent to the choice"
+            "bound {bound:.3e} (bracketed with the diagnosis's cells), not identified: above the chosen candidate's by more than the rule's step, so it could be neither chosen nor equivalent to the choice"
         ),
         diagnose::TrainVerdict::Failed { message } => format!("failed: {message}"),
         diagnose::TrainVerdict::Reproduced { residual, draws } => format!(

@@ -928,8 +928,13 @@ fn a_round_that_identifies_only_the_needed_candidates_picks_what_identifying_all
         else {
             panic!("case {case}: the base model: {:?}", round.base_train)
         };
-        // The diagnosis's spec for a candidate: its cells, the light member budget.
+        // The diagnosis's spec for a candidate: its coarse cell budget (`choice.method` carries
+        // the after-model's, which may be the spec's own), the light member budget.
         let mut method = choice.method.clone();
+        method.cells = spec.method.cells.clone();
+        method.cells.nonlinearity_halvings = method.cells.nonlinearity_halvings.min(4);
+        method.cells.max_cells = method.cells.max_cells.min(2000);
+        method.cells.max_leaves = method.cells.max_leaves.min(64);
         method.member = smid_core::spec::MemberSpec::LIGHT;
         let cands = diagnose::candidates(&spec.model, &pipeline::data_scale(&data), &opts, None);
         let mut whole = Vec::new();

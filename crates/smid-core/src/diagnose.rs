@@ -26,7 +26,11 @@
 //!   information criterion with an infinite price on inconsistency). When no candidate is
 //!   admissible, the one whose first contradiction comes latest in the data (it explains the
 //!   longest stretch) is kept and a further round adds another effect to it, up to
-//!   `max_effects`.
+//!   `max_effects`. With an estimated bound (`noise.estimate`) every model is admissible at
+//!   its own bound: a candidate is kept when it lowers the base model's bound by the rule's
+//!   step per added parameter and simulates as well; every candidate's bound is bracketed
+//!   first, and only the candidates that could be the pick or its equivalents are identified
+//!   whole ([`TrainVerdict::Bracketed`] for the rest).
 //! * **Final table**: only then are the held-out records read: before and after are validated
 //!   on them ([`crate::validate`]). A base model that the training data falsify has no member;
 //!   for the table it is re-identified at the smallest noise bound that makes its training
@@ -103,16 +107,19 @@ pub enum TrainVerdict {
     },
     /// With an estimated bound: the training data are inconsistent at the largest bound the
     /// candidate may have to be kept (the bar), proven by `test`, so its own bound was not
-    /// bracketed ([`crate::pipeline::identify_below`]).
+    /// bracketed ([`crate::pipeline::bracket_below`]).
     AboveBar {
         bar: f64,
         test: String,
         detail: String,
     },
     /// With an estimated bound: bracketed, not identified. The bound it would be identified
-    /// with ([`crate::pipeline::bracket_below`]) is above the chosen candidate's by more than
-    /// the rule's step ([`PER_PARAMETER`]): the rule could neither choose it nor find it
-    /// equivalent to the choice, so it has no set, no member and no fit.
+    /// with ([`crate::pipeline::bracket_below`], with the diagnosis's cell budget) is above the
+    /// chosen candidate's by more than the rule's step ([`PER_PARAMETER`]): at that bound the
+    /// rule could neither choose it nor find it equivalent to the choice, so it has no set, no
+    /// member and no fit. (A candidate whose coarse cells leave `θ` unbounded is bracketed
+    /// again with the spec's own budget when it is identified, which may move its bound; one
+    /// left bracketed is ranked by its first bracket.)
     Bracketed { bound: f64 },
     /// Identification failed otherwise (unbounded parameters, solver trouble...).
     Failed { message: String },
@@ -154,7 +161,8 @@ impl TrainVerdict {
                 }
             }
             TrainVerdict::AboveBar { .. } => (3, 0, 0),
-            // Consistent at its bound, as far as the bracket's verdicts say.
+            // Consistent at its bound, as far as the bracket's verdicts say. (The fallback pick
+            // by reach never meets one: a round leaves candidates bracketed only beside a pick.)
             TrainVerdict::Bracketed { .. } => (4, usize::MAX, usize::MAX),
             TrainVerdict::Failed { .. } | TrainVerdict::Reproduced { .. } => (0, 0, 0),
         }
@@ -1289,6 +1297,9 @@ fn try_candidates(
         t
     });
     for ((_, e), ev) in cands.iter_mut().zip(evidence) {
+        if matches!(ev.train, TrainVerdict::Bracketed { .. }) {
+            tick();
+        }
         *e = ev;
     }
     sets
@@ -1788,8 +1799,10 @@ fn steady_as_stage1_reads(spec: &Spec, training: &ExperimentData) -> Option<Stea
     }
 }
 
-/// The rounds of [`choose`] from `base` (its training verdict and set): each identifies every
-/// candidate on the training records and extends the model by the one the rule picks, until
+/// The rounds of [`choose`] from `base` (its training verdict and set): each tries every
+/// candidate on the training records ([`try_candidates`]: with an estimated bound, brackets
+/// every one and identifies whole only those the rule needs) and extends the model by the one
+/// the rule picks, until
 /// the model is admissible (or, with an estimated bound, nothing is picked) or
 /// `opts.max_effects` are added; a model admissible as declared gets one round that only marks
 /// its equivalents.
@@ -1823,7 +1836,9 @@ fn rounds(
             full,
             &mut cands,
             training,
-            estimated.then_some(&base_train),
+            // A spec that also declares its bound identifies every model at that bound: there
+            // is nothing to bracket.
+            (estimated && spec.noise.delta.is_none()).then_some(&base_train),
             progress,
         );
         let slack = fit_slack(training);
@@ -2011,7 +2026,7 @@ pub fn choose(
     });
     let estimated = spec.noise.estimated();
     let rule = if estimated {
-        format!("the noise bound is estimated per model (the smallest bound consistent with the training records, × margin), so every model is admissible: a candidate is kept when its bound falls below {PER_PARAMETER} × the base model's bound per added parameter (an information criterion on the training data, in the ℓ∞ sense) and its free-run fit on the training records is no worse than the base model's (by more than {FIT_SLACK} points: a candidate that explains samples away, as a saturation that swallows the worst ones, does not simulate better), the lowest bound first; a candidate the training data falsify at that bar is not bracketed further (\"inconsistent at the bar\")")
+        format!("the noise bound is estimated per model (the smallest bound consistent with the training records, × margin), so every model is admissible: a candidate is kept when its bound falls below {PER_PARAMETER} × the base model's bound per added parameter (an information criterion on the training data, in the ℓ∞ sense) and its free-run fit on the training records is no worse than the base model's (by more than {FIT_SLACK} points: a candidate that explains samples away, as a saturation that swallows the worst ones, does not simulate better), the lowest bound first; a candidate the training data falsify at that bar is not bracketed further (\"inconsistent at the bar\"), and one whose bound lies more than a step above the pick's is not identified (\"bracketed, not identified\")")
     } else {
         format!("admissible (training data consistent with the declared noise bound) and simulating the training records as well as the best admissible candidate (free-run fit within {:.3} point(s): what the noise bound accounts for, at most {FIT_SLACK}), the fewest added parameters, then the best fit; when none is admissible, the one whose first contradiction comes latest is extended in a further round", fit_slack(training))
     };

@@ -120,11 +120,13 @@ pub fn identify(
 
 /// [`identify`] of a model whose noise bound is estimated (`noise.estimate`), asked only
 /// whether it clears `bar`: the bound it would be identified with must not exceed `bar`. Before
-/// its bracket, the estimate tests `bar` itself, by the cheap classical test and then by the
-/// stage-3 method's verdict; when either proves the data inconsistent there, the answer is
-/// [`BelowBar::Above`] (the bound an estimate reports is one the method accepts, and a
-/// relaxation that rejects a bound rejects every smaller one) and the bracket is not run: for a
-/// candidate that cannot be kept, one verdict instead of the bracket's five to ten. Otherwise
+/// the classical estimate and the bracket ([`bracket_below`]), `bar` itself is tested, by the
+/// cheap classical test and then by the stage-3 method's verdict; when either proves the data
+/// inconsistent there, the answer is [`BelowBar::Above`] (the bound an estimate reports is one
+/// the method accepts, and a relaxation that rejects a bound rejects every smaller one) and
+/// neither is run: for a candidate that cannot be kept, one verdict instead of the bracket's
+/// five to ten (and a model whose estimate would be refused or falsified reads "above the
+/// bar" when the bar already falsifies it). Otherwise
 /// the identification is [`identify`]'s, to the digit (the bar's verdict is one more, asked
 /// first). Without a bar (or a bar that is not a positive number), and for a spec with a
 /// declared bound, it is [`identify`].
