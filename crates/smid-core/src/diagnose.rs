@@ -1227,13 +1227,18 @@ fn try_candidates(
     let done = AtomicUsize::new(0);
     let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
     let bar_of = |ev: &Evidence| base.map(|b| bar(bound_of(b), ev.added_parameters));
+    // A verdict known before trying ([`Evidence::untried`]) is the candidate's.
+    let known = |ev: &mut Evidence| {
+        ev.untried.take().map(|t| {
+            ev.train = t;
+            tick();
+        })
+    };
     let Some(base) = base else {
         return cands
             .par_iter_mut()
             .map(|(m, ev)| {
-                if let Some(t) = ev.untried.take() {
-                    ev.train = t;
-                    tick();
+                if known(ev).is_some() {
                     return None;
                 }
                 let start = std::time::Instant::now();
@@ -1250,9 +1255,7 @@ fn try_candidates(
     let pending: Vec<Option<Result<Bracket>>> = cands
         .par_iter_mut()
         .map(|(m, ev)| {
-            if let Some(t) = ev.untried.take() {
-                ev.train = t;
-                tick();
+            if known(ev).is_some() {
                 return None;
             }
             let start = std::time::Instant::now();
