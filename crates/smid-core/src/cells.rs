@@ -206,26 +206,21 @@ pub fn search<T: Send + Sync>(
     finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
     progress: &(dyn Fn(&Progress) + Sync),
 ) -> Result<Outcome<Search<T>>> {
-    run(prior, budget, test, finish, progress, None)
+    run(prior, budget, test, finish, progress, false)
 }
 
 /// Whether the data are consistent, by the same search as [`search`], stopping at the first
 /// cell `finish` gives a value: `Consistent` then holds that one leaf (its bounds cover that
 /// cell only, not the set), `Falsified` exactly when [`search`] would say so. The cells are
 /// finished a thread-count at a time, so an error on a cell after the first with a value may
-/// go unseen (a verdict, not bounds, is asked for). With `near` (a point of the prior box),
-/// the cells are finished nearest it first (by their centres, relative to the prior's
-/// widths): where a value is likely, the search ends sooner; whether it is `Falsified` does
-/// not depend on the order. The noise-bound bracket uses it, near the cell a larger bound
-/// found consistent.
+/// go unseen (a verdict, not bounds, is asked for). The noise-bound bracket uses it.
 pub fn search_consistent<T: Send + Sync>(
     prior: &[Interval],
     budget: Budget,
     test: &(dyn Fn(&[Interval]) -> Result<Verdict<()>> + Sync),
     finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
-    near: Option<&[f64]>,
 ) -> Result<Outcome<Search<T>>> {
-    run(prior, budget, test, finish, &|_| {}, Some(near))
+    run(prior, budget, test, finish, &|_| {}, true)
 }
 
 fn run<T: Send + Sync>(
@@ -234,11 +229,8 @@ fn run<T: Send + Sync>(
     test: &(dyn Fn(&[Interval]) -> Result<Verdict<()>> + Sync),
     finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
     progress: &(dyn Fn(&Progress) + Sync),
-    // `Some`: stop at the first cell with a value, finishing the cells nearest the point first.
-    first_value: Option<Option<&[f64]>>,
+    first_value: bool,
 ) -> Result<Outcome<Search<T>>> {
-    let near = first_value.flatten();
-    let first_value = first_value.is_some();
     for (k, p) in prior.iter().enumerate() {
         if !(p.lo.is_finite() && p.hi.is_finite() && p.lo <= p.hi) {
             return Err(SmidError::invalid(
@@ -339,18 +331,6 @@ fn run<T: Send + Sync>(
             (c, d)
         })
         .collect();
-    if let Some(p) = near.filter(|p| p.len() == prior.len()) {
-        let dist = |c: &[Interval]| -> f64 {
-            c.iter()
-                .zip(prior)
-                .zip(p)
-                .map(|((c, w), p)| {
-                    ((c.center() - p) / (w.hi - w.lo).max(f64::MIN_POSITIVE)).powi(2)
-                })
-                .sum()
-        };
-        round.sort_by(|(a, _), (b, _)| dist(a).total_cmp(&dist(b)));
-    }
     while !round.is_empty() {
         if first_value {
             // A thread-count of cells at a time; the first with a value ends the search.
@@ -560,45 +540,19 @@ mod tests {
             };
             let prior = [Interval::new(-2.0, 2.0), Interval::new(-2.0, 2.0)];
             let full = search(&prior, budget(), &test, &finish, &|_| {}).unwrap();
-            let quick = search_consistent(&prior, budget(), &test, &finish, None).unwrap();
+            let quick = search_consistent(&prior, budget(), &test, &finish).unwrap();
             assert_eq!(
                 full.is_consistent(),
                 quick.is_consistent(),
                 "trial {trial}: disc ({cx}, {cy}) r {r}"
             );
-            // Looking near a point first (inside the box or not) changes no verdict.
-            let p = [rng.gen_range(-2.5..2.5), rng.gen_range(-2.5..2.5)];
-            let near = search_consistent(&prior, budget(), &test, &finish, Some(&p)).unwrap();
-            assert_eq!(
-                full.is_consistent(),
-                near.is_consistent(),
-                "trial {trial}: near {p:?}"
-            );
-            // Near the disc's centre, the first cells finished are the disc's own: never more
-            // finished than without the point.
-            let at_centre =
-                search_consistent(&prior, budget(), &test, &finish, Some(&[cx, cy])).unwrap();
-            if let (Outcome::Consistent(a), Outcome::Consistent(q)) = (&at_centre, &quick) {
-                if a.leaves.iter().any(|l| l.value.is_some()) {
-                    assert!(
-                        a.evaluated <= q.evaluated,
-                        "trial {trial}: {} > {}",
-                        a.evaluated,
-                        q.evaluated
-                    );
-                }
-            }
-            for q in [quick, near, at_centre] {
-                if let Outcome::Consistent(q) = q {
-                    if let Some(l) = q.leaves.iter().find(|l| l.value.is_some()) {
-                        assert!(dist2(&l.cell) <= r * r, "trial {trial}");
-                    } else {
-                        // No cell with a value: the full search has none either.
-                        let Outcome::Consistent(f) = &full else {
-                            panic!("trial {trial}: the full search falsified, the verdict did not")
-                        };
-                        assert!(f.leaves.iter().all(|l| l.value.is_none()), "trial {trial}");
-                    }
+            if let Outcome::Consistent(q) = quick {
+                if let Some(l) = q.leaves.iter().find(|l| l.value.is_some()) {
+                    assert!(dist2(&l.cell) <= r * r, "trial {trial}");
+                } else {
+                    // No cell with a value: the full search has none either.
+                    let f = full.unwrap();
+                    assert!(f.leaves.iter().all(|l| l.value.is_none()), "trial {trial}");
                 }
             }
         }

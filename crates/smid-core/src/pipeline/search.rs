@@ -223,23 +223,9 @@ pub fn bracket_below(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Re
     // The bracket's steps ask only whether the method finds the data consistent at `d`: the
     // search stops at the first cell with bounds (the same verdict, a fraction of the cells
     // finished). The bound kept is then identified whole.
-    // Each verdict looks first near the cell the last consistent one found (at a larger bound
-    // that cell is the likeliest to hold the smaller bound's set too); the order of the cells
-    // never changes a falsification, only how soon a consistent verdict ends.
-    let near: std::cell::RefCell<Option<Vec<f64>>> = std::cell::RefCell::new(None);
     let verdict = |d: f64| {
         let t0 = std::time::Instant::now();
-        let hint = near.borrow().clone();
-        let r = consistent_by_method(
-            &with_bound(&quiet, d),
-            data_with_bound(data, d),
-            hint.as_deref(),
-        );
-        if let Ok(Outcome::Consistent(c)) = &r {
-            if !c.is_empty() {
-                *near.borrow_mut() = Some(c.clone());
-            }
-        }
+        let r = consistent_by_method(&with_bound(&quiet, d), data_with_bound(data, d));
         log::info!(target: "smid::estimate", "{label}: noise bound {d:.4e}: {} ({:.2} s)", match &r {
             Ok(Outcome::Consistent(_)) => "consistent".to_string(),
             Ok(Outcome::Falsified(f)) => format!("falsified: {f}").chars().take(60).collect(),
@@ -373,7 +359,7 @@ pub fn identify_with(
             },
         );
     }
-    let (layout, training, search) = match searched(spec, &mut data, progress, None)? {
+    let (layout, training, search) = match searched(spec, &mut data, progress, false)? {
         Outcome::Consistent(x) => x,
         Outcome::Falsified(f) => return Ok(Outcome::Falsified(f)),
     };
@@ -590,8 +576,7 @@ fn searched(
     spec: &Spec,
     data: &mut ExperimentData,
     progress: &(dyn Fn(&cells::Progress) + Sync),
-    // `Some`: a verdict, stopped at the first cell with bounds, nearest the point first.
-    first_value: Option<Option<&[f64]>>,
+    first_value: bool,
 ) -> Result<Outcome<(Layout, Training, cells::Search<CellSet>)>> {
     let delta = spec.noise.delta()?;
     let layout = spec.model.layout()?;
@@ -640,7 +625,7 @@ fn searched(
     // (`first_value`) needs none, and with bisected parameters the search reports the latest
     // finding among its cells, mostly the cheap test's (which does not locate), so locating
     // each cell stage 3 discards cost about `log2 N` LPs for a sample rarely reported.
-    let locate = first_value.is_none() && layout.dims.is_empty();
+    let locate = !first_value && layout.dims.is_empty();
     let eval = |cell: &[Interval]| evaluate_cell(model, &layout, method, &training, cell, locate);
     let budget = Budget {
         resolution,
@@ -648,9 +633,10 @@ fn searched(
         max_cells: method.cells.max_cells,
         max_leaves: method.cells.max_leaves,
     };
-    let search = match first_value {
-        Some(near) => cells::search_consistent(&prior, budget, &test, &eval, near)?,
-        None => cells::search(&prior, budget, &test, &eval, progress)?,
+    let search = if first_value {
+        cells::search_consistent(&prior, budget, &test, &eval)?
+    } else {
+        cells::search(&prior, budget, &test, &eval, progress)?
     };
     Ok(search.map(|s| (layout, training, s)))
 }
@@ -659,23 +645,8 @@ fn searched(
 /// by the identification's own search stopped at the first cell with bounds: `Falsified`
 /// exactly when [`identify`] would return it; an error may be reported where `identify` would
 /// have given an answer (and the other way round), which the noise-bound bracket treats alike.
-/// The cells nearest `near` (a point of the bisected parameters) are finished first
-/// ([`cells::search_consistent`]); a `Consistent` answer gives the centre of the cell with
-/// bounds, to look near at a smaller bound.
-pub fn consistent_by_method(
-    spec: &Spec,
-    mut data: ExperimentData,
-    near: Option<&[f64]>,
-) -> Result<Outcome<Vec<f64>>> {
-    Ok(
-        searched(spec, &mut data, &|_| {}, Some(near))?.map(|(_, _, s)| {
-            s.leaves
-                .iter()
-                .find(|l| l.value.is_some())
-                .map(|l| l.cell.iter().map(|c| c.center()).collect())
-                .unwrap_or_default()
-        }),
-    )
+pub fn consistent_by_method(spec: &Spec, mut data: ExperimentData) -> Result<Outcome<()>> {
+    Ok(searched(spec, &mut data, &|_| {}, true)?.map(|_| ()))
 }
 
 pub(super) fn hull(it: impl IntoIterator<Item = Interval>) -> Interval {
