@@ -928,19 +928,12 @@ fn a_round_that_identifies_only_the_needed_candidates_picks_what_identifying_all
         else {
             panic!("case {case}: the base model: {:?}", round.base_train)
         };
-        // The diagnosis's spec for a candidate: its coarse cell budget (`choice.method` carries
-        // the after-model's, which may be the spec's own), the light member budget.
-        let mut method = choice.method.clone();
-        method.cells = spec.method.cells.clone();
-        method.cells.nonlinearity_halvings = method.cells.nonlinearity_halvings.min(4);
-        method.cells.max_cells = method.cells.max_cells.min(2000);
-        method.cells.max_leaves = method.cells.max_leaves.min(64);
-        method.member = smid_core::spec::MemberSpec::LIGHT;
+        // The diagnosis's spec for a candidate (its coarse cells, its light member budget).
+        let dspec = diagnose::candidate_spec(&spec);
         let cands = diagnose::candidates(&spec.model, &pipeline::data_scale(&data), &opts, None);
         let mut whole = Vec::new();
         for (m, ev) in &cands {
-            let mut s = diagnose::with_model(&spec, m);
-            s.method = method.clone();
+            let mut s = diagnose::with_model(&dspec, m);
             let mut out = pipeline::identify(&s, data.clone(), &[]);
             if matches!(&out, Ok(smid_core::Outcome::Consistent(id)) if !id.model.search.unbounded.is_empty())
             {
@@ -961,7 +954,8 @@ fn a_round_that_identifies_only_the_needed_candidates_picks_what_identifying_all
             .iter()
             .filter(|(_, k, g)| {
                 g.is_some_and(|(d, f)| {
-                    d <= base_bound * 0.9f64.powi((*k).max(1) as i32) && f >= base_fit - 1.0
+                    d <= base_bound * diagnose::PER_PARAMETER.powi((*k).max(1) as i32)
+                        && f >= base_fit - diagnose::FIT_SLACK
                 })
             })
             .min_by(|(_, ka, ga), (_, kb, gb)| {
@@ -994,7 +988,7 @@ fn a_round_that_identifies_only_the_needed_candidates_picks_what_identifying_all
                 );
                 let (pd, _) = pick.unwrap().2.unwrap();
                 assert!(
-                    0.9 * d > pd,
+                    diagnose::PER_PARAMETER * d > pd,
                     "case {case}: {} at {d} left bracketed beside the pick at {pd}",
                     e.label
                 );

@@ -776,7 +776,7 @@ fn mark_equivalences(
     // the data do not already tell them apart by their bounds.
     let tol = |a: &ModelSet, b: &ModelSet| {
         let (lo, hi) = (a.delta.min(b.delta), a.delta.max(b.delta));
-        (!estimated || lo >= PER_PARAMETER * hi).then_some(2.0 * hi)
+        (!estimated || within_step(lo, hi)).then_some(2.0 * hi)
     };
     let runs: Vec<Option<Vec<Vec<f64>>>> = sets
         .iter()
@@ -824,6 +824,18 @@ fn mark_equivalences(
             evidence[i].equivalent_to.push(l);
         }
     }
+}
+
+/// Whether two estimated bounds `lo <= hi` lie within one rule step ([`PER_PARAMETER`]): only
+/// then can the data leave the two models alike ([`mark_equivalences`]); farther apart, at
+/// the smaller bound the other model is falsified.
+fn within_step(lo: f64, hi: f64) -> bool {
+    lo >= PER_PARAMETER * hi
+}
+
+/// The estimated rule's order: the lower bound first, then fewer added parameters.
+fn by_bound(a: (f64, usize), b: (f64, usize)) -> std::cmp::Ordering {
+    a.0.total_cmp(&b.0).then(a.1.cmp(&b.1))
 }
 
 /// Mark as equivalent to the rule's pick `i` (at a declared bound) every candidate the rule
@@ -947,6 +959,19 @@ impl Choice {
     }
 }
 
+/// The spec a diagnosis identifies its candidates with (each through [`with_model`]): the
+/// spec's, with the diagnosis's coarse cell budget for bisected parameters (the augmented spec
+/// keeps it, so its results reproduce) and the light member budget (a candidate's fit decides;
+/// the envelope is the after-model's, identified with the spec's own member budget).
+pub fn candidate_spec(spec: &Spec) -> Spec {
+    let mut dspec = with_model(spec, &spec.model);
+    dspec.method.cells.nonlinearity_halvings = dspec.method.cells.nonlinearity_halvings.min(4);
+    dspec.method.cells.max_cells = dspec.method.cells.max_cells.min(2000);
+    dspec.method.cells.max_leaves = dspec.method.cells.max_leaves.min(64);
+    dspec.method.member = crate::spec::MemberSpec::LIGHT;
+    dspec
+}
+
 /// A spec whose model is `model` (the rest as `spec`).
 pub fn with_model(spec: &Spec, model: &ModelSpec) -> Spec {
     let mut v = serde_json::to_value(spec).expect("specs serialise");
@@ -1007,13 +1032,7 @@ fn try_model_with(
 ) -> (TrainVerdict, Option<Identification>) {
     let s = with_model(spec, model);
     let below = match known {
-        Some(Ok(Bracket::Above { bar, test, detail })) => Ok(BelowBar::Above { bar, test, detail }),
-        Some(Ok(Bracket::Falsified(f))) => Ok(BelowBar::Identified(Outcome::Falsified(f))),
-        Some(Ok(Bracket::At(d))) => {
-            crate::pipeline::identify_at_estimate(&s, data, d, &[], &|_| {})
-                .map(BelowBar::Identified)
-        }
-        Some(Err(e)) => Err(e),
+        Some(b) => b.and_then(|b| crate::pipeline::identify_bracketed(&s, data, b, &[], &|_| {})),
         None => crate::pipeline::identify_below(&s, data.clone(), bar),
     };
     let outcome = match below {
@@ -1321,18 +1340,16 @@ fn identify_needed(
     identify: &mut dyn FnMut(usize, &Evidence, f64) -> TrainVerdict,
 ) {
     order.sort_by(|(i, a), (j, b)| {
-        a.total_cmp(b)
-            .then(
-                evidence[*i]
-                    .added_parameters
-                    .cmp(&evidence[*j].added_parameters),
-            )
-            .then(i.cmp(j))
+        by_bound(
+            (*a, evidence[*i].added_parameters),
+            (*b, evidence[*j].added_parameters),
+        )
+        .then(i.cmp(j))
     });
     for (i, d) in order {
         let needed = estimated_pick_of(evidence.iter(), base)
             .map(|p| bound_of(&evidence[p].train))
-            .is_none_or(|pick| PER_PARAMETER * d <= pick);
+            .is_none_or(|pick| within_step(pick, d));
         evidence[i].train = if needed {
             identify(i, &evidence[i], d)
         } else {
@@ -1718,9 +1735,10 @@ fn estimated_pick_of<'a>(
                 && fit_of(&e.train) >= fit_of(base_train) - FIT_SLACK
         })
         .min_by(|(_, a), (_, b)| {
-            bound_of(&a.train)
-                .total_cmp(&bound_of(&b.train))
-                .then(a.added_parameters.cmp(&b.added_parameters))
+            by_bound(
+                (bound_of(&a.train), a.added_parameters),
+                (bound_of(&b.train), b.added_parameters),
+            )
         })
         .map(|(i, _)| i)
 }
@@ -1841,7 +1859,7 @@ fn rounds(
             training,
             // A spec that also declares its bound identifies every model at that bound: there
             // is nothing to bracket.
-            (estimated && spec.noise.delta.is_none()).then_some(&base_train),
+            spec.noise.to_estimate().then_some(&base_train),
             progress,
         );
         let slack = fit_slack(training);
@@ -2005,13 +2023,7 @@ pub fn choose(
     // the augmented spec keeps it, so its results reproduce.
     let member_budget = spec.method.member;
     let full = spec.method.cells.clone();
-    let mut dspec = with_model(spec, &spec.model);
-    dspec.method.cells.nonlinearity_halvings = dspec.method.cells.nonlinearity_halvings.min(4);
-    dspec.method.cells.max_cells = dspec.method.cells.max_cells.min(2000);
-    dspec.method.cells.max_leaves = dspec.method.cells.max_leaves.min(64);
-    // Each candidate's simulation member on a light budget (its fit decides; the envelope is
-    // the after-model's, identified with the spec's own budget).
-    dspec.method.member = crate::spec::MemberSpec::LIGHT;
+    let dspec = candidate_spec(spec);
     // The stage options of the table (the after-model's member on the spec's own budget).
     let mut method = dspec.method.clone();
     method.member = member_budget;

@@ -36,6 +36,12 @@ impl NoiseSpec {
         self.estimate.is_some()
     }
 
+    /// Whether the bound is still to be estimated: `estimate` without a `delta` (with both,
+    /// `delta` is the estimate already made).
+    pub fn to_estimate(&self) -> bool {
+        self.estimate.is_some() && self.delta.is_none()
+    }
+
     /// Check the estimate's margin (`>= 1`, finite).
     pub fn check_estimate(&self) -> Result<()> {
         match self.estimate {

@@ -132,7 +132,7 @@ pub fn identify(
 /// declared bound, it is [`identify`].
 pub fn identify_below(spec: &Spec, data: ExperimentData, bar: Option<f64>) -> Result<BelowBar> {
     match bar.filter(|b| b.is_finite() && *b > 0.0) {
-        Some(b) if spec.noise.estimated() && spec.noise.delta.is_none() => {
+        Some(b) if spec.noise.to_estimate() => {
             identify_estimated(spec, &data, &[], &|_| {}, Some(b))
         }
         _ => identify(spec, data, &[]).map(BelowBar::Identified),
@@ -192,13 +192,40 @@ fn identify_estimated(
     progress: &(dyn Fn(&cells::Progress) + Sync),
     bar: Option<f64>,
 ) -> Result<BelowBar> {
-    Ok(match bracket_below(spec, data, bar)? {
+    let bracket = bracket_below(spec, data, bar)?;
+    identify_bracketed(spec, data, bracket, truth, progress)
+}
+
+/// What a [`bracket_below`] leads to: its finding, or the identification at the bound it kept
+/// ([`identify_at_estimate`]).
+pub fn identify_bracketed(
+    spec: &Spec,
+    data: &ExperimentData,
+    bracket: Bracket,
+    truth: &[(String, f64)],
+    progress: &(dyn Fn(&cells::Progress) + Sync),
+) -> Result<BelowBar> {
+    Ok(match bracket {
         Bracket::Above { bar, test, detail } => BelowBar::Above { bar, test, detail },
         Bracket::Falsified(f) => BelowBar::Identified(Outcome::Falsified(f)),
         Bracket::At(d) => {
             BelowBar::Identified(identify_at_estimate(spec, data, d, truth, progress)?)
         }
     })
+}
+
+/// The margin of `noise.estimate` (at least 1.01, so a bracket's upper end is raised).
+fn estimate_margin(spec: &Spec) -> f64 {
+    spec.noise.estimate.unwrap_or(1.1).max(1.01)
+}
+
+/// Logs one step of an estimate at bound `d` (`answer`: what a consistent outcome is called).
+fn log_step<T>(label: &str, d: f64, answer: &str, r: &Result<Outcome<T>>, t0: std::time::Instant) {
+    log::info!(target: "smid::estimate", "{label}: noise bound {d:.4e}: {} ({:.2} s)", match r {
+        Ok(Outcome::Consistent(_)) => answer.to_string(),
+        Ok(Outcome::Falsified(f)) => format!("falsified: {f}").chars().take(60).collect(),
+        Err(e) => e.to_string().chars().take(60).collect(),
+    }, t0.elapsed().as_secs_f64());
 }
 
 /// The bracket of an estimated noise bound (`noise.estimate`; the spec's declared bound, if
@@ -214,7 +241,7 @@ fn identify_estimated(
 /// ([`consistent_by_method`]: the search stops at the first cell with bounds).
 pub fn bracket_below(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Result<Bracket> {
     let bar = bar.filter(|b| b.is_finite() && *b > 0.0);
-    let margin = spec.noise.estimate.unwrap_or(1.1).max(1.01);
+    let margin = estimate_margin(spec);
     // Log lines name their model: a diagnosis brackets its candidates side by side.
     let label = spec.model.label();
     // Each verdict sets its own bound.
@@ -226,11 +253,7 @@ pub fn bracket_below(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Re
     let verdict = |d: f64| {
         let t0 = std::time::Instant::now();
         let r = consistent_by_method(&with_bound(&quiet, d), data_with_bound(data, d));
-        log::info!(target: "smid::estimate", "{label}: noise bound {d:.4e}: {} ({:.2} s)", match &r {
-            Ok(Outcome::Consistent(_)) => "consistent".to_string(),
-            Ok(Outcome::Falsified(f)) => format!("falsified: {f}").chars().take(60).collect(),
-            Err(e) => e.to_string().chars().take(60).collect(),
-        }, t0.elapsed().as_secs_f64());
+        log_step(&label, d, "consistent", &r, t0);
         r
     };
     // A bar first: when the data are inconsistent at it (classical test, then the method), the
@@ -310,17 +333,13 @@ pub fn identify_at_estimate(
     truth: &[(String, f64)],
     progress: &(dyn Fn(&cells::Progress) + Sync),
 ) -> Result<Outcome<Identification>> {
-    let margin = spec.noise.estimate.unwrap_or(1.1).max(1.01);
+    let margin = estimate_margin(spec);
     let label = spec.model.label();
     let mut quiet = with_bound(spec, d);
     quiet.method.member.search = false;
     let t0 = std::time::Instant::now();
     let mut best = identify_with(&quiet, data_with_bound(data, d), truth, progress);
-    log::info!(target: "smid::estimate", "{label}: noise bound {d:.4e}: {} ({:.2} s)", match &best {
-        Ok(Outcome::Consistent(_)) => "an answer".to_string(),
-        Ok(Outcome::Falsified(f)) => format!("falsified: {f}").chars().take(60).collect(),
-        Err(e) => e.to_string().chars().take(60).collect(),
-    }, t0.elapsed().as_secs_f64());
+    log_step(&label, d, "an answer", &best, t0);
     if let Ok(Outcome::Consistent(id)) = best.as_mut() {
         id.model.method.member = spec.method.member;
         id.model.simulation_member =
@@ -346,7 +365,7 @@ pub fn identify_with(
     truth: &[(String, f64)],
     progress: &(dyn Fn(&cells::Progress) + Sync),
 ) -> Result<Outcome<Identification>> {
-    if spec.noise.estimated() && spec.noise.delta.is_none() {
+    if spec.noise.to_estimate() {
         // Measured data without a known sensor bound: estimate it, then identify with it
         // (growing it by the margin while the stage-3 method still finds the data inconsistent).
         return Ok(
