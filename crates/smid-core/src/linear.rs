@@ -206,6 +206,41 @@ impl LinearSim<'_> {
     }
 }
 
+/// `argmin |y - Φθ|_2` with column scaling, by SVD (rank-deficient columns get 0).
+pub fn least_squares(rows: &[(Vec<f64>, f64)]) -> Vec<f64> {
+    let p = rows.first().map(|r| r.0.len()).unwrap_or(0);
+    if p == 0 {
+        return Vec::new();
+    }
+    let n = rows.len() as f64;
+    let scale: Vec<f64> = (0..p)
+        .map(|k| {
+            let s = (rows.iter().map(|r| r.0[k] * r.0[k]).sum::<f64>() / n).sqrt();
+            if s > 0.0 {
+                s
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let mut ata = nalgebra::DMatrix::<f64>::zeros(p, p);
+    let mut aty = nalgebra::DVector::<f64>::zeros(p);
+    for (phi, y) in rows {
+        for i in 0..p {
+            let ri = phi[i] / scale[i];
+            aty[i] += ri * y;
+            for j in 0..p {
+                ata[(i, j)] += ri * phi[j] / scale[j];
+            }
+        }
+    }
+    let th = ata
+        .svd(true, true)
+        .solve(&aty, 1e-12)
+        .unwrap_or_else(|_| nalgebra::DVector::zeros(p));
+    (0..p).map(|k| th[k] / scale[k]).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

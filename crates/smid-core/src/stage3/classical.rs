@@ -229,8 +229,8 @@ fn orthants(unc: &[usize]) -> Vec<Vec<(usize, f64)>> {
 
 /// The least-squares fit of the centre equations `e_t(θ) = 0` (eq 28 with every sample at its
 /// interval's centre) over the rows `times`, with the size of each θ entry's term in it,
-/// `|θ̂_k| ‖column k‖` (fixed entries: their value, size 0). `None` when a centre is not finite
-/// in every row or the fit is not determined.
+/// `|θ̂_k| ‖column k‖` (fixed entries: their value, size 0); rows with a centre that is not
+/// finite (a clipped sample) are left out. `None` when fewer rows than free entries remain.
 fn centre_fit(prob: &EivProblem, times: &[usize]) -> Option<(Vec<f64>, Vec<f64>)> {
     let p = prob.p();
     let free = free_of(prob);
@@ -239,13 +239,10 @@ fn centre_fit(prob: &EivProblem, times: &[usize]) -> Option<(Vec<f64>, Vec<f64>)
     for (c, &k) in free.iter().enumerate() {
         col[k] = c;
     }
-    let mut ata = nalgebra::DMatrix::<f64>::zeros(n, n);
-    let mut atb = nalgebra::DVector::<f64>::zeros(n);
-    let mut row = vec![0.0; n];
-    let mut rows = 0;
+    let mut rows: Vec<(Vec<f64>, f64)> = Vec::new();
     for &t in times {
         // x_t + Σ a_i x_{t-i} - Σ b_j v_{t-j} - Σ c_k φ_k(t) = 0 at the centres.
-        row.iter_mut().for_each(|v| *v = 0.0);
+        let mut row = vec![0.0; n];
         let mut rhs = -prob.output[t].interval.center();
         let mut term = |k: usize, v: f64| match prob.fixed[k] {
             Some(f) => rhs -= f * v,
@@ -260,21 +257,14 @@ fn centre_fit(prob: &EivProblem, times: &[usize]) -> Option<(Vec<f64>, Vec<f64>)
         for (ex, r) in prob.extra.iter().enumerate() {
             term(prob.n_ab() + ex, -r.values[t].center());
         }
-        if !rhs.is_finite() || row.iter().any(|v| !v.is_finite()) {
-            continue;
+        if rhs.is_finite() && row.iter().all(|v| v.is_finite()) {
+            rows.push((row, rhs));
         }
-        for a in 0..n {
-            atb[a] += row[a] * rhs;
-            for b in 0..n {
-                ata[(a, b)] += row[a] * row[b];
-            }
-        }
-        rows += 1;
     }
-    if rows < n || n == 0 {
+    if rows.len() < n || n == 0 {
         return None;
     }
-    let fit = ata.clone().cholesky()?.solve(&atb);
+    let fit = crate::linear::least_squares(&rows);
     if fit.iter().any(|v| !v.is_finite()) {
         return None;
     }
@@ -285,8 +275,9 @@ fn centre_fit(prob: &EivProblem, times: &[usize]) -> Option<(Vec<f64>, Vec<f64>)
             Some(f) => theta[k] = f,
             None => {
                 let c = col[k];
+                let norm = rows.iter().map(|r| r.0[c] * r.0[c]).sum::<f64>().sqrt();
                 theta[k] = fit[c];
-                size[k] = fit[c].abs() * ata[(c, c)].sqrt();
+                size[k] = fit[c].abs() * norm;
             }
         }
     }
