@@ -206,7 +206,8 @@ impl LinearSim<'_> {
     }
 }
 
-/// `argmin |y - Φθ|_2` with column scaling, by SVD (rank-deficient columns get 0).
+/// `argmin |y - Φθ|_2` with column scaling, by SVD (rank-deficient: the least-norm solution in
+/// the scaled columns).
 pub fn least_squares(rows: &[(Vec<f64>, f64)]) -> Vec<f64> {
     let p = rows.first().map(|r| r.0.len()).unwrap_or(0);
     if p == 0 {
