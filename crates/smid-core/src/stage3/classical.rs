@@ -67,34 +67,36 @@ fn prior_sign(prob: &EivProblem, k: usize) -> Option<f64> {
     }
 }
 
+/// The terms of equation `t` (eq 7) as `(θ entry, sign, the sample it multiplies)`: the
+/// equation is `x_t + Σ sign·θ_k·sample = 0`, with `a_i` on `x_{t-i}` (+), `b_j` on `v_{t-j}`
+/// (-) and each extra coefficient on its column (-). The one place the equation's layout and
+/// signs are written for the orthant polytopes, their uncertain coefficients and the centre fit.
+fn row_terms<'p>(
+    prob: &'p EivProblem,
+    t: usize,
+) -> impl Iterator<Item = (usize, f64, Interval)> + 'p {
+    let a = (1..=prob.na).map(move |i| (i - 1, 1.0, prob.output[t - i].interval));
+    let b = (0..=prob.nb).map(move |j| (prob.na + j, -1.0, prob.input[t - j]));
+    let extra = prob
+        .extra
+        .iter()
+        .enumerate()
+        .map(move |(e, r)| (prob.n_ab() + e, -1.0, r.values[t]));
+    a.chain(b).chain(extra)
+}
+
 /// Which θ entries multiply an uncertain quantity (and so split into orthants, unless the prior
-/// fixes their sign).
+/// fixes their sign), in θ order.
 fn uncertain_coefficients(prob: &EivProblem, times: &[usize]) -> Vec<usize> {
-    let mut out = Vec::new();
-    for i in 1..=prob.na {
-        if prob.fixed[i - 1].is_none()
-            && times
-                .iter()
-                .any(|&t| prob.output[t - i].interval.radius() > 0.0)
-        {
-            out.push(i - 1);
+    let mut uncertain = vec![false; prob.p()];
+    for &t in times {
+        for (k, _, iv) in row_terms(prob, t) {
+            uncertain[k] |= iv.radius() > 0.0;
         }
     }
-    for j in 0..=prob.nb {
-        if prob.fixed[prob.na + j].is_none()
-            && times.iter().any(|&t| prob.input[t - j].radius() > 0.0)
-        {
-            out.push(prob.na + j);
-        }
-    }
-    for (e, r) in prob.extra.iter().enumerate() {
-        let k = prob.n_ab() + e;
-        if prob.fixed[k].is_none() && times.iter().any(|&t| r.values[t].radius() > 0.0) {
-            out.push(k);
-        }
-    }
-    out.retain(|&k| prior_sign(prob, k).is_none());
-    out
+    (0..prob.p())
+        .filter(|&k| uncertain[k] && prob.fixed[k].is_none() && prior_sign(prob, k).is_none())
+        .collect()
 }
 
 /// The orthant's polytope over the free θ entries (columns in the order of `free`); fixed
@@ -158,14 +160,8 @@ fn polytope(
                 }
             }
         };
-        for i in 1..=prob.na {
-            term(i - 1, 1.0, prob.output[t - i].interval, &mut lo0, &mut hi0);
-        }
-        for j in 0..=prob.nb {
-            term(prob.na + j, -1.0, prob.input[t - j], &mut lo0, &mut hi0);
-        }
-        for (ex, r) in prob.extra.iter().enumerate() {
-            term(prob.n_ab() + ex, -1.0, r.values[t], &mut lo0, &mut hi0);
+        for (k, sign, iv) in row_terms(prob, t) {
+            term(k, sign, iv, &mut lo0, &mut hi0);
         }
         // lo0 + lo·θ <= 0 and -(hi0 + hi·θ) <= 0, each where its end is finite.
         if lo0.is_finite() && lo.iter().all(|v| v.is_finite()) {
@@ -246,14 +242,8 @@ fn centre_fit(prob: &EivProblem, times: &[usize], free: &[usize]) -> Option<(Vec
             Some(f) => rhs -= f * v,
             None => row[col[k]] += v,
         };
-        for i in 1..=prob.na {
-            term(i - 1, prob.output[t - i].interval.center());
-        }
-        for j in 0..=prob.nb {
-            term(prob.na + j, -prob.input[t - j].center());
-        }
-        for (ex, r) in prob.extra.iter().enumerate() {
-            term(prob.n_ab() + ex, -r.values[t].center());
+        for (k, sign, iv) in row_terms(prob, t) {
+            term(k, sign * iv.center());
         }
         if rhs.is_finite() && row.iter().all(|v| v.is_finite()) {
             rows.push((row, rhs));
