@@ -472,15 +472,36 @@ fn an_undeclared_constant_is_offered_with_steady_state_data_and_named() {
     }
 }
 
-/// A parallel path of the input (`c·u_t` in the linear equation) with the designed
-/// steady-state experiment: at rest it scales the linear block's output (`x̄ = v̄ + v̄·c/A(1)`
-/// under unit gain), so the diagnosis offers it with its gain at rest bisected
-/// (`EquationTerm::rest_shift`) and it is named with the truth inside every bound. Before, a
-/// term whose shift at rest grows with the input was not offered with steady-state data, and
-/// the row was 0/10. Seed 1 of `smid diagnose-check`.
+/// Every registered term whose shift at rest grows with the input (generated from the
+/// registry: its `EquationTerm::rest_shift` differs at two steady inputs; a parallel path
+/// `c·u_t`, `x̄ = v̄ + ū·c/A(1)` under unit gain, and a polynomial path `c·u_{t-1}^2`,
+/// `x̄ = v̄ + ū²·c/A(1)`), with the designed steady-state experiment: the diagnosis offers it
+/// with its gain at rest bisected and it is named with the truth inside every bound. Before,
+/// a term whose shift at rest grows with the input was not offered with steady-state data, and
+/// the parallel path's row was 0/10. Seed 1 of `smid diagnose-check`.
 #[test]
-fn an_undeclared_parallel_path_is_offered_with_steady_state_data_and_named() {
-    named_trial("parallel_input", 1);
+fn every_term_whose_shift_at_rest_grows_with_the_input_is_offered_and_named() {
+    use smid_core::interval::Interval;
+    smid::link_plugins();
+    let unit = Interval::new(1.0, 1.0);
+    let tags: Vec<&str> = smid_core::effect::effects()
+        .into_iter()
+        .filter(|e| {
+            let Some(cand) = (e.candidates)().into_iter().next() else {
+                return false;
+            };
+            (e.example)().as_plant().is_some()
+                && cand.rest_parameter().is_some()
+                && cand.as_equation().is_some_and(|t| {
+                    t.rest_shift(Interval::new(2.0, 2.0), unit) != t.rest_shift(unit, unit)
+                })
+        })
+        .map(|e| e.tag)
+        .collect();
+    assert!(tags.contains(&"parallel_input"), "{tags:?}");
+    for tag in tags {
+        named_trial(tag, 1);
+    }
 }
 
 /// Where the parsimony rule picks viscous friction on the input velocity (one parameter fewer)

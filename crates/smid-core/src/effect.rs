@@ -513,17 +513,23 @@ pub struct EffectEntry {
 inventory::collect!(EffectEntry);
 
 impl EffectEntry {
-    /// The registered example with every non-integer value scaled by `f` (a true effect of
-    /// another size, as the checks draw them).
+    /// The registered example with every non-integer value scaled by `f`, in a list too (a
+    /// true effect of another size, as the checks draw them; integers are settings).
     pub fn scaled_example(&self, f: f64) -> Result<Box<dyn Effect>> {
         let bad = |e: serde_json::Error| {
             SmidError::invalid("effect", format!("`{}` scaled by {f}: {e}", self.tag))
         };
+        let scale = |x: &mut serde_json::Value| {
+            if let Some(n) = x.as_f64().filter(|_| !(x.is_u64() || x.is_i64())) {
+                *x = serde_json::json!(n * f);
+            }
+        };
         let mut v = serde_json::to_value((self.example)()).map_err(bad)?;
         if let Some(o) = v.as_object_mut() {
             for (_, x) in o.iter_mut() {
-                if let Some(n) = x.as_f64().filter(|_| !(x.is_u64() || x.is_i64())) {
-                    *x = serde_json::json!(n * f);
+                match x.as_array_mut() {
+                    Some(list) => list.iter_mut().for_each(scale),
+                    None => scale(x),
                 }
             }
         }

@@ -14,6 +14,9 @@
 //! | `quantization` | sensor map | `y = step·round(w/step)`: `w` within `step/2` of a lattice value `k·step` in `y ± Δη`; `step` declared or bisected | `w` rounded to the step |
 //! | `coulomb_friction` | equation | `c · sign(u_t - u_{t-1})` (0 below 1e-3 of the largest move) | the same term with `value` |
 //! | `viscous_friction` | equation | `c · (u_t - u_{t-1})/dt` | the same term with `value` |
+//! | `constant` | equation | `c · 1` | the same term with `value` |
+//! | `parallel_input` | equation | `c · u_t` | the same term with `value` |
+//! | `input_power` | equation | `Σ_j c_j · u_{t-d-j}^p` (`degree` p, `delay` d, `lags`) | the same terms with `values` |
 //!
 //! Equation terms use the input velocity: they vanish at steady state, so stage 1 holds.
 #![forbid(unsafe_code)]
@@ -899,6 +902,230 @@ register_effect!(
     [ParallelInput { value: None }]
 );
 
+fn two() -> u32 {
+    2
+}
+
+/// An integer field of [`InputPower`] read within `lo..=hi`, else an error naming the field
+/// and what is expected.
+fn ranged<'de, D: serde::Deserializer<'de>>(
+    d: D,
+    field: &str,
+    lo: usize,
+    hi: usize,
+    note: &str,
+) -> std::result::Result<usize, D::Error> {
+    let n = usize::deserialize(d)?;
+    if (lo..=hi).contains(&n) {
+        Ok(n)
+    } else {
+        Err(serde::de::Error::custom(format!(
+            "{field}: expected an integer from {lo} to {hi}, got {n}{note}"
+        )))
+    }
+}
+/// `degree` in `2..=5` (1 is `parallel_input`, 0 the `constant`).
+fn degree_2_to_5<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<u32, D::Error> {
+    ranged(d, "degree", 2, 5, " (1 is `parallel_input`, 0 `constant`)").map(|p| p as u32)
+}
+/// `delay` in `0..=1000`, as the linear block's `nk`.
+fn delay_0_to_1000<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<usize, D::Error> {
+    ranged(d, "delay", 0, 1000, "")
+}
+/// `lags` in `1..=8`, as the orders (a spec cannot make a term of thousands of columns).
+fn lags_1_to_8<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<usize, D::Error> {
+    ranged(d, "lags", 1, 8, "")
+}
+
+/// A polynomial path of the input beside the linear one (a Hammerstein polynomial's
+/// higher-degree part): the terms `c_j · u_{t-d-j}^p`, `j = 0..lags`, with `d` the first lag
+/// and `p` the degree. A tank drained through an orifice (Torricelli) settles at a level that
+/// grows with the square of the inflow, which a linear block cannot hold. The input is
+/// measured, so each column is exact; before the record's start (`t < d + j`) the value is
+/// unknown and the equation is not used there (a simulation, which starts at rest, reads 0
+/// there, as it reads the linear block's input before its delay). It does not vanish at rest:
+/// there it shifts the linear block's output by `g·ū^p` (unit gain), with `g = Σc_j / A(1)`.
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct InputPower {
+    /// The degree `p` of the power, an integer from 2 to 5 (default 2).
+    #[serde(default = "two", deserialize_with = "degree_2_to_5")]
+    #[schemars(range(min = 2, max = 5))]
+    pub degree: u32,
+    /// The first lag `d` (default 1: `u_{t-1}^p`, as the linear block reads `u` with `nk = 1`).
+    #[serde(default = "one", deserialize_with = "delay_0_to_1000")]
+    #[schemars(range(max = 1000))]
+    pub delay: usize,
+    /// How many lags `d, d+1, ...` get a coefficient (default 1).
+    #[serde(default = "one", deserialize_with = "lags_1_to_8")]
+    #[schemars(range(min = 1, max = 8))]
+    pub lags: usize,
+    /// True coefficients `c_0..c_{lags-1}` (simulator only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub values: Option<Vec<f64>>,
+}
+
+impl InputPower {
+    /// The column name of lag `d + j`: `u2_lag1` for `u_{t-1}^2`.
+    fn name(&self, j: usize) -> String {
+        format!("u{}_lag{}", self.degree, self.delay + j)
+    }
+    /// `u_{t-lag}^p`, `None` before the record's start.
+    fn value(&self, u: &[f64], t: usize, lag: usize) -> Option<f64> {
+        let k = t.checked_sub(lag)?;
+        u.get(k).map(|v| v.powi(self.degree as i32))
+    }
+    /// The lags `d..d+lags`.
+    fn lag_range(&self) -> std::ops::Range<usize> {
+        self.delay..self.delay + self.lags
+    }
+}
+
+impl EquationTerm for InputPower {
+    fn regressors(&self, s: &Signals) -> Vec<Column> {
+        self.lag_range()
+            .enumerate()
+            .map(|(j, lag)| Column {
+                name: self.name(j),
+                values: (0..s.u.len())
+                    .map(|t| {
+                        self.value(s.u, t, lag)
+                            .map_or_else(Interval::entire, |v| Interval::new(v, v))
+                    })
+                    .collect(),
+            })
+            .collect()
+    }
+    fn vanishes_at_steady_state(&self) -> bool {
+        false
+    }
+    /// At rest `A(1)·x̄ = B(1)·v̄ + Σc_j·ū^p`: with unit gain, `x̄ = v̄ + g·ū^p` for
+    /// `g = Σc_j/A(1)`, the shift at the unit measured input.
+    fn rest_parameter(&self) -> Option<String> {
+        Some(format!("u{}_gain_at_rest", self.degree))
+    }
+    /// A shift of at most half the input's range over the input's range: `|g| <= h/max|u|^p`
+    /// with `h` half the range (the constant's box, scaled by the power).
+    fn rest_prior(&self, scale: &DataScale) -> Interval {
+        let (lo, hi) = scale.u_range;
+        let h = 0.5 * (hi - lo).abs();
+        let m = lo.abs().max(hi.abs()).powi(self.degree as i32);
+        let g = if m > 0.0 && (h / m).is_finite() {
+            h / m
+        } else {
+            h
+        };
+        Interval::new(-g, g)
+    }
+    /// `g·u^p` over the boxes of both (the power of an interval: 0 inside it for an even
+    /// degree when `u` holds 0), rounded outward.
+    fn rest_shift(&self, u: Interval, g: Interval) -> Interval {
+        let p = self.degree as i32;
+        let (a, b) = (u.lo.powi(p), u.hi.powi(p));
+        let (mut lo, hi) = (a.min(b), a.max(b));
+        if p % 2 == 0 && u.lo < 0.0 && u.hi > 0.0 {
+            lo = 0.0;
+        }
+        let q = [lo * g.lo, lo * g.hi, hi * g.lo, hi * g.hi];
+        let lo = q.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = q.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        // `powi` rounds each product: a relative pad of a few ulps per factor.
+        Interval::new(lo, hi).widen(1e-14, 0.0).outward()
+    }
+}
+
+impl PlantEffect for InputPower {
+    fn validate_plant(&self) -> Result<()> {
+        let v = self.values.as_ref().ok_or_else(|| {
+            SmidError::invalid(
+                "values",
+                "a simulator needs the true coefficients of this effect",
+            )
+        })?;
+        if v.len() != self.lags || v.iter().any(|c| !c.is_finite()) {
+            return Err(SmidError::invalid(
+                "values",
+                format!(
+                    "expected {} finite coefficients (one per lag), got {v:?}",
+                    self.lags
+                ),
+            ));
+        }
+        Ok(())
+    }
+    fn plant_equation(&self, s: &Signals) -> Option<Vec<f64>> {
+        let c = self.values.clone().unwrap_or_default();
+        Some(
+            (0..s.u.len())
+                .map(|t| {
+                    self.lag_range()
+                        .zip(&c)
+                        .map(|(lag, c)| c * self.value(s.u, t, lag).unwrap_or(0.0))
+                        .sum()
+                })
+                .collect(),
+        )
+    }
+    fn truth(&self) -> Vec<(String, f64)> {
+        self.values
+            .iter()
+            .flatten()
+            .enumerate()
+            .map(|(j, c)| (self.name(j), *c))
+            .collect()
+    }
+}
+
+#[typetag::serde(name = "input_power")]
+impl Effect for InputPower {
+    fn label(&self) -> String {
+        let lags: Vec<String> = self.lag_range().map(|l| l.to_string()).collect();
+        format!(
+            "polynomial path of the input: u^{} at lag {}",
+            self.degree,
+            lags.join(", ")
+        )
+    }
+    fn as_equation(&self) -> Option<&dyn EquationTerm> {
+        Some(self)
+    }
+    fn as_plant(&self) -> Option<&dyn PlantEffect> {
+        Some(self)
+    }
+    fn settings(&self) -> Vec<(String, f64)> {
+        vec![
+            ("degree".into(), self.degree as f64),
+            ("delay".into(), self.delay as f64),
+            ("lags".into(), self.lags as f64),
+        ]
+    }
+}
+register_effect!(
+    "input_power",
+    InputPower,
+    41,
+    InputPower {
+        degree: 2,
+        delay: 1,
+        lags: 1,
+        values: Some(vec![0.05])
+    },
+    [
+        InputPower {
+            degree: 2,
+            delay: 1,
+            lags: 1,
+            values: None
+        },
+        InputPower {
+            degree: 2,
+            delay: 1,
+            lags: 2,
+            values: None
+        }
+    ]
+);
+
 /// Make this crate part of a binary (so its effects are registered).
 pub fn link() {}
 
@@ -1050,6 +1277,108 @@ mod tests {
         assert!(col[0].contains(-1.0) && col[0].contains(1.0)); // unknown at the start
         assert!(c.uses_output());
         assert_eq!(c.regressors_at(&s, 2), vec![1.0]);
+    }
+
+    /// The polynomial path's columns are the input's powers at their lags (unknown before the
+    /// record's start), the plant's term is their sum with its coefficients, and its shift at
+    /// rest holds `g·ū^p` for every `ū`, `g` in random boxes (each degree, boxes across 0).
+    #[test]
+    fn the_input_power_path_matches_the_plant_and_its_rest_shift_holds_every_point() {
+        let mut seed = 777u64;
+        let mut rnd = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for case in 0..200 {
+            let degree = 2 + (case % 4) as u32;
+            let delay = case % 3;
+            let lags = 1 + (case / 3) % 3;
+            let n = 5 + (rnd() * 20.0) as usize;
+            let u: Vec<f64> = (0..n).map(|_| 8.0 * rnd() - 4.0).collect();
+            let values: Vec<f64> = (0..lags).map(|_| rnd() - 0.5).collect();
+            let e = InputPower {
+                degree,
+                delay,
+                lags,
+                values: Some(values.clone()),
+            };
+            let s = Signals::input(&u, 1.0);
+            let cols = e.regressors(&s);
+            assert_eq!(cols.len(), lags);
+            let plant = e.plant_equation(&s).unwrap();
+            for t in 0..n {
+                let mut sum = 0.0;
+                for (j, col) in cols.iter().enumerate() {
+                    let lag = delay + j;
+                    if t < lag {
+                        assert!(!col.values[t].is_finite(), "case {case}: t {t} lag {lag}");
+                    } else {
+                        let want = u[t - lag].powi(degree as i32);
+                        assert_eq!(col.values[t], Interval::new(want, want));
+                        sum += values[j] * want;
+                    }
+                }
+                assert!(
+                    (plant[t] - sum).abs() <= 1e-12 * (1.0 + sum.abs()),
+                    "case {case}"
+                );
+            }
+            let names: Vec<&str> = cols.iter().map(|c| c.name.as_str()).collect();
+            let truth: Vec<String> = e.truth().into_iter().map(|(n, _)| n).collect();
+            assert_eq!(names, truth);
+            // The shift at rest over boxes, sampled.
+            let (a, b) = (4.0 * rnd() - 2.0, 4.0 * rnd() - 2.0);
+            let ub = Interval::new(a.min(b), a.max(b));
+            let (g1, g2) = (2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0);
+            let gb = Interval::new(g1.min(g2), g1.max(g2));
+            let shift = e.rest_shift(ub, gb);
+            for k in 0..=20 {
+                for l in 0..=4 {
+                    let uv = ub.lo + (ub.hi - ub.lo) * k as f64 / 20.0;
+                    let gv = gb.lo + (gb.hi - gb.lo) * l as f64 / 4.0;
+                    let v = gv * uv.powi(degree as i32);
+                    assert!(shift.contains(v), "case {case}: {v} outside {shift:?}");
+                }
+            }
+        }
+    }
+
+    /// Out-of-range settings of the polynomial path are refused at parsing, naming the field.
+    #[test]
+    fn input_power_settings_out_of_range_name_the_field() {
+        for (text, field) in [
+            (r#"{"degree": 1}"#, "degree"),
+            (r#"{"degree": 9}"#, "degree"),
+            (r#"{"lags": 0}"#, "lags"),
+            (r#"{"lags": 40}"#, "lags"),
+            (r#"{"delay": 100000}"#, "delay"),
+        ] {
+            let e = serde_json::from_str::<InputPower>(text)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains(field) && e.contains("expected an integer"),
+                "{text}: {e}"
+            );
+        }
+        let ok: InputPower = serde_json::from_str("{}").unwrap();
+        assert_eq!((ok.degree, ok.delay, ok.lags), (2, 1, 1));
+        let e = InputPower {
+            values: Some(vec![0.1]),
+            ..ok.clone()
+        };
+        assert!(e.validate_plant().is_ok());
+        let e = InputPower {
+            values: Some(vec![0.1, 0.2]),
+            ..ok
+        };
+        assert!(e
+            .validate_plant()
+            .unwrap_err()
+            .to_string()
+            .contains("values"));
     }
 
     #[test]
