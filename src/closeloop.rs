@@ -485,9 +485,13 @@ fn verdict_text(t: &diagnose::TrainVerdict) -> String {
             fit_percent,
             bound,
             unsettled,
+            within,
         } => format!(
-            "consistent at bound {bound:.3e}, training free-run fit {}{}",
+            "consistent at bound {bound:.3e}, training free-run fit {}{}{}",
             pct(*fit_percent),
+            within.map_or(String::new(), |e| format!(
+                ", its member within {e:.3e} of every training sample"
+            )),
             unsettled.map_or(String::new(), |g| format!(
                 " (stage 3's rounds not settled: the last shrank a radius by {:.1} %, so more rounds may falsify it)",
                 100.0 * g

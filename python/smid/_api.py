@@ -223,7 +223,10 @@ class ModelSet:
     def simulation_member(self) -> Optional[Dict[str, Any]]:
         """The member certified consistent whose free run fits the training records best:
         ``values`` (name -> value), ``training_fit`` and the centre's ``centre_training_fit``
-        (%), ``cell``, ``consistency``, ``certified``. When no point was certified within the
+        (%), ``cell``, ``consistency``, ``certified``, and ``within`` (when the records have no
+        steady-state points): the largest distance of its free run from any training sample,
+        a bound at which the model is consistent, so the model's exact smallest consistent bound
+        is at most it. When no point was certified within the
         search budget it is the best free run within the outer bounds with ``certified`` False
         (a stand-in for simulation, not a member of the set); ``None`` when not searched (the
         centre stands in)."""

@@ -128,6 +128,21 @@ def test_identify_arrays_bounds_hold_the_truth():
     assert all(r.radius < 0.1)
 
 
+def test_the_members_distance_is_a_bound_at_which_the_model_is_consistent():
+    """``simulation_member["within"]``: the largest distance of the member's free run from the
+    training samples. The model declared with that bound is consistent with the same arrays (a
+    point of it lies that close), and with a bound well below the noise it is not."""
+    for seed in (3, 4):
+        u, y, _ = simulated_linear(seed=seed)
+        r = smid.identify_arrays(u, y, model=LINEAR, noise={"delta": 0.0105}, method={"eiv": "classical"})
+        e = r.model.simulation_member["within"]
+        assert np.isfinite(e) and e > 0, e
+        again = smid.identify_arrays(u, y, model=LINEAR, noise={"delta": e * (1 + 1e-9)}, method={"eiv": "classical"})
+        assert again.consistent, (seed, e, again.verdict)
+        low = smid.identify_arrays(u, y, model=LINEAR, noise={"delta": 0.3 * e}, method={"eiv": "classical"})
+        assert not low.consistent, (seed, e)
+
+
 def test_falsification_is_a_result_not_an_exception():
     u, y, _ = simulated_linear()
     y = y.copy()

@@ -93,6 +93,11 @@ pub enum TrainVerdict {
         /// capped rounds did not falsify the model; more rounds may.
         #[serde(skip_serializing_if = "Option::is_none")]
         unsettled: Option<f64>,
+        /// The largest distance of that member's free run from any training sample
+        /// ([`crate::members::training_within`]): the model's exact smallest consistent bound
+        /// is at most it (`bound` came from where a relaxation stops falsifying).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        within: Option<f64>,
     },
     /// The training data falsify the model.
     Falsified {
@@ -1063,6 +1068,7 @@ fn try_model_with(
                     fit_percent: fit,
                     bound,
                     unsettled: id.model.unsettled(),
+                    within: id.model.simulation_member.as_ref().and_then(|m| m.within),
                 },
                 Some(id),
             )
@@ -1797,8 +1803,14 @@ fn refine_contenders(
         let Some(set) = sets[i].as_mut() else {
             continue;
         };
-        if let TrainVerdict::Consistent { fit_percent, .. } = &mut cands[i].1.train {
+        if let TrainVerdict::Consistent {
+            fit_percent,
+            within,
+            ..
+        } = &mut cands[i].1.train
+        {
             if fit > *fit_percent {
+                *within = m.as_ref().and_then(|m| m.within);
                 set.simulation_member = m;
                 *fit_percent = fit;
                 changed = true;
@@ -2446,6 +2458,7 @@ mod tests {
             fit_percent: 0.0,
             bound: 1.0,
             unsettled: None,
+            within: None,
         };
         assert!(ok.reach() > f(lin, 9, 999, true).reach());
     }
@@ -2461,6 +2474,7 @@ mod tests {
                     fit_percent: f,
                     bound: 1e-3,
                     unsettled: None,
+                    within: None,
                 },
                 None => TrainVerdict::Failed {
                     message: "falsified".into(),
@@ -2482,6 +2496,7 @@ mod tests {
             fit_percent: 80.0,
             bound: 1.0,
             unsettled: None,
+            within: None,
         };
         let mut ev: Vec<Evidence> = ["far", "worse", "fails", "pick", "near", "wider"]
             .iter()
@@ -2508,6 +2523,7 @@ mod tests {
                 fit_percent: fits[i],
                 bound: d,
                 unsettled: None,
+                within: None,
             }
         });
         assert_eq!(asked, vec![1, 2, 3, 4, 5]);

@@ -584,6 +584,12 @@ pub struct SimulationMember {
     /// stand-in for simulation (reported as not certified, never as a member of the set).
     #[serde(default = "certified_default")]
     pub certified: bool,
+    /// The largest distance of its free run from any training sample
+    /// ([`crate::members::training_within`]): a point of the model consistent at that bound,
+    /// so the model's exact smallest consistent bound is at most it. `None` where not
+    /// computed (steady-state data, a run that diverges).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub within: Option<f64>,
 }
 
 fn certified_default() -> bool {
@@ -717,6 +723,7 @@ mod tests {
             evaluations: 3,
             envelope: Vec::new(),
             certified: false,
+            within: None,
         };
         let v = serde_json::to_value(&m).unwrap();
         assert!(v["consistency"].is_null() && v["centre_training_fit"].is_null());

@@ -78,6 +78,12 @@ pub fn table(id: &Identification) -> String {
             );
         }
     }
+    if let Some(e) = member.and_then(|m| m.within) {
+        let _ = writeln!(
+            s,
+            "member: its free run lies within {e:.3e} of every training sample, so the model's exact smallest consistent bound is at most {e:.3e} (a bound stage 3's relaxation falsifies is a lower end)"
+        );
+    }
     if let Some(w) = id.model.unsettled_warning() {
         let _ = writeln!(s, "warning: {w}");
     }

@@ -848,6 +848,51 @@ impl ModelPoint {
     }
 }
 
+/// The largest distance `max_t |y_t - ŷ_t|` over every training sample between the records and
+/// the free run of the member at `values`, started at the model's first equation
+/// `t0 = max(na, nb + nk)` (before it the linear block's output is the inner estimate, as
+/// the model leaves it free there, and `ŷ` is that estimate measured through the member's
+/// own output blocks and sensor terms). From `t0` on the run obeys the model's equation
+/// (eq 1 with the effects' terms) exactly, so the member with that run is a point of the
+/// model at which every training output lies within this bound: the model's **exact**
+/// smallest consistent bound is at most it, whatever stage 3's relaxations say (they give the
+/// lower end: a bound they falsify). `None` with steady-state points (the member's response at
+/// rest is not checked here), where the run is not finite, or where the member's `θ` lies
+/// outside the model's prior box (`model.stable`).
+pub fn training_within(set: &ModelSet, values: &[(String, f64)]) -> Result<Option<f64>> {
+    if set.training.steady.is_some() {
+        return Ok(None);
+    }
+    let layout = set.layout()?;
+    if let Some(prior) = &layout.theta_prior {
+        let outside = layout.theta_names.iter().zip(prior).any(|(n, b)| {
+            values
+                .iter()
+                .find(|(k, _)| k == n)
+                .is_some_and(|(_, v)| !b.contains(*v))
+        });
+        if outside {
+            return Ok(None);
+        }
+    }
+    let p = point(set, values)?;
+    let o = layout.orders;
+    let t0 = o.na.max(o.nb + o.nk);
+    let mut worst = 0.0f64;
+    for rec in &set.training.records {
+        let xd = inner_estimate(set, &p, rec)?;
+        let run = p.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, t0.min(rec.y.len()));
+        for (y, yh) in rec.y.iter().zip(&run.y) {
+            let e = (y - yh).abs();
+            if !e.is_finite() {
+                return Ok(None);
+            }
+            worst = worst.max(e);
+        }
+    }
+    Ok(Some(worst))
+}
+
 /// The inner-signal estimate a k-step predictor starts from: Hammerstein without output blocks
 /// `y - s` (the centre member's sensor terms), otherwise the centres of the stage-2 bounds of
 /// the first cell where inverted, the free-run inner signal elsewhere.

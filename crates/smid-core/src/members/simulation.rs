@@ -636,6 +636,7 @@ impl<'s> Search<'s> {
                     evaluations: 0,
                     envelope: Vec::new(),
                     certified: true,
+                    within: None,
                 },
             )
         })
@@ -829,6 +830,7 @@ impl<'s> Search<'s> {
                     evaluations: 0,
                     envelope: Vec::new(),
                     certified: false,
+                    within: None,
                 },
             )
         })
@@ -1063,6 +1065,7 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
     Ok(best.map(|(_, mut m)| {
         m.centre_training_fit = centre_fit;
         m.evaluations = search.evaluations.load(Relaxed);
+        m.within = super::training_within(set, &m.values).ok().flatten();
         m
     }))
 }
