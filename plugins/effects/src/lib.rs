@@ -1133,6 +1133,17 @@ pub fn link() {}
 mod tests {
     use super::*;
 
+    /// Uniform draws in `[0, 1)` from a seed (a linear congruential generator: the tests'
+    /// cases without a dependency).
+    fn draws(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     #[test]
     fn sensor_terms_contain_every_member_of_the_cell() {
         let d = Drift {
@@ -1159,13 +1170,7 @@ mod tests {
     #[test]
     fn a_quantiser_inverts_to_every_true_output_and_rules_out_wrong_steps() {
         let q = Quantization { step: None };
-        let mut seed = 12345u64;
-        let mut rnd = move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = draws(12345);
         let mut ruled_out = 0;
         for case in 0..300 {
             let step = 10f64.powf(-3.0 + 2.5 * rnd());
@@ -1284,13 +1289,7 @@ mod tests {
     /// rest holds `g·ū^p` for every `ū`, `g` in random boxes (each degree, boxes across 0).
     #[test]
     fn the_input_power_path_matches_the_plant_and_its_rest_shift_holds_every_point() {
-        let mut seed = 777u64;
-        let mut rnd = move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = draws(777);
         for case in 0..200 {
             let degree = 2 + (case % 4) as u32;
             let delay = case % 3;
