@@ -18,8 +18,9 @@ use smid_core::SmidError;
 use common::PAPER_TRUTH as TRUTH;
 const A1: f64 = 2.2;
 
-/// Registered effects whose candidate names a shift at rest: `(tag, rest parameter)`.
-fn shifting_effects() -> Vec<(&'static str, String)> {
+/// Registered effects whose candidate names a shift at rest: `(tag, rest parameter, whether
+/// the term keeps the designed experiment valid)`.
+fn shifting_effects() -> Vec<(&'static str, String, bool)> {
     smid::link_plugins();
     effect::effects()
         .into_iter()
@@ -27,10 +28,15 @@ fn shifting_effects() -> Vec<(&'static str, String)> {
             let cand = (e.candidates)().into_iter().next()?;
             let name = cand.rest_parameter()?;
             (e.example)().as_plant()?;
-            Some((e.tag, name))
+            Some((e.tag, name, cand.keeps_steady_design()))
         })
         .collect()
 }
+
+/// The backlash's prior box (around the paper's truth) for a term that breaks the designed
+/// experiment: the steady-state points then reach the backlash only through its cells.
+const BACKLASH_PRIOR: &str =
+    ", m_l: [0.2, 0.3], c_l: [0.0, 0.15], m_r: [0.2, 0.3], c_r: [0.0, 0.15]";
 
 /// The example of `tag` with its numbers scaled by `f` (its true values).
 fn run(text: &str) -> Outcome<smid::core::pipeline::Identification> {
@@ -41,7 +47,15 @@ fn run(text: &str) -> Outcome<smid::core::pipeline::Identification> {
         .unwrap_or_else(|e| panic!("{e}\n{text}"))
 }
 
-fn spec_text(seed: u64, plant_effect: &str, tag: &str, rest: &str, rng: &mut impl Rng) -> String {
+fn spec_text(
+    seed: u64,
+    plant_effect: &str,
+    tag: &str,
+    rest: &str,
+    keeps_design: bool,
+    rng: &mut impl Rng,
+) -> String {
+    let boxed = if keeps_design { "" } else { BACKLASH_PRIOR };
     common::paper_plant_spec(
         &format!("rest-shift-{tag}"),
         seed,
@@ -51,7 +65,7 @@ fn spec_text(seed: u64, plant_effect: &str, tag: &str, rest: &str, rng: &mut imp
             common::random_dynamic_record(rng)
         ),
         &format!(
-            "  unit_gain: true\n  effects: [ {{ type: {tag} }} ]\n  prior: {{ {rest}: [-0.4, 0.4] }}\n"
+            "  unit_gain: true\n  effects: [ {{ type: {tag} }} ]\n  prior: {{ {rest}: [-0.4, 0.4]{boxed} }}\n"
         ),
         "",
     )
@@ -111,10 +125,10 @@ method:
 fn a_term_that_shifts_the_rest_keeps_every_bound_around_the_truth_with_steady_state_data() {
     let cases = shifting_effects();
     assert!(
-        cases.iter().any(|(t, _)| *t == "constant"),
+        cases.iter().any(|(t, _, _)| *t == "constant"),
         "the registry's constant names its shift at rest: {cases:?}"
     );
-    for (k, (tag, rest)) in cases.iter().enumerate() {
+    for (k, (tag, rest, keeps)) in cases.iter().enumerate() {
         for trial in 0..3u64 {
             let seed = 70 + 10 * k as u64 + trial;
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
@@ -153,10 +167,19 @@ fn a_term_that_shifts_the_rest_keeps_every_bound_around_the_truth_with_steady_st
             truth.push((rest.clone(), shift));
             truth.extend(plant_effect.truth());
             // Wiener (the paper's plant), then Hammerstein through the polygons (trial 1) or
-            // with the play bisected and pruned by the points (trial 2).
+            // with the play bisected and pruned by the points (trial 2). A term that breaks
+            // the designed experiment (`EquationTerm::keeps_steady_design`) has its polygons
+            // refused, so the nonlinearity gets a prior box in every trial.
             let text = match trial {
-                0 => spec_text(seed, &value.to_string(), tag, rest, &mut rng),
-                t => hammerstein_spec_text(seed, &value.to_string(), tag, rest, t == 2, &mut rng),
+                0 => spec_text(seed, &value.to_string(), tag, rest, *keeps, &mut rng),
+                t => hammerstein_spec_text(
+                    seed,
+                    &value.to_string(),
+                    tag,
+                    rest,
+                    t == 2 || !keeps,
+                    &mut rng,
+                ),
             };
             smid::link_plugins();
             let spec = smid::parse_spec(&text, std::path::Path::new("<rest-shift>"))
@@ -194,6 +217,7 @@ fn without_the_shift_the_steady_state_points_miss_the_true_plays() {
         "{\"type\": \"constant\", \"value\": 0.12}",
         "constant",
         "constant_at_rest",
+        true,
         &mut rng,
     )
     .replace(
@@ -226,6 +250,7 @@ fn a_shift_at_rest_without_its_prior_is_refused_naming_the_prior_to_give() {
         "{\"type\": \"constant\", \"value\": 0.05}",
         "constant",
         "constant_at_rest",
+        true,
         &mut rng,
     )
     .replace("  prior: { constant_at_rest: [-0.4, 0.4] }\n", "");

@@ -130,13 +130,22 @@ def test_identify_arrays_bounds_hold_the_truth():
 
 def test_the_members_distance_is_a_bound_at_which_the_model_is_consistent():
     """``simulation_member["within"]``: the largest distance of the member's free run from the
-    training samples. The model declared with that bound is consistent with the same arrays (a
-    point of it lies that close), and with a bound well below the noise it is not."""
+    training samples, the run started at the model's first equation (t0 = max(na, nb + nk) = 3,
+    the measured outputs before it), recomputed here from the member's values. The model
+    declared with that bound is consistent with the same arrays (a point of it lies that close),
+    and with a bound well below the noise it is not."""
     for seed in (3, 4):
         u, y, _ = simulated_linear(seed=seed)
         r = smid.identify_arrays(u, y, model=LINEAR, noise={"delta": 0.0105}, method={"eiv": "classical"})
-        e = r.model.simulation_member["within"]
+        m = r.model.simulation_member
+        e = m["within"]
         assert np.isfinite(e) and e > 0, e
+        v = m["values"]
+        x = np.array(y, dtype=float)
+        for t in range(3, len(y)):
+            x[t] = (-v["a1"] * x[t - 1] - v["a2"] * x[t - 2]
+                    + v["b0"] * u[t - 1] + v["b1"] * u[t - 2] + v["b2"] * u[t - 3])
+        assert abs(e - np.max(np.abs(y - x))) <= 1e-9 * (1 + e), (seed, e, np.max(np.abs(y - x)))
         again = smid.identify_arrays(u, y, model=LINEAR, noise={"delta": e * (1 + 1e-9)}, method={"eiv": "classical"})
         assert again.consistent, (seed, e, again.verdict)
         low = smid.identify_arrays(u, y, model=LINEAR, noise={"delta": 0.3 * e}, method={"eiv": "classical"})

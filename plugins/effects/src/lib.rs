@@ -999,6 +999,14 @@ impl EquationTerm for InputPower {
     fn vanishes_at_steady_state(&self) -> bool {
         false
     }
+    /// No: under the filtered square wave the input sweeps between `±a`, and `g·u^p` is not
+    /// linear in it (`u²` dips to 0 at every crossing; an odd power against the linear path
+    /// turns back), so the linear block's output may reverse on its way to the next level
+    /// (quasi-statically when `2|g|a > |G|` for the square) and a backlash then holds the
+    /// excursion, which stage 1's polygons (eqs 13-20) do not allow for.
+    fn keeps_steady_design(&self) -> bool {
+        false
+    }
     /// At rest `A(1)·x̄ = B(1)·v̄ + Σc_j·ū^p`: with unit gain, `x̄ = v̄ + g·ū^p` for
     /// `g = Σc_j/A(1)`, the shift at the unit measured input.
     fn rest_parameter(&self) -> Option<String> {

@@ -11,7 +11,7 @@ use crate::effect::{self, Effect, Signals};
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
 use crate::linear::LinearModel;
-use crate::model::ModelSet;
+use crate::model::{Layout, ModelSet};
 use crate::nonlinearity::{Nonlinearity, Structure};
 use std::ops::Range;
 
@@ -698,9 +698,12 @@ impl ModelPoint {
             let n = e.regressors(&Signals::input(&[], dt)).len();
             if e.uses_output() {
                 let vals = e.regressors_at(&Signals { u, dt, x: Some(x) }, s);
+                // An unknown regressor (a velocity before the run's second sample) adds
+                // nothing, as in `equation_terms`: stage 3 uses no equation there.
                 d += self.extras[k..k + n]
                     .iter()
                     .zip(&vals)
+                    .filter(|(_, v)| v.is_finite())
                     .map(|(c, v)| c * v)
                     .sum::<f64>();
             }
@@ -857,25 +860,18 @@ impl ModelPoint {
 /// model at which every training output lies within this bound: the model's **exact**
 /// smallest consistent bound is at most it, whatever stage 3's relaxations say (they give the
 /// lower end: a bound they falsify). `None` with steady-state points (the member's response at
-/// rest is not checked here), where the run is not finite, or where the member's `θ` lies
-/// outside the model's prior box (`model.stable`).
+/// rest is not checked here), where the run is not finite, or where the point lies outside
+/// the model class (see `in_model_class`: fixed entries, the prior boxes, unit gain,
+/// stability as declared).
 pub fn training_within(set: &ModelSet, values: &[(String, f64)]) -> Result<Option<f64>> {
     if set.training.steady.is_some() {
         return Ok(None);
     }
     let layout = set.layout()?;
-    if let Some(prior) = &layout.theta_prior {
-        let outside = layout.theta_names.iter().zip(prior).any(|(n, b)| {
-            values
-                .iter()
-                .find(|(k, _)| k == n)
-                .is_some_and(|(_, v)| !b.contains(*v))
-        });
-        if outside {
-            return Ok(None);
-        }
-    }
     let p = point(set, values)?;
+    if !in_model_class(set, layout, values, &p) {
+        return Ok(None);
+    }
     let o = layout.orders;
     let t0 = o.na.max(o.nb + o.nk);
     let mut worst = 0.0f64;
@@ -891,6 +887,50 @@ pub fn training_within(set: &ModelSet, values: &[(String, f64)]) -> Result<Optio
         }
     }
     Ok(Some(worst))
+}
+
+/// Whether the point `p` (assembled from `values`) lies in the model class the set was
+/// identified in: its `θ` (as assembled: unit gain applied, fixed entries) at every fixed value,
+/// inside the prior box (`model.stable`), with the static gain 1 under `unit_gain` and the roots
+/// of `A` in the closed unit disc under `stable`; every bisected parameter given in `values`
+/// inside its prior.
+fn in_model_class(
+    set: &ModelSet,
+    layout: &Layout,
+    values: &[(String, f64)],
+    p: &ModelPoint,
+) -> bool {
+    let theta: Vec<f64> = p
+        .linear
+        .a
+        .iter()
+        .chain(&p.linear.b)
+        .chain(&p.extras)
+        .copied()
+        .collect();
+    let close = |x: f64, y: f64| (x - y).abs() <= 1e-9 * (1.0 + x.abs().max(y.abs()));
+    let fixed_ok = layout
+        .fixed
+        .iter()
+        .zip(&theta)
+        .all(|(f, v)| f.is_none_or(|f| close(f, *v)));
+    let prior_ok = layout
+        .theta_prior
+        .as_ref()
+        .is_none_or(|b| b.iter().zip(&theta).all(|(b, v)| b.contains(*v)));
+    let gain_ok = !set.model.unit_gain
+        || close(
+            p.linear.b.iter().sum::<f64>(),
+            1.0 + p.linear.a.iter().sum::<f64>(),
+        );
+    let stable_ok = !set.model.stable || crate::linear::spectral_radius(&p.linear.a) <= 1.0 + 1e-9;
+    let psi_ok = layout.dims.iter().all(|d| {
+        values
+            .iter()
+            .find(|(k, _)| *k == d.name)
+            .is_none_or(|(_, v)| d.prior.contains(*v))
+    });
+    fixed_ok && prior_ok && gain_ok && stable_ok && psi_ok
 }
 
 /// The inner-signal estimate a k-step predictor starts from: Hammerstein without output blocks

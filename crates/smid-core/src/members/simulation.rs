@@ -1065,7 +1065,10 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
     Ok(best.map(|(_, mut m)| {
         m.centre_training_fit = centre_fit;
         m.evaluations = search.evaluations.load(Relaxed);
-        m.within = super::training_within(set, &m.values).ok().flatten();
+        m.within = super::training_within(set, &m.values).unwrap_or_else(|e| {
+            log::warn!(target: "smid::members", "the member's distance from the training records was not computed: {e}");
+            None
+        });
         m
     }))
 }
