@@ -60,8 +60,14 @@ pub fn cases() -> Vec<Case> {
         kind: CaseKind::None,
     }];
     for e in effect::effects() {
-        // An effect without a plant side cannot be put into the simulated plant: no row.
-        if (e.example)().as_plant().is_none() {
+        // An effect without a plant side cannot be put into the simulated plant, and one the
+        // diagnosis never offers with the designed experiment (the check's data) cannot be
+        // named there: no row.
+        if (e.example)().as_plant().is_none()
+            || !(e.candidates)()
+                .iter()
+                .any(|c| diagnose::offered_with_steady_points(c.as_ref()))
+        {
             continue;
         }
         v.push(Case {

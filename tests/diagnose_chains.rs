@@ -474,8 +474,9 @@ fn an_undeclared_constant_is_offered_with_steady_state_data_and_named() {
 
 /// Every registered term whose shift at rest grows with the input (generated from the
 /// registry: its `EquationTerm::rest_shift` differs at two steady inputs; a parallel path
-/// `c·u_t`, `x̄ = v̄ + ū·c/A(1)` under unit gain, and a polynomial path `c·u_{t-1}^2`,
-/// `x̄ = v̄ + ū²·c/A(1)`), with the designed steady-state experiment: the diagnosis offers it
+/// `c·u_t`, `x̄ = v̄ + ū·c/A(1)` under unit gain) and that the diagnosis offers with the designed
+/// steady-state experiment (`diagnose::offered_with_steady_points`: not the polynomial path,
+/// which breaks the design): the diagnosis offers it
 /// with its gain at rest bisected and it is named with the truth inside every bound. Before,
 /// a term whose shift at rest grows with the input was not offered with steady-state data, and
 /// the parallel path's row was 0/10. Seed 1 of `smid diagnose-check`.
@@ -492,6 +493,7 @@ fn every_term_whose_shift_at_rest_grows_with_the_input_is_offered_and_named() {
             };
             (e.example)().as_plant().is_some()
                 && cand.rest_parameter().is_some()
+                && smid_core::diagnose::offered_with_steady_points(cand.as_ref())
                 && cand.as_equation().is_some_and(|t| {
                     t.rest_shift(Interval::new(2.0, 2.0), unit) != t.rest_shift(unit, unit)
                 })

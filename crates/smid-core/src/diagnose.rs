@@ -1369,6 +1369,19 @@ pub fn training_fit(m: &ModelSet) -> Result<f64> {
     Ok(validate::free_run_fit(m, &m.training.records)?.fit_percent)
 }
 
+/// Whether a candidate effect is offered to a model trained with the designed steady-state
+/// experiment: a term that vanishes at rest is (where it breaks the design, in a box from the
+/// points); one that does not vanish is only where it names its shift at rest
+/// ([`crate::effect::EquationTerm::rest_parameter`]) **and** keeps the design valid: a term
+/// that both shifts the rest and breaks the design (a polynomial path of the input) leaves the
+/// points bounding nothing (its box from their scale spans decades) at the cost of a branch and
+/// bound, so it is not offered (identify it on records without steady-state points, or declare
+/// it with a prior box). The registry matrix (`smid diagnose-check`) takes the same rule.
+pub fn offered_with_steady_points(cand: &dyn effect::Effect) -> bool {
+    cand.vanishes_at_steady_state()
+        || (cand.rest_parameter().is_some() && cand.keeps_steady_design())
+}
+
 /// The candidates that extend `base`: every registered effect's candidates not declared yet,
 /// with default priors for their bisected parameters (from `scale`), and every registered
 /// plugin with a default prior as a chain block at each open end; `steady_data`: the training
@@ -1390,7 +1403,7 @@ pub fn candidates(
                 .effects
                 .iter()
                 .any(|e| effect::tag_of(e.as_ref()) == entry.tag)
-                || (steady && !cand.vanishes_at_steady_state() && cand.rest_parameter().is_none())
+                || (steady && !offered_with_steady_points(cand.as_ref()))
             {
                 continue;
             }
