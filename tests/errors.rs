@@ -376,3 +376,56 @@ model:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 2\n  nb: 2\
         Err(e) => panic!("expected the estimate refused as unbounded, got: {e}"),
     }
 }
+
+/// `noise.estimate` is the smallest bound the consistency test accepts (to 2 %) times the
+/// margin, whatever the noise's size against the output: on linear plants with noise drawn
+/// over six decades (a millionth to a tenth of the output's scale) the estimate exists, the
+/// test accepts it without the margin and rejects it 2 % below that. A short cut that
+/// refuses a level too soon (one test for the whole level when the smallest bound passes)
+/// would refuse the smallest noises here.
+#[test]
+fn the_estimate_is_the_smallest_accepted_bound_at_every_noise_size() {
+    use rand::{Rng, SeedableRng};
+    use smid_core::pipeline::{consistent_at, estimate_bound};
+    let mut rng = rand::rngs::StdRng::seed_from_u64(650);
+    for case in 0..6 {
+        let n: usize = rng.gen_range(60..120);
+        let level = 10f64.powf(-6.0 + case as f64 + rng.gen_range(0.0..1.0));
+        let u: Vec<f64> = (0..n)
+            .map(|t| [1.0, -0.4, 0.7, -1.0][(t / 5) % 4] + rng.gen_range(-0.2..0.2))
+            .collect();
+        let mut x = vec![0.0; n];
+        for t in 1..n {
+            x[t] = 0.6 * x[t - 1] + 0.8 * u[t - 1];
+        }
+        let y: Vec<f64> = x
+            .iter()
+            .map(|v| v + level * rng.gen_range(-1.0..1.0))
+            .collect();
+        let (spec, data) = common::measured(
+            "estimate",
+            &u,
+            &y,
+            "noise: { estimate: 1.1 }\nmodel:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 1\n  nb: 1\n  fixed: { b0: 0.0 }\n  unit_gain: false\n  stable: true\n",
+        );
+        let context = format!("case {case}: n = {n}, noise level {level:.2e}");
+        let d = match estimate_bound(&spec, &data) {
+            Ok(Outcome::Consistent(d)) => d / 1.1,
+            Ok(Outcome::Falsified(f)) => panic!("{context}: falsified: {f}"),
+            Err(e) => panic!("{context}: the estimate was refused: {e}"),
+        };
+        assert!(
+            d > 0.0 && d <= 1.021 * level,
+            "{context}: smallest accepted {d:e} above the noise"
+        );
+        assert!(
+            consistent_at(&spec, &data, d).unwrap(),
+            "{context}: {d:e} not accepted"
+        );
+        assert!(
+            !consistent_at(&spec, &data, d / 1.0205).unwrap(),
+            "{context}: {:e} accepted too, so {d:e} is not the smallest to 2 %",
+            d / 1.0205
+        );
+    }
+}

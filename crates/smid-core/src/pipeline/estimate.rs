@@ -122,7 +122,16 @@ fn estimate_at_halvings(
     let consistent_at = |d: f64| consistent_at_halvings(spec, data, d, halvings);
     let margin = spec.noise.estimate.unwrap_or(1.1);
     let scale = data_scale(data).y_max;
-    let mut hi = 1e-3 * scale;
+    let start = 1e-3 * scale;
+    // The smallest bound the bisection below tries when every test is consistent. The test is
+    // monotone in the bound (a smaller bound shrinks every cell's outer set, so a cell it
+    // keeps is kept at every larger bound, and its search tree is a subtree of theirs), so
+    // when it is consistent there every larger bound is too: the level decides nothing, and
+    // one test says so instead of the bisection's twenty.
+    if consistent_at(smallest_tried(start, scale))? {
+        return Ok(None);
+    }
+    let mut hi = start;
     let mut lo = 0.0;
     let mut n = 0;
     while !consistent_at(hi)? {
@@ -151,4 +160,14 @@ fn estimate_at_halvings(
         n += 1;
     }
     Ok(Some(Outcome::Consistent(margin * hi)))
+}
+
+/// The last bound [`estimate_at_halvings`]'s bisection tries when every test is consistent:
+/// `start / 2^k` for the first `k` that puts it below [`NO_BOUND_BELOW`] of the largest output.
+fn smallest_tried(start: f64, scale: f64) -> f64 {
+    let mut d = start;
+    while d >= NO_BOUND_BELOW * scale && d > 0.0 {
+        d *= 0.5;
+    }
+    d
 }
