@@ -377,6 +377,59 @@ model:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 2\n  nb: 2\
     }
 }
 
+/// A record too short for the model's reach (here the polynomial path of the input, read
+/// `delay + lags` samples back, over records of random length): the refusal says how many
+/// samples the record has and names the regressor unknown at every one of them, not only that
+/// too few equations are left. The same model on a record long enough identifies.
+#[test]
+fn a_record_shorter_than_a_terms_reach_names_the_term() {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand::rngs::StdRng::seed_from_u64(65);
+    for case in 0..3 {
+        let n: usize = rng.gen_range(30..80);
+        let degree: usize = rng.gen_range(2..4);
+        let lags: usize = rng.gen_range(1..3);
+        let long = n + 200;
+        // A stable first-order plant with a small square path, on a random multilevel input.
+        let u: Vec<f64> = (0..long).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let mut y = vec![0.0; long];
+        for t in 1..long {
+            y[t] = 0.5 * y[t - 1] + u[t - 1] + 0.1 * u[t - 1].powi(degree as i32);
+        }
+        let spec_for = |delay: usize| {
+            format!(
+                "noise: {{ delta: 0.01 }}\nmodel:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 1\n  nb: 1\n  fixed: {{ b0: 0.0 }}\n  unit_gain: false\n  stable: true\n  effects: [ {{ type: input_power, degree: {degree}, delay: {delay}, lags: {lags} }} ]\n"
+            )
+        };
+        // Too short: the delay reaches past the record's end.
+        let delay = n + rng.gen_range(0..20);
+        let (spec, data) = common::measured("short", &u[..n], &y[..n], &spec_for(delay));
+        let context = format!("case {case}: n = {n}, degree {degree}, delay {delay}, lags {lags}");
+        match smid::core::pipeline::identify(&spec, data, &[]) {
+            Err(SmidError::Unbounded { message, .. }) => {
+                let name = format!("`u{degree}_lag{delay}`");
+                assert!(
+                    message.contains(&format!("{n} samples")),
+                    "{context}: {message}"
+                );
+                assert!(
+                    message.contains(&name) && message.contains("unknown or unusable at all"),
+                    "{context}: the error should name {name} unknown at every sample: {message}"
+                );
+            }
+            Ok(_) => panic!("{context}: identified with no usable equation"),
+            Err(e) => panic!("{context}: expected the short record refused, got: {e}"),
+        }
+        // Long enough: the same term, a delay the record covers.
+        let (spec, data) = common::measured("long", &u, &y, &spec_for(1));
+        match smid::core::pipeline::identify(&spec, data, &[]) {
+            Ok(Outcome::Consistent(_)) => {}
+            Ok(Outcome::Falsified(f)) => panic!("{context}: the true model was falsified: {f}"),
+            Err(e) => panic!("{context}: the long record failed: {e}"),
+        }
+    }
+}
+
 /// `noise.estimate` is the smallest bound the consistency test accepts (to 2 %) times the
 /// margin, whatever the noise's size against the output: on linear plants with noise drawn
 /// over six decades (a millionth to a tenth of the output's scale) the estimate exists, the

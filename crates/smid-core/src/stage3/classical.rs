@@ -380,8 +380,9 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
         return Err(SmidError::Unbounded {
             parameter: "θ".into(),
             message: format!(
-                "only {counted} for {} free parameters: lengthen the dynamic experiment or enable band samples",
-                free.len()
+                "only {counted} for {} free parameters ({}): lengthen the dynamic experiment, shorten the model's delays and lags, or enable band samples",
+                free.len(),
+                prob.unusable_summary()
             ),
         });
     }

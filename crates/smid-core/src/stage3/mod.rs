@@ -224,6 +224,49 @@ impl EivProblem<'_> {
             .collect()
     }
 
+    /// Why samples give no equation, for an error that says how few are left: the record's
+    /// length, the samples before the first equation (`max(na, nb)`), and per signal (the inner
+    /// output, the input, each extra regressor by name) at how many of the rest it is unknown,
+    /// largest first. Empty parts are left out; a regressor unknown at every sample (a delay
+    /// or lag longer than the record) reads "unknown at all".
+    pub fn unusable_summary(&self) -> String {
+        let n = self
+            .extra
+            .iter()
+            .map(|r| r.values.len())
+            .fold(self.output.len().min(self.input.len()), usize::min);
+        let first = self.na.max(self.nb);
+        let rest = n.saturating_sub(first);
+        let mut parts = vec![format!(
+            "the record has {n} samples, {} before the first equation (na = {}, nb = {})",
+            first.min(n),
+            self.na,
+            self.nb
+        )];
+        let mut missing: Vec<(usize, String)> = Vec::new();
+        let unusable_outputs = (first..n)
+            .filter(|&t| !(0..=self.na).all(|i| self.usable(&self.output[t - i])))
+            .count();
+        missing.push((unusable_outputs, "the inner output".into()));
+        let unknown_inputs = (first..n)
+            .filter(|&t| !(0..=self.nb).all(|j| self.input[t - j].is_finite()))
+            .count();
+        missing.push((unknown_inputs, "the input".into()));
+        for r in self.extra {
+            let k = (first..n).filter(|&t| !r.values[t].is_finite()).count();
+            missing.push((k, format!("regressor `{}`", r.name)));
+        }
+        missing.sort_by_key(|m| std::cmp::Reverse(m.0));
+        for (k, what) in missing.into_iter().filter(|(k, _)| *k > 0) {
+            parts.push(if k == rest {
+                format!("{what} is unknown or unusable at all {rest} of the rest")
+            } else {
+                format!("{what} is unknown or unusable at {k} of the other {rest}")
+            });
+        }
+        parts.join("; ")
+    }
+
     /// Time indices whose equation holds a sample known from **one side only** (exactly one
     /// endpoint finite, as a sample clipped by a saturation: `x >= s`) and otherwise only
     /// usable samples as in [`equation_times`](Self::equation_times) (one-sided ones may be
