@@ -516,7 +516,7 @@ fn verdict_text(t: &diagnose::TrainVerdict) -> String {
                 _ => format!("{at} sample {sample} of training record {record} ({stage})"),
             }
         }
-        diagnose::TrainVerdict::AboveBar { bar, test, .. } => format!(
+        diagnose::TrainVerdict::AboveBar(pipeline::AboveBar { bar, test, .. }) => format!(
             "inconsistent at the bar {bar:.3e} ({test}): its bound would be above it, not bracketed further"
         ),
         diagnose::TrainVerdict::Bracketed { bound } => format!(

@@ -658,7 +658,7 @@ model:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 2\n  nb: 2\
         for k in 0..4 {
             let bar = d * rng.gen_range(0.3..1.5) * if k == 3 { 3.0 } else { 1.0 };
             match pipeline::identify_below(&spec, data.clone(), Some(bar)).unwrap() {
-                pipeline::BelowBar::Above { bar: b, detail, .. } => {
+                pipeline::BelowBar::Above(pipeline::AboveBar { bar: b, detail, .. }) => {
                     assert_eq!(b, bar);
                     assert!(bar < d, "case {case}: inconsistent at the bar {bar} above the estimate {d}: {detail}");
                 }
@@ -681,7 +681,7 @@ model:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 2\n  nb: 2\
         // Far below the smallest bound any stage accepts: always falsified at the bar.
         assert!(matches!(
             pipeline::identify_below(&spec, data, Some(d * 1e-3)).unwrap(),
-            pipeline::BelowBar::Above { .. }
+            pipeline::BelowBar::Above(_)
         ));
     }
 }

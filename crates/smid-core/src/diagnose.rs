@@ -113,11 +113,7 @@ pub enum TrainVerdict {
     /// With an estimated bound: the training data are inconsistent at the largest bound the
     /// candidate may have to be kept (the bar), proven by `test`, so its own bound was not
     /// bracketed ([`crate::pipeline::bracket_below`]).
-    AboveBar {
-        bar: f64,
-        test: String,
-        detail: String,
-    },
+    AboveBar(crate::pipeline::AboveBar),
     /// With an estimated bound: bracketed, not identified. The bound it would be identified
     /// with ([`crate::pipeline::bracket_below`], with the diagnosis's cell budget) is above the
     /// chosen candidate's by more than the rule's step ([`PER_PARAMETER`]): at that bound the
@@ -165,7 +161,7 @@ impl TrainVerdict {
                     (stage, 0, 0)
                 }
             }
-            TrainVerdict::AboveBar { .. } => (3, 0, 0),
+            TrainVerdict::AboveBar(_) => (3, 0, 0),
             // Consistent at its bound, as far as the bracket's verdicts say. (The fallback pick
             // by reach never meets one: a round leaves candidates bracketed only beside a pick.)
             TrainVerdict::Bracketed { .. } => (4, usize::MAX, usize::MAX),
@@ -1041,9 +1037,7 @@ fn try_model_with(
         None => crate::pipeline::identify_below(&s, data.clone(), bar),
     };
     let outcome = match below {
-        Ok(BelowBar::Above { bar, test, detail }) => {
-            return (TrainVerdict::AboveBar { bar, test, detail }, None)
-        }
+        Ok(BelowBar::Above(above)) => return (TrainVerdict::AboveBar(above), None),
         Ok(BelowBar::Identified(o)) => Ok(o),
         Err(e) => Err(e),
     };
@@ -1287,7 +1281,7 @@ fn try_candidates(
             let b = crate::pipeline::bracket_below(&with_model(spec, m), training, bar_of(ev));
             log::info!(target: "smid::diagnose", "{}: bracketed in {:.2} s: {}", ev.label, start.elapsed().as_secs_f64(), match &b {
                 Ok(Bracket::At(d)) => format!("bound {d:.4e}"),
-                Ok(Bracket::Above { .. }) => "above its bar".into(),
+                Ok(Bracket::Above(_)) => "above its bar".into(),
                 Ok(Bracket::Falsified(_)) => "falsified".into(),
                 Err(e) => e.to_string().chars().take(60).collect(),
             });

@@ -139,19 +139,25 @@ pub fn identify_below(spec: &Spec, data: ExperimentData, bar: Option<f64>) -> Re
     }
 }
 
+/// The training data are inconsistent at `bar`, proven by `test` (the classical test or the
+/// stage-3 method; `detail`: what it proved, with the first offending sample where the method
+/// names one): the model's estimated bound would exceed the bar, so it is not bracketed
+/// further. One finding, carried unchanged from the bracket ([`Bracket::Above`]) through
+/// [`BelowBar::Above`] to the diagnosis's verdict.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct AboveBar {
+    pub bar: f64,
+    pub test: String,
+    pub detail: String,
+}
+
 /// What [`identify_below`] found.
 #[derive(Debug)]
 // Returned once per candidate and matched at once: boxing the identification buys nothing.
 #[allow(clippy::large_enum_variant)]
 pub enum BelowBar {
-    /// The training data are inconsistent at `bar`, proven by `test` (the classical test or
-    /// the stage-3 method; `detail`: what it proved, with the first offending sample where the
-    /// method names one): the model's estimated bound would exceed the bar.
-    Above {
-        bar: f64,
-        test: String,
-        detail: String,
-    },
+    /// The training data are inconsistent at the bar.
+    Above(AboveBar),
     /// Not falsified at the bar: [`identify`]'s answer.
     Identified(Outcome<Identification>),
 }
@@ -160,12 +166,8 @@ pub enum BelowBar {
 /// ([`bracket_below`]).
 #[derive(Debug, Clone)]
 pub enum Bracket {
-    /// The training data are inconsistent at the bar (as [`BelowBar::Above`]).
-    Above {
-        bar: f64,
-        test: String,
-        detail: String,
-    },
+    /// The training data are inconsistent at the bar.
+    Above(AboveBar),
     /// The data are inconsistent at every bound tried.
     Falsified(Falsification),
     /// The bound the model is identified with ([`identify_at_estimate`]): the margin times the
@@ -206,7 +208,7 @@ pub fn identify_bracketed(
     progress: &(dyn Fn(&cells::Progress) + Sync),
 ) -> Result<BelowBar> {
     Ok(match bracket {
-        Bracket::Above { bar, test, detail } => BelowBar::Above { bar, test, detail },
+        Bracket::Above(above) => BelowBar::Above(above),
         Bracket::Falsified(f) => BelowBar::Identified(Outcome::Falsified(f)),
         Bracket::At(d) => {
             BelowBar::Identified(identify_at_estimate(spec, data, d, truth, progress)?)
@@ -261,20 +263,20 @@ pub fn bracket_below(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Re
     if let Some(b) = bar {
         if !consistent_at(spec, data, b)? {
             log::info!(target: "smid::estimate", "{label}: noise bound {b:.4e} (the bar): falsified by the classical test");
-            return Ok(Bracket::Above {
+            return Ok(Bracket::Above(AboveBar {
                 bar: b,
                 test: "the classical test".into(),
                 detail: "no θ fits the equations of any cell (classical outer sets empty)".into(),
-            });
+            }));
         }
         // A verdict that failed (solver trouble) proves nothing: the bracket goes on as it
         // would without a bar, and reports such trouble itself.
         if let Ok(Outcome::Falsified(f)) = verdict(b) {
-            return Ok(Bracket::Above {
+            return Ok(Bracket::Above(AboveBar {
                 bar: b,
                 test: format!("the stage-3 method `{}`", spec.method.eiv.name()),
                 detail: f.to_string(),
-            });
+            }));
         }
     }
     // The bar's question needs no estimate, so it comes first: a candidate rejected there is
@@ -372,7 +374,7 @@ pub fn identify_with(
             match identify_estimated(spec, &data, truth, progress, None)? {
                 BelowBar::Identified(outcome) => outcome,
                 // Without a bar there is none to be above; kept as what it proves.
-                BelowBar::Above { detail, .. } => {
+                BelowBar::Above(AboveBar { detail, .. }) => {
                     Outcome::Falsified(Falsification::new(crate::error::Stage::Linear, 0, detail))
                 }
             },
