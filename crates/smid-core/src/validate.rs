@@ -523,8 +523,7 @@ fn member_fit(model: &ModelSet, centre: &members::ModelPoint, records: &[Record]
     let mut sims = Vec::new();
     for rec in records {
         let w0 = warm.min(rec.y.len());
-        let xd = members::inner_estimate(model, centre, rec)?;
-        let free = centre.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y;
+        let free = members::free_run(model, centre, rec, w0)?;
         sims.push((rec.y[w0..].to_vec(), free[w0..].to_vec()));
     }
     let pairs: Vec<(&[f64], &[f64])> = sims

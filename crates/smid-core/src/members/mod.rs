@@ -876,9 +876,8 @@ pub fn training_within(set: &ModelSet, values: &[(String, f64)]) -> Result<Optio
     let t0 = o.na.max(o.nb + o.nk);
     let mut worst = 0.0f64;
     for rec in &set.training.records {
-        let xd = inner_estimate(set, &p, rec)?;
-        let run = p.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, t0.min(rec.y.len()));
-        for (y, yh) in rec.y.iter().zip(&run.y) {
+        let run = free_run(set, &p, rec, t0)?;
+        for (y, yh) in rec.y.iter().zip(&run) {
             let e = (y - yh).abs();
             if !e.is_finite() {
                 return Ok(None);
@@ -931,6 +930,21 @@ fn in_model_class(
             .is_none_or(|(_, v)| d.prior.contains(*v))
     });
     fixed_ok && prior_ok && gain_ok && stable_ok && psi_ok
+}
+
+/// The free run of the point `p` on `rec`: its first `warm` samples (at most the record) read
+/// from [`inner_estimate`], the rest simulated.
+pub fn free_run(
+    set: &ModelSet,
+    p: &ModelPoint,
+    rec: &crate::pipeline::Record,
+    warm: usize,
+) -> Result<Vec<f64>> {
+    let xd = inner_estimate(set, p, rec)?;
+    Ok(
+        p.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, warm.min(rec.y.len()))
+            .y,
+    )
 }
 
 /// The inner-signal estimate a k-step predictor starts from: Hammerstein without output blocks
