@@ -409,7 +409,7 @@ fn a_record_shorter_than_a_terms_reach_names_the_term() {
             Err(SmidError::Unbounded { message, .. }) => {
                 let name = format!("`u{degree}_lag{delay}`");
                 assert!(
-                    message.contains(&format!("{n} samples")),
+                    message.contains(&format!("have {n} samples")),
                     "{context}: {message}"
                 );
                 assert!(
@@ -432,10 +432,11 @@ fn a_record_shorter_than_a_terms_reach_names_the_term() {
 
 /// `noise.estimate` is the smallest bound the consistency test accepts (to 2 %) times the
 /// margin, whatever the noise's size against the output: on linear plants with noise drawn
-/// over six decades (a millionth to a tenth of the output's scale) the estimate exists, the
-/// test accepts it without the margin and rejects it 2 % below that. A short cut that
-/// refuses a level too soon (one test for the whole level when the smallest bound passes)
-/// would refuse the smallest noises here.
+/// over six decades (1e-6 to 1, outputs up to about 2.5) the estimate exists, the test
+/// accepts it without the margin and rejects it 2 % below that. The model is declared plain
+/// and with a sensor offset (a bisected parameter whose cells' resolution follows the bound).
+/// A short cut that refuses a level too soon (one test for the whole level when the smallest
+/// bound passes) would refuse the smallest noises here.
 #[test]
 fn the_estimate_is_the_smallest_accepted_bound_at_every_noise_size() {
     use rand::{Rng, SeedableRng};
@@ -455,30 +456,34 @@ fn the_estimate_is_the_smallest_accepted_bound_at_every_noise_size() {
             .iter()
             .map(|v| v + level * rng.gen_range(-1.0..1.0))
             .collect();
-        let (spec, data) = common::measured(
-            "estimate",
-            &u,
-            &y,
-            "noise: { estimate: 1.1 }\nmodel:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 1\n  nb: 1\n  fixed: { b0: 0.0 }\n  unit_gain: false\n  stable: true\n",
-        );
-        let context = format!("case {case}: n = {n}, noise level {level:.2e}");
-        let d = match estimate_bound(&spec, &data) {
-            Ok(Outcome::Consistent(d)) => d / 1.1,
-            Ok(Outcome::Falsified(f)) => panic!("{context}: falsified: {f}"),
-            Err(e) => panic!("{context}: the estimate was refused: {e}"),
-        };
-        assert!(
-            d > 0.0 && d <= 1.021 * level,
-            "{context}: smallest accepted {d:e} above the noise"
-        );
-        assert!(
-            consistent_at(&spec, &data, d).unwrap(),
-            "{context}: {d:e} not accepted"
-        );
-        assert!(
-            !consistent_at(&spec, &data, d / 1.0205).unwrap(),
-            "{context}: {:e} accepted too, so {d:e} is not the smallest to 2 %",
-            d / 1.0205
-        );
+        for offset in [false, true] {
+            let model = "noise: { estimate: 1.1 }\nmodel:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 1\n  nb: 1\n  fixed: { b0: 0.0 }\n  unit_gain: false\n  stable: true\n";
+            let rest = if offset {
+                format!("{model}  effects: [ {{ type: offset }} ]\n  prior: {{ offset: [-0.5, 0.5] }}\n")
+            } else {
+                model.to_string()
+            };
+            let (spec, data) = common::measured("estimate", &u, &y, &rest);
+            let context =
+                format!("case {case}: n = {n}, noise level {level:.2e}, offset declared: {offset}");
+            let d = match estimate_bound(&spec, &data) {
+                Ok(Outcome::Consistent(d)) => d / 1.1,
+                Ok(Outcome::Falsified(f)) => panic!("{context}: falsified: {f}"),
+                Err(e) => panic!("{context}: the estimate was refused: {e}"),
+            };
+            assert!(
+                d > 0.0 && d <= 1.021 * level,
+                "{context}: smallest accepted {d:e} above the noise"
+            );
+            assert!(
+                consistent_at(&spec, &data, d).unwrap(),
+                "{context}: {d:e} not accepted"
+            );
+            assert!(
+                !consistent_at(&spec, &data, d / 1.0205).unwrap(),
+                "{context}: {:e} accepted too, so {d:e} is not the smallest to 2 %",
+                d / 1.0205
+            );
+        }
     }
 }

@@ -1335,7 +1335,7 @@ fn costliest_first<T: Send, R: Send>(
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::Mutex;
     let mut order: Vec<usize> = (0..items.len()).collect();
-    order.sort_by_key(|&i| std::cmp::Reverse(cost(&items[i])));
+    order.sort_by_cached_key(|&i| std::cmp::Reverse(cost(&items[i])));
     let slots: Vec<Mutex<(&mut T, Option<R>)>> =
         items.iter_mut().map(|t| Mutex::new((t, None))).collect();
     let next = AtomicUsize::new(0);
@@ -2462,13 +2462,23 @@ mod tests {
                     .build()
                     .unwrap();
                 let started = std::sync::Mutex::new(Vec::new());
+                // On two threads the first two runs wait for each other, so neither worker
+                // can take a third item before both have started theirs.
+                let meet = std::sync::Barrier::new(threads.min(n));
                 let mut items: Vec<(usize, usize)> = costs.iter().copied().enumerate().collect();
                 let out = pool.install(|| {
                     costliest_first(
                         &mut items,
                         |&(_, c)| c,
                         |(i, c)| {
-                            started.lock().unwrap().push(*i);
+                            let first = {
+                                let mut s = started.lock().unwrap();
+                                s.push(*i);
+                                s.len() <= threads
+                            };
+                            if first {
+                                meet.wait();
+                            }
                             *c += 100;
                             *i * 10
                         },

@@ -123,13 +123,22 @@ fn estimate_at_halvings(
     let margin = spec.noise.estimate.unwrap_or(1.1);
     let scale = data_scale(data).y_max;
     let start = 1e-3 * scale;
-    // The smallest bound the bisection below tries when every test is consistent. The test is
-    // monotone in the bound (a smaller bound shrinks every cell's outer set, so a cell it
-    // keeps is kept at every larger bound, and its search tree is a subtree of theirs), so
-    // when it is consistent there every larger bound is too: the level decides nothing, and
-    // one test says so instead of the bisection's twenty.
-    if consistent_at(smallest_tried(start, scale))? {
-        return Ok(None);
+    // The bounds the bisection below tries when every test is consistent, down to the
+    // smallest. Where the cells' resolution is the same at all of them (no bisected parameter
+    // whose resolution follows the bound, as a sensor offset's 0.5Δ), the test is monotone in
+    // the bound: a smaller bound shrinks every cell's outer set, so a cell kept there is kept
+    // at every larger bound, and its search tree (the same splits) is a subtree of theirs. So
+    // when the smallest is consistent, every larger one is too: the level decides nothing,
+    // and one test says so instead of twenty. Elsewhere the bisection runs as it always did.
+    let tried = bisection_bounds(start, scale);
+    let layout = spec.model.layout()?;
+    let dscale = data_scale(data);
+    let cells_at = |d: f64| resolution(&spec.model, &layout, halvings, d, &dscale);
+    let same_cells = tried.iter().all(|&d| cells_at(d) == cells_at(start));
+    if let (true, Some(&smallest)) = (same_cells, tried.last()) {
+        if consistent_at(smallest)? {
+            return Ok(None);
+        }
     }
     let mut hi = start;
     let mut lo = 0.0;
@@ -162,12 +171,19 @@ fn estimate_at_halvings(
     Ok(Some(Outcome::Consistent(margin * hi)))
 }
 
-/// The last bound [`estimate_at_halvings`]'s bisection tries when every test is consistent:
-/// `start / 2^k` for the first `k` that puts it below [`NO_BOUND_BELOW`] of the largest output.
-fn smallest_tried(start: f64, scale: f64) -> f64 {
-    let mut d = start;
-    while d >= NO_BOUND_BELOW * scale && d > 0.0 {
-        d *= 0.5;
+/// The bounds [`estimate_at_halvings`]'s bisection tries when every test is consistent:
+/// `start / 2^k` from `k = 0` to the first `k` that puts it below [`NO_BOUND_BELOW`] of the
+/// largest output. Empty for a start that is not a positive finite number.
+fn bisection_bounds(start: f64, scale: f64) -> Vec<f64> {
+    let mut out = Vec::new();
+    if !(start.is_finite() && start > 0.0) {
+        return out;
     }
-    d
+    let mut d = start;
+    out.push(d);
+    while d >= NO_BOUND_BELOW * scale {
+        d *= 0.5;
+        out.push(d);
+    }
+    out
 }

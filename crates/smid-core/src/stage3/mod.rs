@@ -224,11 +224,12 @@ impl EivProblem<'_> {
             .collect()
     }
 
-    /// Why samples give no equation, for an error that says how few are left: the record's
-    /// length, the samples before the first equation (`max(na, nb)`), and per signal (the inner
-    /// output, the input, each extra regressor by name) at how many of the rest it is unknown,
-    /// largest first. Empty parts are left out; a regressor unknown at every sample (a delay
-    /// or lag longer than the record) reads "unknown at all".
+    /// Why samples give no equation, for an error that says how few are left: the records'
+    /// length (joined, with the gaps of unknowns between them), the samples before the first
+    /// equation (`max(na, nb)`), and per signal (the inner output, the input, each extra
+    /// regressor by name) at how many of the rest it is unknown or unusable, largest first.
+    /// Empty parts are left out; a regressor unknown at every sample (a delay or lag longer
+    /// than the record) reads "unknown or unusable at all".
     pub fn unusable_summary(&self) -> String {
         let n = self
             .extra
@@ -238,7 +239,7 @@ impl EivProblem<'_> {
         let first = self.na.max(self.nb);
         let rest = n.saturating_sub(first);
         let mut parts = vec![format!(
-            "the record has {n} samples, {} before the first equation (na = {}, nb = {})",
+            "the training records have {n} samples (gaps between records included), {} before the first equation (na = {}, nb = {})",
             first.min(n),
             self.na,
             self.nb
