@@ -1238,10 +1238,10 @@ fn try_candidates(
     base: Option<&TrainVerdict>,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Vec<Option<ModelSet>> {
+    use rayon::prelude::*;
     use std::sync::atomic::{AtomicUsize, Ordering};
-    // The candidates are independent: identified (or bracketed) in parallel, the costliest
-    // first ([`costliest_first`]), results in candidate order (so the choice does not depend
-    // on the thread timing).
+    // The candidates are independent: identified (or bracketed) in parallel, results in
+    // candidate order (so the choice does not depend on the thread timing).
     let total = cands.len();
     let done = AtomicUsize::new(0);
     let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
@@ -1254,40 +1254,46 @@ fn try_candidates(
         })
     };
     let Some(base) = base else {
-        return costliest_first(cands, bisected_dims, |(m, ev)| {
+        return cands
+            .par_iter_mut()
+            .map(|(m, ev)| {
+                if known(ev).is_some() {
+                    return None;
+                }
+                let start = std::time::Instant::now();
+                let (t, id) = try_model(spec, full, m, training, None, None);
+                log::info!(target: "smid::diagnose", "{}: {:.2} s", ev.label, start.elapsed().as_secs_f64());
+                ev.train = t;
+                tick();
+                id.map(|id| id.model)
+            })
+            .collect();
+    };
+    // Every candidate's bracket; the ones with a bound to identify at wait, the others get
+    // their verdict now.
+    let pending: Vec<Option<Result<Bracket>>> = cands
+        .par_iter_mut()
+        .map(|(m, ev)| {
             if known(ev).is_some() {
                 return None;
             }
             let start = std::time::Instant::now();
-            let (t, id) = try_model(spec, full, m, training, None, None);
-            log::info!(target: "smid::diagnose", "{}: {:.2} s", ev.label, start.elapsed().as_secs_f64());
+            let b = crate::pipeline::bracket_below(&with_model(spec, m), training, bar_of(ev));
+            log::info!(target: "smid::diagnose", "{}: bracketed in {:.2} s: {}", ev.label, start.elapsed().as_secs_f64(), match &b {
+                Ok(Bracket::At(d)) => format!("bound {d:.4e}"),
+                Ok(Bracket::Above(_)) => "above its bar".into(),
+                Ok(Bracket::Falsified(_)) => "falsified".into(),
+                Err(e) => e.to_string().chars().take(60).collect(),
+            });
+            if matches!(b, Ok(Bracket::At(_))) {
+                return Some(b);
+            }
+            let (t, _) = try_model(spec, full, m, training, bar_of(ev), Some(b));
             ev.train = t;
             tick();
-            id.map(|id| id.model)
-        });
-    };
-    // Every candidate's bracket; the ones with a bound to identify at wait, the others get
-    // their verdict now.
-    let pending: Vec<Option<Result<Bracket>>> = costliest_first(cands, bisected_dims, |(m, ev)| {
-        if known(ev).is_some() {
-            return None;
-        }
-        let start = std::time::Instant::now();
-        let b = crate::pipeline::bracket_below(&with_model(spec, m), training, bar_of(ev));
-        log::info!(target: "smid::diagnose", "{}: bracketed in {:.2} s: {}", ev.label, start.elapsed().as_secs_f64(), match &b {
-            Ok(Bracket::At(d)) => format!("bound {d:.4e}"),
-            Ok(Bracket::Above(_)) => "above its bar".into(),
-            Ok(Bracket::Falsified(_)) => "falsified".into(),
-            Err(e) => e.to_string().chars().take(60).collect(),
-        });
-        if matches!(b, Ok(Bracket::At(_))) {
-            return Some(b);
-        }
-        let (t, _) = try_model(spec, full, m, training, bar_of(ev), Some(b));
-        ev.train = t;
-        tick();
-        None
-    });
+            None
+        })
+        .collect();
     let mut sets: Vec<Option<ModelSet>> = (0..cands.len()).map(|_| None).collect();
     let order: Vec<(usize, f64)> = pending
         .iter()
@@ -1319,54 +1325,6 @@ fn try_candidates(
         *e = ev;
     }
     sets
-}
-
-/// `run` on every item in parallel, the costliest first by `cost` (ties in item order), each
-/// worker taking the next item when it finishes one; the results in item order. A round's
-/// brackets differ in cost by two orders of magnitude and the costliest come last in the
-/// candidate list (the blocks after the terms): split in halves as a parallel iterator does,
-/// one core was left alone with them after the other had finished. Which thread runs what
-/// changes no result.
-fn costliest_first<T: Send, R: Send>(
-    items: &mut [T],
-    cost: impl Fn(&T) -> usize,
-    run: impl Fn(&mut T) -> R + Sync,
-) -> Vec<R> {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    use std::sync::Mutex;
-    let mut order: Vec<usize> = (0..items.len()).collect();
-    order.sort_by_cached_key(|&i| std::cmp::Reverse(cost(&items[i])));
-    let slots: Vec<Mutex<(&mut T, Option<R>)>> =
-        items.iter_mut().map(|t| Mutex::new((t, None))).collect();
-    let next = AtomicUsize::new(0);
-    let workers = rayon::current_num_threads().clamp(1, slots.len().max(1));
-    rayon::scope(|s| {
-        for _ in 0..workers {
-            s.spawn(|_| {
-                while let Some(&i) = order.get(next.fetch_add(1, Ordering::Relaxed)) {
-                    // Each slot is taken by one worker only: the lock never waits.
-                    let mut slot = slots[i].lock().unwrap_or_else(|e| e.into_inner());
-                    let r = run(&mut *slot.0);
-                    slot.1 = Some(r);
-                }
-            });
-        }
-    });
-    let n = slots.len();
-    let out: Vec<R> = slots
-        .into_iter()
-        .filter_map(|m| m.into_inner().unwrap_or_else(|e| e.into_inner()).1)
-        .collect();
-    debug_assert_eq!(out.len(), n, "every item is run once");
-    out
-}
-
-/// How many parameters a candidate's cells bisect: the proxy [`costliest_first`] orders a
-/// round's candidates by (each bisected dimension multiplies the cells its verdicts decide).
-fn bisected_dims((m, _): &(ModelSpec, Evidence)) -> usize {
-    m.layout()
-        .map(|l| l.dims.iter().filter(|d| d.prior.radius() > 0.0).count())
-        .unwrap_or(0)
 }
 
 /// The candidates of an estimated-bound round that the rule needs identified whole, each by
@@ -2443,75 +2401,6 @@ pub fn assess(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// `costliest_first` runs every item once, gives the results in item order, and starts
-    /// the items by falling cost (ties in item order): on one thread exactly in that order,
-    /// on two the first two started are the two costliest. Random costs and lengths.
-    #[test]
-    fn costliest_first_starts_the_costliest_and_answers_in_item_order() {
-        use rand::{Rng, SeedableRng};
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(28);
-        for case in 0..20 {
-            let n = rng.gen_range(1..30);
-            let costs: Vec<usize> = (0..n).map(|_| rng.gen_range(0..6)).collect();
-            let mut expected: Vec<usize> = (0..n).collect();
-            expected.sort_by_key(|&i| std::cmp::Reverse(costs[i]));
-            for threads in [1, 2] {
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .unwrap();
-                let started = std::sync::Mutex::new(Vec::new());
-                // On two threads the first two runs wait for each other, so neither worker
-                // can take a third item before both have started theirs.
-                let meet = std::sync::Barrier::new(threads.min(n));
-                let mut items: Vec<(usize, usize)> = costs.iter().copied().enumerate().collect();
-                let out = pool.install(|| {
-                    costliest_first(
-                        &mut items,
-                        |&(_, c)| c,
-                        |(i, c)| {
-                            let first = {
-                                let mut s = started.lock().unwrap();
-                                s.push(*i);
-                                s.len() <= threads
-                            };
-                            if first {
-                                meet.wait();
-                            }
-                            *c += 100;
-                            *i * 10
-                        },
-                    )
-                });
-                let started = started.into_inner().unwrap();
-                assert_eq!(
-                    out,
-                    (0..n).map(|i| i * 10).collect::<Vec<_>>(),
-                    "case {case}"
-                );
-                assert!(
-                    items.iter().all(|&(i, c)| c == costs[i] + 100),
-                    "case {case}: each run once"
-                );
-                let mut seen = started.clone();
-                seen.sort_unstable();
-                assert_eq!(seen, (0..n).collect::<Vec<_>>(), "case {case}");
-                if threads == 1 {
-                    assert_eq!(started, expected, "case {case}: costs {costs:?}");
-                } else {
-                    let mut first: Vec<usize> = started.iter().take(2).map(|&i| costs[i]).collect();
-                    let mut top: Vec<usize> = expected.iter().take(2).map(|&i| costs[i]).collect();
-                    first.sort_unstable();
-                    top.sort_unstable();
-                    assert_eq!(
-                        first, top,
-                        "case {case}: costs {costs:?}, started {started:?}"
-                    );
-                }
-            }
-        }
-    }
 
     /// The gain window of a block whose values move as a backlash's (`m/k`, `c·k`) and a
     /// saturation's limit (fixed): found around the true gain however narrow the bounds (far
