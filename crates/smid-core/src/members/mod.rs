@@ -922,7 +922,7 @@ fn in_model_class(
             p.linear.b.iter().sum::<f64>(),
             1.0 + p.linear.a.iter().sum::<f64>(),
         );
-    let stable_ok = !set.model.stable || crate::linear::spectral_radius(&p.linear.a) <= 1.0 + 1e-9;
+    let stable_ok = !set.model.stable || p.linear.spectral_radius() <= 1.0 + 1e-9;
     let psi_ok = layout.dims.iter().all(|d| {
         values
             .iter()

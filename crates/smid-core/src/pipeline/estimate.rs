@@ -121,7 +121,8 @@ fn estimate_at_halvings(
 ) -> Result<Option<Outcome<f64>>> {
     let consistent_at = |d: f64| consistent_at_halvings(spec, data, d, halvings);
     let margin = spec.noise.estimate.unwrap_or(1.1);
-    let scale = data_scale(data).y_max;
+    let dscale = data_scale(data);
+    let scale = dscale.y_max;
     let start = 1e-3 * scale;
     // The bounds the bisection below tries when every test is consistent, down to the
     // smallest. Where the cells' resolution is the same at all of them (no bisected parameter
@@ -132,7 +133,6 @@ fn estimate_at_halvings(
     // and one test says so instead of twenty. Elsewhere the bisection runs as it always did.
     let tried = bisection_bounds(start, scale);
     let layout = spec.model.layout()?;
-    let dscale = data_scale(data);
     let cells_at = |d: f64| resolution(&spec.model, &layout, halvings, d, &dscale);
     let same_cells = tried.iter().all(|&d| cells_at(d) == cells_at(start));
     if let (true, Some(&smallest)) = (same_cells, tried.last()) {

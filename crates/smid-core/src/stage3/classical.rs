@@ -380,7 +380,7 @@ pub fn solve(prob: &EivProblem) -> Result<EivResult> {
         return Err(SmidError::Unbounded {
             parameter: "θ".into(),
             message: format!(
-                "only {counted} for {} free parameters ({}): lengthen the dynamic experiment, shorten the model's delays and lags, or enable band samples",
+                "only {counted} for {} free parameters ({}): lengthen the dynamic experiment (or, where a regressor is unknown at all, shorten the delay or lags that reach past it), or enable band samples",
                 free.len(),
                 prob.unusable_summary()
             ),

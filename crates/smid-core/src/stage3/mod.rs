@@ -28,6 +28,7 @@ use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
 use crate::inversion::{InnerBound, InnerKind};
 use serde::{Deserialize, Serialize};
+use std::ops::Range;
 
 pub mod classical;
 pub mod exact_grid;
@@ -206,20 +207,36 @@ impl EivProblem<'_> {
     /// Time indices whose equation involves only usable samples (every extra regressor's value
     /// at `t` finite, too).
     pub fn equation_times(&self) -> Vec<usize> {
-        self.times_where(|t| (0..=self.na).all(|i| self.usable(&self.output[t - i])))
+        self.times_where(|t| self.outputs_usable_at(t))
     }
 
-    /// The equations' times `t` (every signal long enough) whose outputs pass `outputs`, every
-    /// input and extra regressor value finite.
-    fn times_where(&self, outputs: impl Fn(usize) -> bool) -> Vec<usize> {
+    /// The times an equation can be written at: from the first (`max(na, nb)`) to the end of
+    /// the shortest signal.
+    fn equation_range(&self) -> Range<usize> {
         let n = self
             .extra
             .iter()
             .map(|r| r.values.len())
             .fold(self.output.len().min(self.input.len()), usize::min);
-        (self.na.max(self.nb)..n)
+        self.na.max(self.nb)..n
+    }
+
+    /// Every output sample of the equation at `t` usable.
+    fn outputs_usable_at(&self, t: usize) -> bool {
+        (0..=self.na).all(|i| self.usable(&self.output[t - i]))
+    }
+
+    /// Every input sample of the equation at `t` known.
+    fn inputs_known_at(&self, t: usize) -> bool {
+        (0..=self.nb).all(|j| self.input[t - j].is_finite())
+    }
+
+    /// The equations' times `t` (every signal long enough) whose outputs pass `outputs`, every
+    /// input and extra regressor value finite.
+    fn times_where(&self, outputs: impl Fn(usize) -> bool) -> Vec<usize> {
+        self.equation_range()
             .filter(|&t| outputs(t))
-            .filter(|&t| (0..=self.nb).all(|j| self.input[t - j].is_finite()))
+            .filter(|&t| self.inputs_known_at(t))
             .filter(|&t| self.extra.iter().all(|r| r.values[t].is_finite()))
             .collect()
     }
@@ -231,13 +248,9 @@ impl EivProblem<'_> {
     /// Empty parts are left out; a regressor unknown at every sample (a delay or lag longer
     /// than the record) reads "unknown or unusable at all".
     pub fn unusable_summary(&self) -> String {
-        let n = self
-            .extra
-            .iter()
-            .map(|r| r.values.len())
-            .fold(self.output.len().min(self.input.len()), usize::min);
-        let first = self.na.max(self.nb);
-        let rest = n.saturating_sub(first);
+        let range = self.equation_range();
+        let (first, n) = (range.start, range.end);
+        let rest = range.len();
         let mut parts = vec![format!(
             "the training records have {n} samples (gaps between records included), {} before the first equation (na = {}, nb = {})",
             first.min(n),
@@ -245,16 +258,14 @@ impl EivProblem<'_> {
             self.nb
         )];
         let mut missing: Vec<(usize, String)> = Vec::new();
-        let unusable_outputs = (first..n)
-            .filter(|&t| !(0..=self.na).all(|i| self.usable(&self.output[t - i])))
-            .count();
-        missing.push((unusable_outputs, "the inner output".into()));
-        let unknown_inputs = (first..n)
-            .filter(|&t| !(0..=self.nb).all(|j| self.input[t - j].is_finite()))
-            .count();
-        missing.push((unknown_inputs, "the input".into()));
+        let count = |bad: &dyn Fn(usize) -> bool| range.clone().filter(|&t| bad(t)).count();
+        missing.push((
+            count(&|t| !self.outputs_usable_at(t)),
+            "the inner output".into(),
+        ));
+        missing.push((count(&|t| !self.inputs_known_at(t)), "the input".into()));
         for r in self.extra {
-            let k = (first..n).filter(|&t| !r.values[t].is_finite()).count();
+            let k = count(&|t| !r.values[t].is_finite());
             missing.push((k, format!("regressor `{}`", r.name)));
         }
         missing.sort_by_key(|m| std::cmp::Reverse(m.0));
