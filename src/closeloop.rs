@@ -519,8 +519,17 @@ fn verdict_text(t: &diagnose::TrainVerdict) -> String {
         diagnose::TrainVerdict::AboveBar(pipeline::AboveBar { bar, test, .. }) => format!(
             "inconsistent at the bar {bar:.3e} ({test}): its bound would be above it, not bracketed further"
         ),
-        diagnose::TrainVerdict::Bracketed { bound } => format!(
+        diagnose::TrainVerdict::Bracketed {
+            bound,
+            at_least: false,
+        } => format!(
             "bound {bound:.3e} (bracketed with the diagnosis's cells), not identified: above the chosen candidate's by more than the rule's step, so it could be neither chosen nor equivalent to the choice"
+        ),
+        diagnose::TrainVerdict::Bracketed {
+            bound,
+            at_least: true,
+        } => format!(
+            "bound above {bound:.3e} (bracketed with the diagnosis's cells, not narrowed: the data are inconsistent below it), not identified: above the chosen candidate's by more than the rule's step, so it could be neither chosen nor equivalent to the choice"
         ),
         diagnose::TrainVerdict::Failed { message } => format!("failed: {message}"),
         diagnose::TrainVerdict::Reproduced { residual, draws } => format!(

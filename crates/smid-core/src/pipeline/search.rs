@@ -173,6 +173,46 @@ pub enum Bracket {
     /// The bound the model is identified with ([`identify_at_estimate`]): the margin times the
     /// smallest bound the stage-3 method accepts (to 5 %).
     At(f64),
+    /// Not narrowed yet ([`bracket_coarse`]): the method finds the data inconsistent at `lo`
+    /// and consistent at `hi`; [`Coarse::narrow`] gives the bound [`Bracket::At`] would hold.
+    Coarse(Coarse),
+}
+
+/// A bracket before its narrowing: the stage-3 method proves the training data inconsistent at
+/// `lo` and finds them consistent at `hi` (`lo < hi <= 2 lo`). The bound the narrowing keeps is
+/// `margin` times a bound in `(lo, hi]`, so it lies in `(margin · lo, margin · hi]`
+/// ([`Coarse::floor`], [`Coarse::ceiling`]): a diagnosis can rank a candidate by these ends and
+/// narrow only the brackets whose place in the rule's order they leave open.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Coarse {
+    pub lo: f64,
+    pub hi: f64,
+    pub margin: f64,
+}
+
+impl Coarse {
+    /// Every bound the narrowing can keep is above this one.
+    pub fn floor(&self) -> f64 {
+        self.lo * self.margin
+    }
+    /// No bound the narrowing keeps is above this one.
+    pub fn ceiling(&self) -> f64 {
+        self.hi * self.margin
+    }
+    /// Narrow `(lo, hi]` geometrically to 5 % with the method's verdicts on `spec` and `data`
+    /// (as [`bracket_below`] does), and keep the margin times its upper end.
+    pub fn narrow(&self, spec: &Spec, data: &ExperimentData) -> f64 {
+        let verdict = method_verdict(spec, data);
+        let (mut lo, mut hi) = (self.lo, self.hi);
+        while hi / lo > 1.05 {
+            let mid = (lo * hi).sqrt();
+            match verdict(mid) {
+                Ok(Outcome::Falsified(_)) => lo = mid,
+                _ => hi = mid,
+            }
+        }
+        hi * self.margin
+    }
 }
 
 impl Bracket {
@@ -181,6 +221,13 @@ impl Bracket {
         match self {
             Bracket::At(d) => Some(*d),
             _ => None,
+        }
+    }
+    /// A bound narrowed to 5 % ([`Bracket::At`]; the others as they are).
+    pub fn narrowed(self, spec: &Spec, data: &ExperimentData) -> Bracket {
+        match self {
+            Bracket::Coarse(c) => Bracket::At(c.narrow(spec, data)),
+            b => b,
         }
     }
 }
@@ -207,13 +254,15 @@ pub fn identify_bracketed(
     truth: &[(String, f64)],
     progress: &(dyn Fn(&cells::Progress) + Sync),
 ) -> Result<BelowBar> {
-    Ok(match bracket {
-        Bracket::Above(above) => BelowBar::Above(above),
-        Bracket::Falsified(f) => BelowBar::Identified(Outcome::Falsified(f)),
-        Bracket::At(d) => {
-            BelowBar::Identified(identify_at_estimate(spec, data, d, truth, progress)?)
-        }
-    })
+    let d = match bracket {
+        Bracket::Above(above) => return Ok(BelowBar::Above(above)),
+        Bracket::Falsified(f) => return Ok(BelowBar::Identified(Outcome::Falsified(f))),
+        Bracket::At(d) => d,
+        Bracket::Coarse(c) => c.narrow(spec, data),
+    };
+    Ok(BelowBar::Identified(identify_at_estimate(
+        spec, data, d, truth, progress,
+    )?))
 }
 
 /// The margin of `noise.estimate` (at least 1.01, so a bracket's upper end is raised).
@@ -230,6 +279,27 @@ fn log_step<T>(label: &str, d: f64, answer: &str, r: &Result<Outcome<T>>, t0: st
     }, t0.elapsed().as_secs_f64());
 }
 
+/// The stage-3 method's verdict at a noise bound `d` on `spec` and `data` (the spec's declared
+/// bound, if any, is replaced by `d`), logged: whether the method finds the data consistent.
+/// The search stops at the first cell with bounds (the same verdict, a fraction of the cells
+/// finished) and searches no member: a bracket's steps ask nothing more.
+fn method_verdict<'a>(
+    spec: &Spec,
+    data: &'a ExperimentData,
+) -> impl Fn(f64) -> Result<Outcome<()>> + 'a {
+    // Log lines name their model: a diagnosis brackets its candidates side by side.
+    let label = spec.model.label();
+    // Each verdict sets its own bound.
+    let mut quiet = with_bound(spec, 1.0);
+    quiet.method.member.search = false;
+    move |d: f64| {
+        let t0 = std::time::Instant::now();
+        let r = consistent_by_method(&with_bound(&quiet, d), data_with_bound(data, d));
+        log_step(&label, d, "consistent", &r, t0);
+        r
+    }
+}
+
 /// The bracket of an estimated noise bound (`noise.estimate`; the spec's declared bound, if
 /// any, is ignored), without identifying. With a `bar` (a positive number), the bar is tested
 /// first, by the classical test and then by the method's verdict; when either proves the data
@@ -242,22 +312,16 @@ fn log_step<T>(label: &str, d: f64, answer: &str, r: &Result<Outcome<T>>, t0: st
 /// times its upper end. The steps ask for the method's verdict alone
 /// ([`consistent_by_method`]: the search stops at the first cell with bounds).
 pub fn bracket_below(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Result<Bracket> {
+    Ok(bracket_coarse(spec, data, bar)?.narrowed(spec, data))
+}
+
+/// [`bracket_below`] up to its narrowing: a bracket the doubling found is returned as
+/// [`Bracket::Coarse`] (its ends), for [`Coarse::narrow`] to finish when needed.
+pub fn bracket_coarse(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Result<Bracket> {
     let bar = bar.filter(|b| b.is_finite() && *b > 0.0);
     let margin = estimate_margin(spec);
-    // Log lines name their model: a diagnosis brackets its candidates side by side.
     let label = spec.model.label();
-    // Each verdict sets its own bound.
-    let mut quiet = with_bound(spec, 1.0);
-    quiet.method.member.search = false;
-    // The bracket's steps ask only whether the method finds the data consistent at `d`: the
-    // search stops at the first cell with bounds (the same verdict, a fraction of the cells
-    // finished). The bound kept is then identified whole.
-    let verdict = |d: f64| {
-        let t0 = std::time::Instant::now();
-        let r = consistent_by_method(&with_bound(&quiet, d), data_with_bound(data, d));
-        log_step(&label, d, "consistent", &r, t0);
-        r
-    };
+    let verdict = method_verdict(spec, data);
     // A bar first: when the data are inconsistent at it (classical test, then the method), the
     // bound the bracket would reach lies above it; the bracket is then not run.
     if let Some(b) = bar {
@@ -308,17 +372,10 @@ pub fn bracket_below(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Re
             ))));
     }
     if hi > first {
-        // Narrow [lo, hi] (inconsistent at lo, an answer at hi) to 5 %, then identify at the
-        // margin above its upper end: the margin times the smallest bound the method accepts
-        // (to 5 %), as `noise.estimate` promises.
-        while hi / lo > 1.05 {
-            let mid = (lo * hi).sqrt();
-            match verdict(mid) {
-                Ok(Outcome::Falsified(_)) => lo = mid,
-                _ => hi = mid,
-            }
-        }
-        hi *= margin;
+        // Inconsistent at lo, an answer at hi: narrowed to 5 % (now or when a diagnosis needs
+        // it), then identified at the margin above its upper end: the margin times the
+        // smallest bound the method accepts (to 5 %), as `noise.estimate` promises.
+        return Ok(Bracket::Coarse(Coarse { lo, hi, margin }));
     }
     Ok(Bracket::At(hi))
 }
