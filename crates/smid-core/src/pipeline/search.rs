@@ -173,9 +173,71 @@ pub enum Bracket {
     /// The bound the model is identified with ([`identify_at_estimate`]): the margin times the
     /// smallest bound the stage-3 method accepts (to 5 %).
     At(f64),
-    /// Not narrowed yet ([`bracket_coarse`]): the method finds the data inconsistent at `lo`
+    /// Not doubled yet ([`bracket_start`]): the classical estimate, below which no bound
+    /// can be kept; [`Started::double`] asks the method.
+    Started(Started),
+    /// Not narrowed yet ([`Started::double`]): the method finds the data inconsistent at `lo`
     /// and consistent at `hi`; [`Coarse::narrow`] gives the bound [`Bracket::At`] would hold.
     Coarse(Coarse),
+}
+
+/// A bracket before its doubling: `first`, the bound the classical test estimates
+/// ([`estimate_bound`], with the margin), where the doubling starts. Every bound the bracket
+/// can keep is at least `first` (it is `first` itself when the method accepts it, else the
+/// margin times a bound above it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Started {
+    pub first: f64,
+    pub margin: f64,
+    /// As [`Coarse::consistent_from`].
+    pub consistent_from: f64,
+}
+
+impl Started {
+    /// Double from `first` until the method finds the data consistent: [`Bracket::At`] when it
+    /// does at `first`, else [`Bracket::Coarse`] (inconsistent at the last bound doubled,
+    /// consistent at twice it); [`Bracket::Falsified`] when no bound up to 2^40 `first` is.
+    pub fn double(&self, spec: &Spec, data: &ExperimentData) -> Bracket {
+        let verdict = known_or_asked(
+            spec.model.label(),
+            self.consistent_from,
+            method_verdict(spec, data),
+        );
+        let first = self.first;
+        let mut lo = first;
+        let mut hi = first;
+        let mut found = false;
+        for _ in 0..40 {
+            match verdict(hi) {
+                Ok(Outcome::Falsified(_)) => {
+                    lo = hi;
+                    hi *= 2.0;
+                }
+                _ => {
+                    found = true;
+                    break;
+                }
+            }
+        }
+        if !found {
+            return Bracket::Falsified(Falsification::new(crate::error::Stage::Linear, 0, format!(
+                "the stage-3 method `{}` finds the training data inconsistent up to a noise bound of {hi:.3e}",
+                spec.method.eiv.name()
+            )));
+        }
+        if hi > first {
+            // Inconsistent at lo, an answer at hi: narrowed to 5 % (now or when a diagnosis
+            // needs it), then identified at the margin above its upper end: the margin times
+            // the smallest bound the method accepts (to 5 %), as `noise.estimate` promises.
+            return Bracket::Coarse(Coarse {
+                lo,
+                hi,
+                margin: self.margin,
+                consistent_from: self.consistent_from,
+            });
+        }
+        Bracket::At(hi)
+    }
 }
 
 /// A bracket before its narrowing: the stage-3 method proves the training data inconsistent at
@@ -188,6 +250,10 @@ pub struct Coarse {
     pub lo: f64,
     pub hi: f64,
     pub margin: f64,
+    /// The method found the data consistent here already (the bar's verdict; `+∞` when
+    /// none): a narrowing step at or above it is consistent without asking
+    /// ([`Coarse::narrow`]).
+    pub consistent_from: f64,
 }
 
 impl Coarse {
@@ -202,7 +268,11 @@ impl Coarse {
     /// Narrow `(lo, hi]` geometrically to 5 % with the method's verdicts on `spec` and `data`
     /// (as [`bracket_below`] does), and keep the margin times its upper end.
     pub fn narrow(&self, spec: &Spec, data: &ExperimentData) -> f64 {
-        let verdict = method_verdict(spec, data);
+        let verdict = known_or_asked(
+            spec.model.label(),
+            self.consistent_from,
+            method_verdict(spec, data),
+        );
         let (mut lo, mut hi) = (self.lo, self.hi);
         while hi / lo > 1.05 {
             let mid = (lo * hi).sqrt();
@@ -223,11 +293,40 @@ impl Bracket {
             _ => None,
         }
     }
-    /// A bound narrowed to 5 % ([`Bracket::At`]; the others as they are).
-    pub fn narrowed(self, spec: &Spec, data: &ExperimentData) -> Bracket {
+    /// One step further: a started bracket doubled, a coarse one narrowed; the others as they
+    /// are.
+    pub fn advanced(self, spec: &Spec, data: &ExperimentData) -> Bracket {
         match self {
+            Bracket::Started(s) => s.double(spec, data),
             Bracket::Coarse(c) => Bracket::At(c.narrow(spec, data)),
             b => b,
+        }
+    }
+    /// The bracket finished: doubled and narrowed to 5 % ([`Bracket::At`], or a finding).
+    pub fn narrowed(self, spec: &Spec, data: &ExperimentData) -> Bracket {
+        let mut b = self;
+        while matches!(b, Bracket::Started(_) | Bracket::Coarse(_)) {
+            b = b.advanced(spec, data);
+        }
+        b
+    }
+    /// No bound the bracket can keep is below this one (`None`: it keeps none).
+    pub fn floor(&self) -> Option<f64> {
+        match self {
+            Bracket::At(d) => Some(*d),
+            Bracket::Started(s) => Some(s.first),
+            Bracket::Coarse(c) => Some(c.floor()),
+            Bracket::Above(_) | Bracket::Falsified(_) => None,
+        }
+    }
+    /// No bound the bracket can keep is above this one (`+∞` before the doubling; `None`: it
+    /// keeps none).
+    pub fn ceiling(&self) -> Option<f64> {
+        match self {
+            Bracket::At(d) => Some(*d),
+            Bracket::Started(_) => Some(f64::INFINITY),
+            Bracket::Coarse(c) => Some(c.ceiling()),
+            Bracket::Above(_) | Bracket::Falsified(_) => None,
         }
     }
 }
@@ -250,15 +349,17 @@ fn identify_estimated(
 pub fn identify_bracketed(
     spec: &Spec,
     data: &ExperimentData,
-    bracket: Bracket,
+    mut bracket: Bracket,
     truth: &[(String, f64)],
     progress: &(dyn Fn(&cells::Progress) + Sync),
 ) -> Result<BelowBar> {
-    let d = match bracket {
-        Bracket::Above(above) => return Ok(BelowBar::Above(above)),
-        Bracket::Falsified(f) => return Ok(BelowBar::Identified(Outcome::Falsified(f))),
-        Bracket::At(d) => d,
-        Bracket::Coarse(c) => c.narrow(spec, data),
+    let d = loop {
+        match bracket {
+            Bracket::Above(above) => return Ok(BelowBar::Above(above)),
+            Bracket::Falsified(f) => return Ok(BelowBar::Identified(Outcome::Falsified(f))),
+            Bracket::At(d) => break d,
+            open => bracket = open.advanced(spec, data),
+        }
     };
     Ok(BelowBar::Identified(identify_at_estimate(
         spec, data, d, truth, progress,
@@ -300,6 +401,24 @@ fn method_verdict<'a>(
     }
 }
 
+/// `verdict`, answered "consistent" without asking at a bound at or above `consistent_from`,
+/// where the method already found the data consistent: a relaxation that rejects a bound
+/// rejects every smaller one (the premise of the bar, [`bracket_below`]), so it accepts every
+/// larger one. A bracket then asks the same questions less often and keeps the same ends.
+fn known_or_asked(
+    label: String,
+    consistent_from: f64,
+    verdict: impl Fn(f64) -> Result<Outcome<()>>,
+) -> impl Fn(f64) -> Result<Outcome<()>> {
+    move |d: f64| {
+        if d >= consistent_from {
+            log::info!(target: "smid::estimate", "{label}: noise bound {d:.4e}: consistent (not asked: at or above {consistent_from:.4e}, where the method found it so)");
+            return Ok(Outcome::Consistent(()));
+        }
+        verdict(d)
+    }
+}
+
 /// The bracket of an estimated noise bound (`noise.estimate`; the spec's declared bound, if
 /// any, is ignored), without identifying. With a `bar` (a positive number), the bar is tested
 /// first, by the classical test and then by the method's verdict; when either proves the data
@@ -312,16 +431,17 @@ fn method_verdict<'a>(
 /// times its upper end. The steps ask for the method's verdict alone
 /// ([`consistent_by_method`]: the search stops at the first cell with bounds).
 pub fn bracket_below(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Result<Bracket> {
-    Ok(bracket_coarse(spec, data, bar)?.narrowed(spec, data))
+    Ok(bracket_start(spec, data, bar)?.narrowed(spec, data))
 }
 
-/// [`bracket_below`] up to its narrowing: a bracket the doubling found is returned as
-/// [`Bracket::Coarse`] (its ends), for [`Coarse::narrow`] to finish when needed.
-pub fn bracket_coarse(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Result<Bracket> {
+/// [`bracket_below`] up to its doubling: the bar's findings, or the classical estimate as
+/// [`Bracket::Started`], for [`Bracket::advanced`] to take on when needed.
+pub fn bracket_start(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Result<Bracket> {
     let bar = bar.filter(|b| b.is_finite() && *b > 0.0);
     let margin = estimate_margin(spec);
     let label = spec.model.label();
     let verdict = method_verdict(spec, data);
+    let mut consistent_from = f64::INFINITY;
     // A bar first: when the data are inconsistent at it (classical test, then the method), the
     // bound the bracket would reach lies above it; the bracket is then not run.
     if let Some(b) = bar {
@@ -335,49 +455,29 @@ pub fn bracket_coarse(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> R
         }
         // A verdict that failed (solver trouble) proves nothing: the bracket goes on as it
         // would without a bar, and reports such trouble itself.
-        if let Ok(Outcome::Falsified(f)) = verdict(b) {
-            return Ok(Bracket::Above(AboveBar {
-                bar: b,
-                test: format!("the stage-3 method `{}`", spec.method.eiv.name()),
-                detail: f.to_string(),
-            }));
+        match verdict(b) {
+            Ok(Outcome::Falsified(f)) => {
+                return Ok(Bracket::Above(AboveBar {
+                    bar: b,
+                    test: format!("the stage-3 method `{}`", spec.method.eiv.name()),
+                    detail: f.to_string(),
+                }))
+            }
+            Ok(Outcome::Consistent(())) => consistent_from = b,
+            Err(_) => {}
         }
     }
     // The bar's question needs no estimate, so it comes first: a candidate rejected there is
     // not also asked for the classical estimate (minutes for a bisected prior whose coarse
     // tests falsify no bound).
-    let first = match estimate_bound(spec, data)? {
-        Outcome::Consistent(d) => d,
-        Outcome::Falsified(f) => return Ok(Bracket::Falsified(f)),
-    };
-    let mut lo = first;
-    let mut hi = first;
-    let mut found = false;
-    for _ in 0..40 {
-        match verdict(hi) {
-            Ok(Outcome::Falsified(_)) => {
-                lo = hi;
-                hi *= 2.0;
-            }
-            _ => {
-                found = true;
-                break;
-            }
-        }
-    }
-    if !found {
-        return Ok(Bracket::Falsified(Falsification::new(crate::error::Stage::Linear, 0, format!(
-                "the stage-3 method `{}` finds the training data inconsistent up to a noise bound of {hi:.3e}",
-                spec.method.eiv.name()
-            ))));
-    }
-    if hi > first {
-        // Inconsistent at lo, an answer at hi: narrowed to 5 % (now or when a diagnosis needs
-        // it), then identified at the margin above its upper end: the margin times the
-        // smallest bound the method accepts (to 5 %), as `noise.estimate` promises.
-        return Ok(Bracket::Coarse(Coarse { lo, hi, margin }));
-    }
-    Ok(Bracket::At(hi))
+    Ok(match estimate_bound(spec, data)? {
+        Outcome::Consistent(first) => Bracket::Started(Started {
+            first,
+            margin,
+            consistent_from,
+        }),
+        Outcome::Falsified(f) => Bracket::Falsified(f),
+    })
 }
 
 /// The identification of a model whose noise bound is estimated, at the bound `d` its
