@@ -529,7 +529,7 @@ fn verdict_text(t: &diagnose::TrainVerdict) -> String {
             bound,
             at_least: true,
         } => format!(
-            "bound at least {bound:.3e} (bracketed with the diagnosis's cells, not finished: it cannot keep a lower one), not identified: above the chosen candidate's by more than the rule's step, so it could be neither chosen nor equivalent to the choice"
+            "bound at least {bound:.3e}, if any (bracketed with the diagnosis's cells, not finished: it cannot keep a lower one, and finishing it might find none), not identified: above the chosen candidate's by more than the rule's step, so it could be neither chosen nor equivalent to the choice"
         ),
         diagnose::TrainVerdict::Failed { message } => format!("failed: {message}"),
         diagnose::TrainVerdict::Reproduced { residual, draws } => format!(

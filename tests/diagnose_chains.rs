@@ -959,6 +959,11 @@ fn a_round_that_identifies_only_the_needed_candidates_picks_what_identifying_all
         for (m, ev) in &cands {
             let mut s = diagnose::with_model(&dspec, m);
             let mut out = pipeline::identify(&s, data.clone(), &[]);
+            // The bound with the diagnosis's cells, which a bracket's floor is taken with.
+            let coarse_bound = match &out {
+                Ok(smid_core::Outcome::Consistent(id)) => Some(id.model.delta),
+                _ => None,
+            };
             if matches!(&out, Ok(smid_core::Outcome::Consistent(id)) if !id.model.search.unbounded.is_empty())
             {
                 // As the diagnosis does: coarse cells that leave θ unbounded, again with the
@@ -972,17 +977,17 @@ fn a_round_that_identifies_only_the_needed_candidates_picks_what_identifying_all
                 }
                 _ => None,
             };
-            whole.push((ev.label.clone(), ev.added_parameters, got));
+            whole.push((ev.label.clone(), ev.added_parameters, got, coarse_bound));
         }
         let pick = whole
             .iter()
-            .filter(|(_, k, g)| {
+            .filter(|(_, k, g, _)| {
                 g.is_some_and(|(d, f)| {
                     d <= base_bound * diagnose::PER_PARAMETER.powi((*k).max(1) as i32)
                         && f >= base_fit - diagnose::FIT_SLACK
                 })
             })
-            .min_by(|(_, ka, ga), (_, kb, gb)| {
+            .min_by(|(_, ka, ga, _), (_, kb, gb, _)| {
                 ga.unwrap().0.total_cmp(&gb.unwrap().0).then(ka.cmp(kb))
             });
         let chosen = round.candidates.iter().find(|e| e.chosen);
@@ -1003,6 +1008,9 @@ fn a_round_that_identifies_only_the_needed_candidates_picks_what_identifying_all
                 // doubling or its identification would have failed): not a candidate either way.
                 if at_least && w.2.is_none() {
                     coarse += 1;
+                    if let Some(c) = w.3 {
+                        assert!(bound <= c, "case {case}: {}: bracketed at least {bound}, consistent with the diagnosis's cells at {c}", e.label);
+                    }
                     continue;
                 }
                 let (d, _) = w.2.unwrap_or_else(|| {
@@ -1015,6 +1023,7 @@ fn a_round_that_identifies_only_the_needed_candidates_picks_what_identifying_all
                 // unfinished, a floor at or below it.
                 if at_least {
                     coarse += 1;
+                    let d = w.3.unwrap_or(d);
                     assert!(
                         bound <= d,
                         "case {case}: {}: bracketed at least {bound}, identified whole at {d}",

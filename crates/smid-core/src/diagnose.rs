@@ -123,8 +123,8 @@ pub enum TrainVerdict {
     /// left bracketed is ranked by its first bracket.) With `at_least`, the bracket was not
     /// finished: `bound` is its floor ([`crate::pipeline::Bracket::floor`]: the classical
     /// estimate, or the margin times a bound the method proves inconsistent), and the bound it
-    /// would be identified with is at least that, already more than the rule's step above the
-    /// choice's.
+    /// would be identified with, if finishing it found one (it may end falsified, or above its
+    /// bar), is at least that, already more than the rule's step above the choice's.
     Bracketed {
         bound: f64,
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
@@ -1430,7 +1430,8 @@ fn identify_needed(
         }
         // The doublings first (their verdicts far below the threshold are cheap, and each
         // turns an open end into a ceiling), the narrowings (the costly verdicts near it) only
-        // when no doubling reaches. (A floor that is not a number is taken on, never dropped.)
+        // when no doubling reaches. (A floor that is not a number is taken on while there is
+        // no pick; past one it is left bracketed, as a bound that is not a number was.)
         let reaching = |b: &Bracket| !(floor(b) > reach);
         let mut batch: Vec<(usize, Bracket)> = open()
             .filter(|(_, b)| matches!(b, Bracket::Started(_)) && reaching(b))
@@ -2644,15 +2645,72 @@ mod tests {
         assert_eq!(pick, Some(3));
     }
 
+    /// What a test's `identify` answers: consistent at a bound with the candidate's fit (or
+    /// failed without one), and a finding as a failure.
+    fn verdict_of(b: Bracket, fit: Option<f64>) -> TrainVerdict {
+        match (b, fit) {
+            (Bracket::At(d), Some(f)) => TrainVerdict::Consistent {
+                fit_percent: f,
+                bound: d,
+                unsettled: None,
+                within: None,
+            },
+            (Bracket::At(_), None) => TrainVerdict::Failed {
+                message: "unbounded".into(),
+            },
+            (b, _) => TrainVerdict::Failed {
+                message: format!("{b:?}"),
+            },
+        }
+    }
+
+    /// A bracket started at a bound equal to another candidate's, with fewer added parameters,
+    /// comes first in the rule's order: it is taken on before the other is identified.
+    #[test]
+    fn a_bracket_started_at_a_tied_bound_is_taken_on_first() {
+        use crate::pipeline::Started;
+        let base = TrainVerdict::Consistent {
+            fit_percent: 80.0,
+            bound: 1.0,
+            unsettled: None,
+            within: None,
+        };
+        let mut ev = vec![evidence("two", 2, None), evidence("one", 1, None)];
+        let order = vec![
+            (0, Bracket::At(0.5)),
+            (
+                1,
+                Bracket::Started(Started {
+                    first: 0.5,
+                    margin: 1.1,
+                    bar: None,
+                }),
+            ),
+        ];
+        let advance = |batch: &[(usize, Bracket)]| -> Vec<Bracket> {
+            batch.iter().map(|_| Bracket::At(0.5)).collect()
+        };
+        let mut asked = Vec::new();
+        identify_needed(&mut ev, order, &base, &advance, &mut |i, _, b| {
+            asked.push(i);
+            verdict_of(b, Some(90.0))
+        });
+        assert_eq!(asked, vec![1, 0]);
+        assert_eq!(estimated_pick_of(ev.iter(), &base), Some(1));
+    }
+
     /// Taking a bracket on (doubling, narrowing) only where its place is open identifies the
     /// same candidates, in the same order, with the same verdicts and pick, as finishing every
-    /// bracket first; a bracket left unfinished is reported at a floor below its true bound
-    /// and more than a rule step above the pick's, and some are left so, before the doubling
-    /// and after it. Random rounds: sizes, bounds (some tied), brackets started, coarse or
-    /// narrowed, doublings that find no bound, fits, failures, parameter counts.
+    /// bracket first and then identifying in the order of the bounds (written out here, as the
+    /// rule was before brackets were left unfinished); a bracket left unfinished is reported at
+    /// a floor at or below its true bound (or belongs to a bracket that finds none) and more
+    /// than a rule step above the pick's, and some are left so, before the doubling and after
+    /// it. Random rounds: sizes, bounds (some tied), brackets started, coarse or finished as
+    /// the code builds them, doublings that find no bound or end above the bar, fits,
+    /// failures, parameter counts.
     #[test]
     fn a_round_takes_on_only_the_brackets_whose_place_is_open() {
-        use crate::pipeline::{Coarse, Started};
+        use crate::pipeline::{AboveBar, Coarse, Started};
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(28_065);
         let margin = 1.1;
@@ -2665,38 +2723,58 @@ mod tests {
                 unsettled: None,
                 within: None,
             };
-            // What finishing each bracket gives (a bound, or none consistent), and the bracket
-            // the round starts from, which finishes there.
-            let falsified = |k: usize| Falsification::new(Stage::Linear, 0, format!("c{k}: none"));
+            // Per candidate: what finishing its bracket gives (a bound or a finding), the
+            // bracket the round starts from, and the coarse bracket its doubling gives.
             let mut finished: Vec<Bracket> = Vec::new();
             let mut start: Vec<Bracket> = Vec::new();
-            for k in 0..n {
+            let mut doubled: Vec<Bracket> = Vec::new();
+            for _ in 0..n {
                 let mut d = 0.2 * 1.6f64.powf(rng.gen_range(0.0..6.0));
                 if rng.gen_bool(0.15) {
                     d = (d * 20.0).round() / 20.0;
                 }
-                // hi ∈ [d/m, 1.05 d/m], lo ∈ [hi/2, d/m): the narrowing ends at d.
+                // As the doubling builds it: lo = first·2^j proven inconsistent, hi = 2 lo,
+                // and the narrowing ends at d / margin in (lo, hi].
+                let lo = d / margin / rng.gen_range(1.001..2.0);
                 let coarse = Coarse {
-                    lo: d / margin * rng.gen_range(0.5..0.999),
-                    hi: d / margin * rng.gen_range(1.0..1.05),
+                    lo,
+                    hi: 2.0 * lo,
                     margin,
                     consistent_from: f64::INFINITY,
                 };
-                let first = coarse.floor() * rng.gen_range(0.2..1.0);
+                let first = lo / 2f64.powi(rng.gen_range(0..4));
                 let started = |first| {
                     Bracket::Started(Started {
                         first,
                         margin,
-                        consistent_from: f64::INFINITY,
+                        bar: None,
                     })
                 };
-                let (fin, st) = match rng.gen_range(0..6) {
-                    0 => (Bracket::Falsified(falsified(k)), started(first)),
-                    1 => (Bracket::At(d), Bracket::At(d)),
-                    2 => (Bracket::At(d), started(d)),
-                    3 => (Bracket::At(d), Bracket::Coarse(coarse)),
-                    _ => (Bracket::At(d), started(first)),
+                let (fin, st, dbl) = match rng.gen_range(0..7) {
+                    0 => (
+                        Bracket::Falsified(Falsification::new(Stage::Linear, 0, "none")),
+                        started(first),
+                        None,
+                    ),
+                    1 => (
+                        Bracket::Above(AboveBar {
+                            bar: first,
+                            test: "the method".into(),
+                            detail: "inconsistent".into(),
+                        }),
+                        started(first),
+                        None,
+                    ),
+                    2 => (Bracket::At(d), Bracket::At(d), None),
+                    3 => (Bracket::At(d), started(d), Some(Bracket::At(d))),
+                    4 => (Bracket::At(d), Bracket::Coarse(coarse), None),
+                    _ => (
+                        Bracket::At(d),
+                        started(first),
+                        Some(Bracket::Coarse(coarse)),
+                    ),
                 };
+                doubled.push(dbl.unwrap_or_else(|| fin.clone()));
                 finished.push(fin);
                 start.push(st);
             }
@@ -2704,111 +2782,101 @@ mod tests {
                 .map(|_| rng.gen_bool(0.8).then(|| rng.gen_range(70.0..95.0)))
                 .collect();
             let added: Vec<usize> = (0..n).map(|_| rng.gen_range(1..3)).collect();
-            // One step of a bracket: a started one doubles to its coarse bracket (or to its
-            // bound, when it starts there; or to its finding), a coarse one narrows.
-            let step = |k: usize, b: &Bracket| -> Bracket {
-                match (b, &finished[k]) {
-                    (Bracket::Started(s), Bracket::At(d)) if s.first == *d => Bracket::At(*d),
-                    (Bracket::Started(_), Bracket::At(d)) => Bracket::Coarse(Coarse {
-                        lo: d / margin * 0.9,
-                        hi: d / margin * 1.01,
-                        margin,
-                        consistent_from: f64::INFINITY,
-                    }),
-                    (Bracket::Started(_), f) => f.clone(),
-                    (Bracket::Coarse(_), f) => f.clone(),
-                    (b, _) => panic!("case {case}: c{k} advanced from {b:?}"),
-                }
-            };
-            let run = |order: Vec<(usize, Bracket)>| {
-                let mut ev: Vec<Evidence> = (0..n)
+            let fresh = || -> Vec<Evidence> {
+                (0..n)
                     .map(|k| evidence(&format!("c{k}"), added[k], None))
-                    .collect();
-                let reached = std::cell::RefCell::new(Vec::new());
-                let advance = |batch: &[(usize, Bracket)]| -> Vec<Bracket> {
-                    batch
-                        .iter()
-                        .map(|(k, b)| {
-                            let next = step(*k, b);
-                            if next.bound().is_some() || next.floor().is_none() {
-                                reached.borrow_mut().push(*k);
-                            }
-                            next
-                        })
-                        .collect()
-                };
-                let mut asked = Vec::new();
-                identify_needed(&mut ev, order, &base, &advance, &mut |k, _, b| {
-                    asked.push((k, b.bound()));
-                    match (b, fits[k]) {
-                        (Bracket::At(d), Some(f)) => TrainVerdict::Consistent {
-                            fit_percent: f,
-                            bound: d,
-                            unsettled: None,
-                            within: None,
-                        },
-                        (Bracket::At(_), None) => TrainVerdict::Failed {
-                            message: "unbounded".into(),
-                        },
-                        (Bracket::Falsified(f), _) => TrainVerdict::Failed {
-                            message: f.to_string(),
-                        },
-                        (b, _) => panic!("case {case}: c{k} identified at {b:?}"),
-                    }
-                });
-                (ev, asked, reached.into_inner())
+                    .collect()
             };
-            let (lazy, asked, reached) = run(start.iter().cloned().enumerate().collect());
-            let (all, asked_all, _) = run(finished.iter().cloned().enumerate().collect());
-            // Findings come first in the finished run, as they are settled at once there; the
-            // identifications at a bound, in the rule's order, must agree.
+            // The round as the code runs it.
+            let mut lazy = fresh();
+            let advance = |batch: &[(usize, Bracket)]| -> Vec<Bracket> {
+                batch
+                    .iter()
+                    .map(|(k, b)| match b {
+                        Bracket::Started(_) => doubled[*k].clone(),
+                        Bracket::Coarse(_) => finished[*k].clone(),
+                        b => panic!("case {case}: c{k} advanced from {b:?}"),
+                    })
+                    .collect()
+            };
+            let mut asked = Vec::new();
+            identify_needed(
+                &mut lazy,
+                start.iter().cloned().enumerate().collect(),
+                &base,
+                &advance,
+                &mut |k, _, b| {
+                    asked.push((k, b.bound()));
+                    verdict_of(b, fits[k])
+                },
+            );
+            // The reference: every bracket finished, findings settled, then the bounds in
+            // the rule's order, each identified while there is no pick or it lies within a
+            // step of the pick's.
+            let mut whole = fresh();
+            let mut asked_whole = Vec::new();
+            let mut bounds: Vec<(usize, f64)> = Vec::new();
+            for (k, f) in finished.iter().enumerate() {
+                match f.bound() {
+                    Some(d) => bounds.push((k, d)),
+                    None => whole[k].train = verdict_of(f.clone(), fits[k]),
+                }
+            }
+            bounds.sort_by(|(i, a), (j, b)| {
+                a.total_cmp(b)
+                    .then(added[*i].cmp(&added[*j]))
+                    .then(i.cmp(j))
+            });
+            for (k, d) in bounds {
+                let pick =
+                    estimated_pick_of(whole.iter(), &base).map(|p| bound_of(&whole[p].train));
+                whole[k].train = if pick.is_none_or(|p| p >= PER_PARAMETER * d) {
+                    asked_whole.push((k, Some(d)));
+                    verdict_of(Bracket::At(d), fits[k])
+                } else {
+                    TrainVerdict::Bracketed {
+                        bound: d,
+                        at_least: false,
+                    }
+                };
+            }
             let at_bounds = |a: &[(usize, Option<f64>)]| -> Vec<(usize, Option<f64>)> {
                 a.iter().filter(|(_, d)| d.is_some()).cloned().collect()
             };
             assert_eq!(
                 at_bounds(&asked),
-                at_bounds(&asked_all),
+                asked_whole,
                 "case {case}: the candidates identified"
             );
             let pick = estimated_pick_of(lazy.iter(), &base);
-            assert_eq!(pick, estimated_pick_of(all.iter(), &base), "case {case}");
+            assert_eq!(pick, estimated_pick_of(whole.iter(), &base), "case {case}");
             for k in 0..n {
-                match (&lazy[k].train, &all[k].train) {
+                match (&lazy[k].train, &whole[k].train) {
                     (
                         TrainVerdict::Bracketed {
                             bound,
                             at_least: true,
                         },
-                        TrainVerdict::Bracketed {
-                            bound: whole,
-                            at_least: false,
-                        },
+                        w,
                     ) => {
                         match start[k] {
                             Bracket::Coarse(_) => left_coarse += 1,
-                            _ if !reached.contains(&k) => left_started += 1,
-                            _ => {}
+                            _ => left_started += 1,
                         }
-                        assert!(
-                            !reached.contains(&k),
-                            "case {case}: c{k} finished, reported unfinished"
-                        );
-                        assert!(
-                            *bound <= *whole,
-                            "case {case}: c{k}: floor {bound} above {whole}"
-                        );
+                        if let TrainVerdict::Bracketed {
+                            bound: d,
+                            at_least: false,
+                        } = w
+                        {
+                            assert!(*bound <= *d, "case {case}: c{k}: floor {bound} above {d}");
+                        } else {
+                            assert!(finished[k].bound().is_none(), "case {case}: c{k}: {w:?}");
+                        }
                         let p = bound_of(&lazy[pick.expect("a pick")].train);
                         assert!(
                             p < PER_PARAMETER * bound,
                             "case {case}: c{k} within a step of the pick"
                         );
-                    }
-                    (TrainVerdict::Bracketed { .. }, TrainVerdict::Failed { .. })
-                        if matches!(finished[k], Bracket::Falsified(_)) =>
-                    {
-                        // A doubling that would have found no bound, never taken on: its floor
-                        // was beyond a step of the pick (not a candidate either way).
-                        assert!(!reached.contains(&k), "case {case}: c{k}");
                     }
                     (a, b) => assert_eq!(format!("{a:?}"), format!("{b:?}"), "case {case}: c{k}"),
                 }

@@ -119,17 +119,17 @@ pub fn identify(
 }
 
 /// [`identify`] of a model whose noise bound is estimated (`noise.estimate`), asked only
-/// whether it clears `bar`: the bound it would be identified with must not exceed `bar`. Before
-/// the classical estimate and the bracket ([`bracket_below`]), `bar` itself is tested, by the
-/// cheap classical test and then by the stage-3 method's verdict; when either proves the data
-/// inconsistent there, the answer is [`BelowBar::Above`] (the bound an estimate reports is one
-/// the method accepts, and a relaxation that rejects a bound rejects every smaller one) and
-/// neither is run: for a candidate that cannot be kept, one verdict instead of the bracket's
-/// five to ten (and a model whose estimate would be refused or falsified reads "above the
-/// bar" when the bar already falsifies it). Otherwise
-/// the identification is [`identify`]'s, to the digit (the bar's verdict is one more, asked
-/// first). Without a bar (or a bar that is not a positive number), and for a spec with a
-/// declared bound, it is [`identify`].
+/// whether it clears `bar`: the bound it would be identified with must not exceed `bar`.
+/// `bar` itself is tested, by the cheap classical test before the classical estimate and by
+/// the stage-3 method's verdict before the bracket's doubling ([`bracket_below`]); when either
+/// proves the data inconsistent there, the answer is [`BelowBar::Above`] (the bound an
+/// estimate reports is one the method accepts, and a relaxation that rejects a bound rejects
+/// every smaller one) and the bracket is not run: for a candidate that cannot be kept, one
+/// verdict instead of the bracket's five to ten (a model whose estimate is refused or
+/// falsified reads so, as the method is not asked then). Otherwise the identification is
+/// [`identify`]'s, to the digit (the bar's verdict is one more, and every step of the bracket
+/// at or above a bar the method accepts is answered by it). Without a bar (or a bar that is
+/// not a positive number), and for a spec with a declared bound, it is [`identify`].
 pub fn identify_below(spec: &Spec, data: ExperimentData, bar: Option<f64>) -> Result<BelowBar> {
     match bar.filter(|b| b.is_finite() && *b > 0.0) {
         Some(b) if spec.noise.to_estimate() => {
@@ -189,8 +189,10 @@ pub enum Bracket {
 pub struct Started {
     pub first: f64,
     pub margin: f64,
-    /// As [`Coarse::consistent_from`].
-    pub consistent_from: f64,
+    /// The bar the classical test did not falsify, still to be asked of the method first
+    /// (falsified there: [`Bracket::Above`]; consistent: every step at or above it is
+    /// consistent, [`Coarse::consistent_from`]).
+    pub bar: Option<f64>,
 }
 
 impl Started {
@@ -198,11 +200,24 @@ impl Started {
     /// does at `first`, else [`Bracket::Coarse`] (inconsistent at the last bound doubled,
     /// consistent at twice it); [`Bracket::Falsified`] when no bound up to 2^40 `first` is.
     pub fn double(&self, spec: &Spec, data: &ExperimentData) -> Bracket {
-        let verdict = known_or_asked(
-            spec.model.label(),
-            self.consistent_from,
-            method_verdict(spec, data),
-        );
+        let asked = method_verdict(spec, data);
+        let mut consistent_from = f64::INFINITY;
+        if let Some(b) = self.bar {
+            // A verdict that failed (solver trouble) proves nothing: the bracket goes on as it
+            // would without a bar, and reports such trouble itself.
+            match asked(b) {
+                Ok(Outcome::Falsified(f)) => {
+                    return Bracket::Above(AboveBar {
+                        bar: b,
+                        test: format!("the stage-3 method `{}`", spec.method.eiv.name()),
+                        detail: f.to_string(),
+                    })
+                }
+                Ok(Outcome::Consistent(())) => consistent_from = b,
+                Err(_) => {}
+            }
+        }
+        let verdict = known_or_asked(spec, data, consistent_from, asked);
         let first = self.first;
         let mut lo = first;
         let mut hi = first;
@@ -233,7 +248,7 @@ impl Started {
                 lo,
                 hi,
                 margin: self.margin,
-                consistent_from: self.consistent_from,
+                consistent_from,
             });
         }
         Bracket::At(hi)
@@ -268,14 +283,15 @@ impl Coarse {
     /// Narrow `(lo, hi]` geometrically to 5 % with the method's verdicts on `spec` and `data`
     /// (as [`bracket_below`] does), and keep the margin times its upper end.
     pub fn narrow(&self, spec: &Spec, data: &ExperimentData) -> f64 {
-        let verdict = known_or_asked(
-            spec.model.label(),
-            self.consistent_from,
-            method_verdict(spec, data),
-        );
+        let verdict = known_or_asked(spec, data, self.consistent_from, method_verdict(spec, data));
         let (mut lo, mut hi) = (self.lo, self.hi);
-        while hi / lo > 1.05 {
-            let mid = (lo * hi).sqrt();
+        // (Ends that are not finite and positive are kept as they are; a product that
+        // overflows takes the geometric mean another way.)
+        while hi / lo > 1.05 && hi.is_finite() && lo > 0.0 {
+            let mid = match (lo * hi).sqrt() {
+                m if m.is_finite() => m,
+                _ => lo * (hi / lo).sqrt(),
+            };
             match verdict(mid) {
                 Ok(Outcome::Falsified(_)) => lo = mid,
                 _ => hi = mid,
@@ -401,17 +417,40 @@ fn method_verdict<'a>(
     }
 }
 
-/// `verdict`, answered "consistent" without asking at a bound at or above `consistent_from`,
-/// where the method already found the data consistent: a relaxation that rejects a bound
-/// rejects every smaller one (the premise of the bar, [`bracket_below`]), so it accepts every
-/// larger one. A bracket then asks the same questions less often and keeps the same ends.
-fn known_or_asked(
-    label: String,
+/// `verdict` on `spec` and `data`, answered "consistent" without asking at a bound at or above
+/// `consistent_from`, where the method already found the data consistent: a relaxation that
+/// rejects a bound rejects every smaller one (the premise of the bar, [`bracket_below`]), so it
+/// accepts every larger one. That holds where the search's cells are the same at both bounds;
+/// where a bisected parameter's resolution follows the bound (a sensor offset's 0.5Δ, a
+/// bias's), the search trees differ and the verdict is asked, as [`estimate_bound`] does. A
+/// bracket then asks the same questions less often and keeps the same ends.
+fn known_or_asked<'a>(
+    spec: &'a Spec,
+    data: &'a ExperimentData,
     consistent_from: f64,
-    verdict: impl Fn(f64) -> Result<Outcome<()>>,
-) -> impl Fn(f64) -> Result<Outcome<()>> {
+    verdict: impl Fn(f64) -> Result<Outcome<()>> + 'a,
+) -> impl Fn(f64) -> Result<Outcome<()>> + 'a {
+    let label = spec.model.label();
+    let scale = data_scale(data);
+    let layout = spec.model.layout().ok();
+    let cells_at = move |d: f64| {
+        layout.as_ref().map(|l| {
+            resolution(
+                &spec.model,
+                l,
+                spec.method.cells.nonlinearity_halvings,
+                d,
+                &scale,
+            )
+        })
+    };
+    let from = cells_at(consistent_from);
     move |d: f64| {
-        if d >= consistent_from {
+        if consistent_from.is_finite()
+            && d >= consistent_from
+            && from.is_some()
+            && cells_at(d) == from
+        {
             log::info!(target: "smid::estimate", "{label}: noise bound {d:.4e}: consistent (not asked: at or above {consistent_from:.4e}, where the method found it so)");
             return Ok(Outcome::Consistent(()));
         }
@@ -421,11 +460,12 @@ fn known_or_asked(
 
 /// The bracket of an estimated noise bound (`noise.estimate`; the spec's declared bound, if
 /// any, is ignored), without identifying. With a `bar` (a positive number), the bar is tested
-/// first, by the classical test and then by the method's verdict; when either proves the data
-/// inconsistent there, the answer is [`Bracket::Above`] (the bound a bracket reports is one the
-/// method accepts, and a relaxation that rejects a bound rejects every smaller one) and the
-/// bracket is not run. The bracket's first try is at the smallest bound the cheap classical
-/// test finds consistent ([`estimate_bound`]). A tighter stage-3 method can prove
+/// first by the classical test, and after the classical estimate by the method's verdict; when
+/// either proves the data inconsistent there, the answer is [`Bracket::Above`] (the bound a
+/// bracket reports is one the method accepts, and a relaxation that rejects a bound rejects
+/// every smaller one) and the bracket is not run (a refused or falsified estimate is answered
+/// as such, before the method is asked). The bracket's first try is at the smallest bound the
+/// cheap classical test finds consistent ([`estimate_bound`]). A tighter stage-3 method can prove
 /// the data inconsistent there: the bound is then doubled until the method finds them
 /// consistent, the bracket narrowed geometrically to 5 %, and the bound kept is the margin
 /// times its upper end. The steps ask for the method's verdict alone
@@ -434,16 +474,15 @@ pub fn bracket_below(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Re
     Ok(bracket_start(spec, data, bar)?.narrowed(spec, data))
 }
 
-/// [`bracket_below`] up to its doubling: the bar's findings, or the classical estimate as
-/// [`Bracket::Started`], for [`Bracket::advanced`] to take on when needed.
+/// [`bracket_below`] up to its doubling: the classical test's finding at the bar, the
+/// classical estimate's findings, or that estimate as [`Bracket::Started`] (the method's
+/// verdict at the bar still to ask), for [`Bracket::advanced`] to take on when needed.
 pub fn bracket_start(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Result<Bracket> {
     let bar = bar.filter(|b| b.is_finite() && *b > 0.0);
     let margin = estimate_margin(spec);
     let label = spec.model.label();
-    let verdict = method_verdict(spec, data);
-    let mut consistent_from = f64::INFINITY;
-    // A bar first: when the data are inconsistent at it (classical test, then the method), the
-    // bound the bracket would reach lies above it; the bracket is then not run.
+    // The bar's cheap test first: when the classical test proves the data inconsistent at
+    // it, the bound the bracket would reach lies above it; nothing else is asked.
     if let Some(b) = bar {
         if !consistent_at(spec, data, b)? {
             log::info!(target: "smid::estimate", "{label}: noise bound {b:.4e} (the bar): falsified by the classical test");
@@ -453,29 +492,13 @@ pub fn bracket_start(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Re
                 detail: "no θ fits the equations of any cell (classical outer sets empty)".into(),
             }));
         }
-        // A verdict that failed (solver trouble) proves nothing: the bracket goes on as it
-        // would without a bar, and reports such trouble itself.
-        match verdict(b) {
-            Ok(Outcome::Falsified(f)) => {
-                return Ok(Bracket::Above(AboveBar {
-                    bar: b,
-                    test: format!("the stage-3 method `{}`", spec.method.eiv.name()),
-                    detail: f.to_string(),
-                }))
-            }
-            Ok(Outcome::Consistent(())) => consistent_from = b,
-            Err(_) => {}
-        }
     }
-    // The bar's question needs no estimate, so it comes first: a candidate rejected there is
-    // not also asked for the classical estimate (minutes for a bisected prior whose coarse
-    // tests falsify no bound).
+    // Then the classical estimate, and the method's verdict at the bar only with the doubling
+    // ([`Started::double`]): a candidate whose estimate is refused, or whose estimate already
+    // puts it out of the rule's reach, is not asked it (tens of seconds for a bisected
+    // input-side block on the tanks).
     Ok(match estimate_bound(spec, data)? {
-        Outcome::Consistent(first) => Bracket::Started(Started {
-            first,
-            margin,
-            consistent_from,
-        }),
+        Outcome::Consistent(first) => Bracket::Started(Started { first, margin, bar }),
         Outcome::Falsified(f) => Bracket::Falsified(f),
     })
 }
