@@ -1843,7 +1843,10 @@ fn estimated_pick_of<'a>(
     evidence
         .enumerate()
         .filter(|(_, e)| {
-            bound_of(&e.train) <= bar(base_bound, e.added_parameters)
+            // Admissible first: with a base that is not consistent the bar is infinite, and a
+            // failed candidate's infinite bound would clear it.
+            e.train.admissible()
+                && bound_of(&e.train) <= bar(base_bound, e.added_parameters)
                 && fit_of(&e.train) >= fit_of(base_train) - FIT_SLACK
         })
         .min_by(|(_, a), (_, b)| {
@@ -2886,6 +2889,29 @@ mod tests {
             left_started > 0 && left_coarse > 0,
             "{left_started} started, {left_coarse} coarse left"
         );
+    }
+
+    /// The estimated rule picks only a consistent candidate, also when the base model is not
+    /// consistent itself (its bar is then infinite, and so is a failed candidate's bound).
+    #[test]
+    fn the_estimated_pick_is_consistent_whatever_the_base() {
+        let failed = TrainVerdict::Failed {
+            message: "the data do not bound the noise bound".into(),
+        };
+        let mut ev = [evidence("a", 1, None), evidence("b", 2, None)];
+        assert_eq!(estimated_pick_of(ev.iter(), &failed), None);
+        ev[1].train = TrainVerdict::Consistent {
+            fit_percent: 50.0,
+            bound: 0.3,
+            unsettled: None,
+            within: None,
+        };
+        assert_eq!(estimated_pick_of(ev.iter(), &failed), Some(1));
+        ev[0].train = TrainVerdict::Bracketed {
+            bound: 0.1,
+            at_least: false,
+        };
+        assert_eq!(estimated_pick_of(ev.iter(), &failed), Some(1));
     }
 
     /// The rule's ties are reported both ways, and only ties: the same parameter count and a
