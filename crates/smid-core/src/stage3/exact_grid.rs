@@ -754,10 +754,24 @@ pub fn solve_from(
         .times
         .iter()
         .all(|&t| (0..=prob.nb).all(|j| prob.input[t - j].radius() == 0.0));
-    let anchor = if exact_input {
-        at_a.anchor(&start.bounds, opts.anchor_evals)?
-    } else {
-        None
+    // An inner point is kept only where the shared-error LP over its degenerate `a` box finds
+    // it feasible too: the fixed-`a` LP's dense measurement can be wrong where the `a`'s are
+    // large (a point it measured consistent at |a1| ≈ 17 that this LP proves infeasible).
+    let gridded = g.dims.clone();
+    let confirmed = |a: &[f64]| -> Result<bool> {
+        let mut tb = start.bounds.clone();
+        for (d, &k) in gridded.iter().enumerate() {
+            tb[k] = Interval::new(a[d], a[d]);
+        }
+        let lp = model.build(&tb, &model.initial_deltas(), &model.times)?;
+        Ok(lp.solver()?.feasible()? == Some(true))
+    };
+    let anchor = match exact_input {
+        true => match at_a.anchor(&start.bounds, opts.anchor_evals)? {
+            Some((a, v)) if confirmed(&a)? => Some((a, v)),
+            _ => None,
+        },
+        false => None,
     };
     let p = prob.p();
     let mut outer: Vec<Interval> = start.bounds.clone();
@@ -819,6 +833,9 @@ pub fn solve_from(
                         let target = &node.at[..g.dims.len()];
                         let near = at_a.toward(anchor, target, opts.line_steps)?;
                         for a in [near, anchor.clone()] {
+                            if !confirmed(&a)? {
+                                continue;
+                            }
                             if let Some(v) = at_a.value(&a, k, max)? {
                                 best_inner = Some(match best_inner {
                                     None => v,
