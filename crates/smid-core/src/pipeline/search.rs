@@ -127,8 +127,9 @@ pub fn identify(
 /// every smaller one) and the bracket is not run: for a candidate that cannot be kept, one
 /// verdict instead of the bracket's five to ten (a model whose estimate is refused or
 /// falsified reads so, as the method is not asked then). Otherwise the identification is
-/// [`identify`]'s, to the digit (the bar's verdict is one more, and every step of the bracket
-/// at or above a bar the method accepts is answered by it). Without a bar (or a bar that is
+/// [`identify`]'s, to the digit as long as the method's verdict is monotone in the bound (the
+/// bar's verdict is one more, and a step of the bracket at or above a bar the method accepts,
+/// with the same cells, is answered by it). Without a bar (or a bar that is
 /// not a positive number), and for a spec with a declared bound, it is [`identify`].
 pub fn identify_below(spec: &Spec, data: ExperimentData, bar: Option<f64>) -> Result<BelowBar> {
     match bar.filter(|b| b.is_finite() && *b > 0.0) {
@@ -190,8 +191,8 @@ pub struct Started {
     pub first: f64,
     pub margin: f64,
     /// The bar the classical test did not falsify, still to be asked of the method first
-    /// (falsified there: [`Bracket::Above`]; consistent: every step at or above it is
-    /// consistent, [`Coarse::consistent_from`]).
+    /// (falsified there: [`Bracket::Above`]; consistent: a step at or above it is answered
+    /// without asking where the cells are the same, [`Coarse::consistent_from`]).
     pub bar: Option<f64>,
 }
 
@@ -266,8 +267,8 @@ pub struct Coarse {
     pub hi: f64,
     pub margin: f64,
     /// The method found the data consistent here already (the bar's verdict; `+∞` when
-    /// none): a narrowing step at or above it is consistent without asking
-    /// ([`Coarse::narrow`]).
+    /// none): a narrowing step at or above it, with the same cells, is consistent without
+    /// asking (`known_or_asked`).
     pub consistent_from: f64,
 }
 
