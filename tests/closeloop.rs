@@ -1170,3 +1170,315 @@ model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: {na}\n  n
     assert_eq!(checked, 12);
     assert!(powers > 0, "the polynomial path was not drawn");
 }
+
+/// The estimate's implied verdicts (`pipeline::estimate_bound_traced`: "consistent" at the
+/// smallest bound the bisection may try answers every larger one whose test evaluates the same
+/// cells) give what asking every verdict gives. Cases drawn from the effect registry: effect
+/// candidates with bisected parameters and a default prior from these data (each box that
+/// prior, or shrunk around a random point to 1e-3 to 1 of it), every other case one whose
+/// resolution follows the bound (an offset's, a drift's), on records of random linear plants
+/// with bounded noise of random size and random cell budgets; then the registry's check-case
+/// blocks beside such an effect; then built cases (an output gain beside an offset) where the
+/// smallest bound is kept and larger ones near the noise are falsified, which implying
+/// "consistent" from the smallest bound would get wrong. Each part must take a verdict from
+/// the same cells at another resolution, or meet its built case, or the test does not exercise
+/// what it checks.
+#[test]
+fn implied_estimate_verdicts_give_what_asking_each_gives() {
+    use smid::core::effect::{effects, DataScale};
+    use smid::core::interval::Interval;
+    use smid::core::rand::{Rng, SeedableRng};
+    smid::link_plugins();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(67_001);
+    let candidates: Vec<_> = effects()
+        .into_iter()
+        .flat_map(|e| (e.candidates)())
+        .filter(|c| !c.cell_parameters().is_empty())
+        .collect();
+    assert!(
+        candidates.len() >= 2,
+        "the registry offers too few bisected effects"
+    );
+    let show = |r: &smid::core::Result<smid::core::outcome::Outcome<f64>>| match r {
+        Ok(smid::core::outcome::Outcome::Consistent(d)) => format!("consistent {:?}", d.to_bits()),
+        Ok(smid::core::outcome::Outcome::Falsified(f)) => format!("falsified: {f}"),
+        Err(e) => format!("error: {e}"),
+    };
+    let mut exercised = 0;
+    for case in 0..16 {
+        let n = rng.gen_range(120..240);
+        let (a, b) = (rng.gen_range(-0.8..0.8), rng.gen_range(0.5..2.0));
+        let levels: Vec<f64> = (0..5).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let hold = rng.gen_range(2..8);
+        let u: Vec<f64> = (0..n).map(|t| levels[(t / hold) % 5]).collect();
+        let mut x = vec![0.0; n];
+        for t in 1..n {
+            x[t] = a * x[t - 1] + b * u[t - 1];
+        }
+        let noise = 10f64.powf(rng.gen_range(-4.0..-1.5));
+        let e = smid::core::noise::uniform(n, noise, &mut rng);
+        let y: Vec<f64> = x.iter().zip(&e).map(|(x, e)| x + e).collect();
+        let range = |v: &[f64]| {
+            v.iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &s| {
+                    (lo.min(s), hi.max(s))
+                })
+        };
+        let scale = DataScale {
+            y_max: y.iter().fold(0.0f64, |m, v| m.max(v.abs())),
+            length: n,
+            y_range: range(&y),
+            u_range: range(&u),
+            noise: None,
+        };
+        // Every other case an effect whose resolution follows the bound.
+        let follows = |c: &dyn smid::core::effect::Effect| {
+            c.resolution(1.0, &scale) != c.resolution(0.5, &scale)
+        };
+        let pool: Vec<_> = candidates
+            .iter()
+            .filter(|c| case % 2 == 1 || follows(c.as_ref()))
+            .collect();
+        let cand = pool[rng.gen_range(0..pool.len())];
+        let boxes = cand.default_prior(&scale);
+        let names = cand.cell_parameters();
+        if boxes.len() < names.len() {
+            continue;
+        }
+        let prior: Vec<String> = names
+            .iter()
+            .zip(&boxes)
+            .map(|(name, b): (&String, &Interval)| {
+                let width = b.hi - b.lo;
+                // Half the boxes whole: wide against the noise, as the diagnosis gives them.
+                let w = if rng.gen_bool(0.5) {
+                    width
+                } else {
+                    width * 10f64.powf(rng.gen_range(-3.0..0.0))
+                };
+                let lo = b.lo + rng.gen_range(0.0..1.0) * (width - w);
+                format!("{name}: [{lo:?}, {:?}]", lo + w)
+            })
+            .collect();
+        let effect = serde_json::to_string(cand).unwrap();
+        let max_cells = rng.gen_range(16..600);
+        let halvings = rng.gen_range(2..7);
+        let rest = format!(
+            "noise: {{ estimate: 1.1 }}\n\
+model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 1\n  nb: 1\n  nk: 1\n  unit_gain: false\n  \
+effects: [ {effect} ]\n  prior: {{ {} }}\n\
+method:\n  eiv: classical\n  member: {{ search: false }}\n  cells: {{ max_cells: {max_cells}, nonlinearity_halvings: {halvings} }}\n",
+            prior.join(", ")
+        );
+        let (spec, data) = common::measured("implied", &u, &y, &rest);
+        let (implied, trace) = pipeline::estimate_bound_traced(&spec, &data, true);
+        let (asked, every) = pipeline::estimate_bound_traced(&spec, &data, false);
+        let context = format!("case {case} ({}, noise {noise:e}, max_cells {max_cells}, halvings {halvings}, prior {prior:?})", cand.label());
+        assert_eq!(show(&implied), show(&asked), "{context}");
+        assert_eq!(every.implied, 0, "{context}");
+        // At most one test more per level of cells (the smallest bound, asked first).
+        assert!(
+            trace.asked <= every.asked + 4,
+            "{context}: {trace:?} against {every:?}"
+        );
+        if follows(cand.as_ref()) && trace.implied > 0 {
+            exercised += 1;
+        }
+        eprintln!(
+            "{context}: {} ({trace:?}; asking each: {every:?})",
+            show(&implied).chars().take(60).collect::<String>()
+        );
+    }
+    assert!(
+        exercised > 0,
+        "no case took a verdict from the same cells at another resolution"
+    );
+
+    // With a block's parameters bisected too (each registered check case's own draw, its
+    // prior box around the truth as `smid check --any-record` draws it) beside an offset or a
+    // drift: at the smallest bound the effect's fine resolution takes the budget's splits and
+    // leaves the block's cells whole, where a larger bound splits them and may falsify.
+    let follows: Vec<_> = candidates
+        .iter()
+        .filter(|c| {
+            let s = DataScale {
+                y_max: 1.0,
+                length: 100,
+                y_range: (-1.0, 1.0),
+                u_range: (-1.0, 1.0),
+                noise: None,
+            };
+            c.resolution(1.0, &s) != c.resolution(0.5, &s)
+                && c.default_prior(&s).len() == c.cell_parameters().len()
+        })
+        .collect();
+    let cases = smid::core::registry::check_cases();
+    let mut differ = 0;
+    for case in 0..16 {
+        let check = &cases[rng.gen_range(0..cases.len())];
+        let Some(draw) = check.draw(&mut rng) else {
+            continue;
+        };
+        // Where the boxes are resolved, a block of at most two parameters (more would take
+        // the whole budget).
+        if case % 2 == 1 && draw.nonlinearity.parameters().len() > 2 {
+            continue;
+        }
+        let n = rng.gen_range(100..180);
+        let a = rng.gen_range(0.2..0.8);
+        let levels: Vec<f64> = (0..6)
+            .map(|_| rng.gen_range(-1.0..1.0) * draw.amplitude)
+            .collect();
+        let hold = rng.gen_range(3..9);
+        let u: Vec<f64> = (0..n).map(|t| levels[(t / hold) % 6]).collect();
+        let linear = |v: &[f64]| {
+            let mut x = vec![0.0; v.len()];
+            for t in 1..v.len() {
+                x[t] = a * x[t - 1] + (1.0 - a) * v[t - 1];
+            }
+            x
+        };
+        let wiener = check.structure == smid::core::nonlinearity::Structure::Wiener;
+        let clean = if wiener {
+            draw.nonlinearity.simulate(&linear(&u))
+        } else {
+            linear(&draw.nonlinearity.simulate(&u))
+        };
+        let noise = 10f64.powf(rng.gen_range(-3.5..-1.5));
+        let e = smid::core::noise::uniform(n, noise, &mut rng);
+        let y: Vec<f64> = clean.iter().zip(&e).map(|(c, e)| c + e).collect();
+        let scale = DataScale {
+            y_max: y.iter().fold(0.0f64, |m, v| m.max(v.abs())),
+            length: n,
+            y_range: (0.0, 0.0),
+            u_range: (0.0, 0.0),
+            noise: None,
+        };
+        let effect = follows[rng.gen_range(0..follows.len())];
+        let max_cells = rng.gen_range(32..400);
+        let halvings = rng.gen_range(2..5);
+        // The effect's boxes (the plant has none: 0 inside) from a few times the noise
+        // (where a bound near the noise splits the block's cells too) to its default prior.
+        let mut prior: Vec<String> = effect
+            .cell_parameters()
+            .iter()
+            .zip(effect.default_prior(&scale))
+            .map(|(name, b)| {
+                let w = (b.hi - b.lo)
+                    * (noise / scale.y_max * 10f64.powf(rng.gen_range(0.3..2.0))).min(1.0);
+                let lo = -rng.gen_range(0.0..1.0) * w;
+                format!("{name}: [{lo:?}, {:?}]", lo + w)
+            })
+            .collect();
+        // The block's boxes as `--any-record` draws them, or (every other case) a few times
+        // what the noise resolves after the test's halvings: unsplit, the block leaves a bound
+        // below the noise consistent; split, it may not.
+        let resolved = case % 2 == 1;
+        for (name, v) in draw.nonlinearity.parameters() {
+            let w = if resolved {
+                v.abs().max(0.05)
+                    * (noise / scale.y_max * f64::from(1u32 << halvings) * rng.gen_range(1.0..6.0))
+                        .min(1.0)
+            } else {
+                v.abs().max(0.05) * rng.gen_range(0.2..1.0)
+            };
+            let f: f64 = rng.gen_range(0.0..1.0);
+            let (mut lo, hi) = (v - w * f, v + w * (1.0 - f));
+            if name.starts_with('m') {
+                lo = lo.max(0.2 * v);
+            } else if v >= 0.0 {
+                lo = lo.max(0.0);
+            }
+            prior.push(format!("{name}: [{lo:?}, {hi:?}]"));
+        }
+        let rest = format!(
+            "noise: {{ estimate: 1.1 }}\n\
+model:\n  structure: {}\n  nonlinearity: {}\n  na: 1\n  nb: 1\n  nk: 1\n  unit_gain: true\n  \
+effects: [ {} ]\n  prior: {{ {} }}\n\
+method:\n  eiv: classical\n  member: {{ search: false }}\n  cells: {{ max_cells: {max_cells}, nonlinearity_halvings: {halvings} }}\n",
+            if wiener { "wiener" } else { "hammerstein" },
+            serde_json::to_string(&draw.model).unwrap(),
+            serde_json::to_string(effect).unwrap(),
+            prior.join(", ")
+        );
+        let (spec, data) = common::measured("implied-block", &u, &y, &rest);
+        let (implied, trace) = pipeline::estimate_bound_traced(&spec, &data, true);
+        let (asked, every) = pipeline::estimate_bound_traced(&spec, &data, false);
+        let context = format!("block case {case} ({}, {}, noise {noise:e}, max_cells {max_cells}, halvings {halvings}, prior {prior:?})", check.name, effect.label());
+        assert_eq!(show(&implied), show(&asked), "{context}");
+        assert!(
+            trace.asked <= every.asked + 4,
+            "{context}: {trace:?} against {every:?}"
+        );
+        if trace.implied > 0 {
+            differ += 1;
+        }
+        eprintln!(
+            "{context}: {} ({trace:?}; asking each: {every:?})",
+            show(&implied).chars().take(60).collect::<String>()
+        );
+    }
+    assert!(
+        differ > 0,
+        "no block case took a verdict from the same cells"
+    );
+
+    // The case the cells' check is there for, built to occur: an output gain `k` (its box a
+    // few times what the noise resolves) beside a sensor offset (its box twice the noise). At
+    // the smallest bound the offset's resolution takes every split and leaves `k` whole, and
+    // the test keeps a cell; at bounds near the noise `k` is split as well and the test
+    // falsifies them. Implying "consistent" there from the smallest bound would refuse the
+    // estimate; the cells differ, so the bounds are asked and the estimate exists.
+    let mut occurred = 0;
+    for (case, (k_boxes, max_cells)) in [(3.0, 127), (4.0, 127), (6.0, 255), (4.0, 255)]
+        .into_iter()
+        .enumerate()
+    {
+        let n = 200;
+        let levels: Vec<f64> = (0..6).map(|_| rng.gen_range(0.2..1.0)).collect();
+        let u: Vec<f64> = (0..n).map(|t| levels[(t / 5) % 6]).collect();
+        let mut x = vec![0.0; n];
+        for t in 1..n {
+            x[t] = 0.6 * x[t - 1] + 0.4 * u[t - 1];
+        }
+        let y_max = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let noise = 1e-2 * y_max;
+        let e = smid::core::noise::uniform(n, noise, &mut rng);
+        let y: Vec<f64> = x.iter().zip(&e).map(|(x, e)| x + e).collect();
+        let k = k_boxes * noise / y_max;
+        let rest = format!(
+            "noise: {{ estimate: 1.1 }}\n\
+model:\n  structure: wiener\n  nonlinearity: {{ type: example_gain }}\n  na: 1\n  nb: 1\n  nk: 1\n  unit_gain: true\n  \
+effects: [ {{ type: offset }} ]\n  prior: {{ offset: [{:?}, {:?}], k: [{:?}, {:?}] }}\n\
+method:\n  eiv: classical\n  member: {{ search: false }}\n  cells: {{ max_cells: {max_cells}, nonlinearity_halvings: 4 }}\n",
+            -noise,
+            noise,
+            1.0 - 0.5 * k,
+            1.0 + 0.5 * k
+        );
+        let (spec, data) = common::measured("implied-gain", &u, &y, &rest);
+        let (implied, trace) = pipeline::estimate_bound_traced(&spec, &data, true);
+        let (asked, every) = pipeline::estimate_bound_traced(&spec, &data, false);
+        let context = format!("gain case {case} (k box {k:e}, max_cells {max_cells})");
+        assert_eq!(show(&implied), show(&asked), "{context}");
+        // The first level's test at the smallest bound its bisection tries (a thousandth of
+        // the largest output halved until below 1e-9 of it).
+        let scale = pipeline::data_scale(&data).y_max;
+        let mut smallest = 1e-3 * scale;
+        while smallest >= pipeline::NO_BOUND_BELOW * scale {
+            smallest *= 0.5;
+        }
+        let smallest_kept = pipeline::consistent_at(&spec, &data, smallest).unwrap();
+        if smallest_kept && matches!(asked, Ok(smid::core::outcome::Outcome::Consistent(_))) {
+            occurred += 1;
+        }
+        eprintln!(
+            "{context}: {} ({trace:?}; asking each: {every:?}); smallest kept {smallest_kept}",
+            show(&implied)
+        );
+    }
+    assert!(
+        occurred > 0,
+        "no gain case kept the smallest bound and estimated a larger one"
+    );
+}

@@ -1,7 +1,7 @@
 //! Noise-bound estimation (`noise.estimate`): the smallest bound at which the training data are
 //! consistent with the model (by the branch and bound's cheap test), times a margin (eq 5).
 use super::*;
-use crate::cells::{self, Budget};
+use crate::cells::{self, Budget, Verdict};
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
 use crate::model::Training;
@@ -28,6 +28,74 @@ fn consistent_at_halvings(
     d: f64,
     halvings: u32,
 ) -> Result<bool> {
+    Ok(tested_at(spec, data, d, halvings, false)?.0)
+}
+
+/// A cell of the test's search, by the bit patterns of its bounds (a key that two searches
+/// share exactly when they evaluate the same box).
+type CellKey = Vec<(u64, u64)>;
+
+/// The prior box and the budget of the consistency test's search at `d` (cells of a bisected
+/// parameter halved `halvings` times; an effect's resolution may follow `d`).
+fn test_budget(
+    spec: &Spec,
+    data: &ExperimentData,
+    d: f64,
+    halvings: u32,
+) -> Result<(Vec<Interval>, Budget)> {
+    let layout = spec.model.layout()?;
+    let prior: Vec<Interval> = layout.dims.iter().map(|d| d.prior).collect();
+    // Coarser than the identification's cells: a test that cannot discard a coarse cell only
+    // lowers the estimate, which the identification then raises by the margin if needed.
+    let resolution = resolution(&spec.model, &layout, halvings, d, &data_scale(data));
+    Ok((
+        prior,
+        Budget {
+            resolution,
+            depth: spec.method.cells.depth,
+            // A consistency test stopped early keeps its cells: it can only say "consistent"
+            // too soon, which lowers the estimate (raised again by the margin if needed).
+            max_cells: spec.method.cells.max_cells.min(500),
+            max_leaves: 500,
+        },
+    ))
+}
+
+/// The cells the consistency test's search at `d` evaluates when no test discards one (the
+/// same search, run with a test that keeps every cell): sorted keys, one per evaluation.
+fn undiscarded_cells(
+    spec: &Spec,
+    data: &ExperimentData,
+    d: f64,
+    halvings: u32,
+) -> Result<Vec<CellKey>> {
+    let (prior, budget) = test_budget(spec, data, d, halvings)?;
+    let seen = std::sync::Mutex::new(Vec::new());
+    let keep = |c: &[Interval]| {
+        seen.lock().expect("no panic while recording").push(key(c));
+        Ok(Verdict::Feasible(()))
+    };
+    cells::search(&prior, budget, &keep, &keep, &|_| {})?;
+    let mut out = seen.into_inner().expect("no panic while recording");
+    out.sort();
+    Ok(out)
+}
+
+fn key(c: &[Interval]) -> CellKey {
+    c.iter().map(|i| (i.lo.to_bits(), i.hi.to_bits())).collect()
+}
+
+/// The consistency test at `d` ([`consistent_at`]'s verdict), and, with `record`, the sorted
+/// keys of every cell it evaluated.
+fn tested_at(
+    spec: &Spec,
+    data: &ExperimentData,
+    d: f64,
+    halvings: u32,
+    record: bool,
+) -> Result<(bool, Option<Vec<CellKey>>)> {
+    let seen = std::sync::Mutex::new(Vec::new());
+    let (prior, budget) = test_budget(spec, data, d, halvings)?;
     let spec = with_bound(spec, d);
     let mut data = data_with_bound(data, d);
     // The points as the identification's stage 1 reads them (α at this bound).
@@ -39,30 +107,23 @@ fn consistent_at_halvings(
         steady: data.steady.clone(),
         records: data.records.clone(),
     };
-    let prior: Vec<Interval> = layout.dims.iter().map(|d| d.prior).collect();
-    let scale = data_scale(&data);
-    // Coarser than the identification's cells: a test that cannot discard a coarse cell only
-    // lowers the estimate, which the identification then raises by the margin if needed.
-    let resolution = resolution(&spec.model, &layout, halvings, d, &scale);
-    let test = |c: &[Interval]| test_cell(&spec.model, &layout, &spec.method, &training, c);
-    match cells::search(
-        &prior,
-        Budget {
-            resolution,
-            depth: spec.method.cells.depth,
-            // A consistency test stopped early keeps its cells: it can only say "consistent"
-            // too soon, which lowers the estimate (raised again by the margin if needed).
-            max_cells: spec.method.cells.max_cells.min(500),
-            max_leaves: 500,
-        },
-        &test,
-        &test,
-        &|_| {},
-    ) {
-        Ok(Outcome::Consistent(s)) => Ok(!s.leaves.is_empty()),
-        Ok(Outcome::Falsified(_)) => Ok(false),
-        Err(e) => Err(e),
-    }
+    let test = |c: &[Interval]| {
+        if record {
+            seen.lock().expect("no panic while recording").push(key(c));
+        }
+        test_cell(&spec.model, &layout, &spec.method, &training, c)
+    };
+    let verdict = match cells::search(&prior, budget, &test, &test, &|_| {}) {
+        Ok(Outcome::Consistent(s)) => !s.leaves.is_empty(),
+        Ok(Outcome::Falsified(_)) => false,
+        Err(e) => return Err(e),
+    };
+    let cells = record.then(|| {
+        let mut v = seen.into_inner().expect("no panic while recording");
+        v.sort();
+        v
+    });
+    Ok((verdict, cells))
 }
 
 /// The smallest bound [`estimate_bound`] tries, as a fraction of the largest output (about 30
@@ -79,6 +140,53 @@ pub const NO_BOUND_BELOW: f64 = 1e-9;
 /// When no bound down to [`NO_BOUND_BELOW`] of the largest output is proven inconsistent, the
 /// answer is `Unbounded` (the data do not bound the noise here), never a vanishing bound.
 pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<Outcome<f64>> {
+    estimate_bound_traced(spec, data, true).0
+}
+
+/// How [`estimate_bound`] reached its answer: the consistency tests it ran, and the bounds
+/// answered "consistent" from another bound's test without running one (see
+/// [`estimate_bound_traced`]; a test's own verdict read again counts in neither).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct EstimateTrace {
+    pub asked: usize,
+    pub implied: usize,
+}
+
+/// [`estimate_bound`] and its trace. With `imply` false every verdict of the bisection is
+/// asked: the reference the implied verdicts are checked against (both give the same answer
+/// wherever the test is monotone, the premise below).
+///
+/// Implied verdicts: where at least three bounds the bisection may try would be answered, the
+/// smallest of them is tested first. Where it is consistent, so is every larger bound the
+/// bisection may try at which the test's search evaluates the same cells: a smaller bound
+/// shrinks every cell's outer set, so a cell the smallest keeps is kept there too (and a kept
+/// ancestor stands for cells the larger bound's budget leaves unsplit). The cells are the same
+/// (a) where the resolution is the same (no bisected parameter whose resolution follows the
+/// bound, as a sensor offset's 0.5Δ does), or (b) where the search that discards no cell
+/// evaluates the same cells at both bounds and the search at the smallest bound evaluated
+/// exactly those (it discarded no cell before its finish): the budget stopped both before the
+/// resolution told them apart. Case (b) is the common one of a refused estimate: an offset's
+/// or a drift's prior far wider than the noise, every test stopped by the cell budget. The
+/// premise is the one the bar and the same-resolution short cut already rest on, with one
+/// gap they share: a cell kept as feasible at the smallest bound that is undecided at a
+/// larger one (stage 3 unbounded there) is halved further, and halves the smallest bound
+/// never tested could both be discarded.
+pub fn estimate_bound_traced(
+    spec: &Spec,
+    data: &ExperimentData,
+    imply: bool,
+) -> (Result<Outcome<f64>>, EstimateTrace) {
+    let mut trace = EstimateTrace::default();
+    let r = estimate_with(spec, data, imply, &mut trace);
+    (r, trace)
+}
+
+fn estimate_with(
+    spec: &Spec,
+    data: &ExperimentData,
+    imply: bool,
+    trace: &mut EstimateTrace,
+) -> Result<Outcome<f64>> {
     // The test's cells start two halvings coarser than the identification's. A test that
     // falsifies no bound at all (a bisected prior wide against the noise: the damper's play
     // under a diagnosis budget) is asked again with cells refined by two halvings at a time,
@@ -98,10 +206,10 @@ pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<Outcome<f64>
         &[h.saturating_sub(2)]
     };
     for &halvings in levels {
-        if let Some(outcome) = estimate_at_halvings(spec, data, halvings)? {
+        if let Some(outcome) = estimate_at_halvings(spec, data, halvings, imply, trace)? {
             return Ok(outcome);
         }
-        log::info!(target: "smid::estimate", "{}: no bound falsified with cells halved {halvings} times", spec.model.label());
+        log::info!(target: "smid::estimate", "{}: no bound falsified with cells halved {halvings} times ({} tests run, {} implied so far)", spec.model.label(), trace.asked, trace.implied);
     }
     let floor = NO_BOUND_BELOW * data_scale(data).y_max;
     Err(SmidError::Unbounded {
@@ -118,28 +226,28 @@ fn estimate_at_halvings(
     spec: &Spec,
     data: &ExperimentData,
     halvings: u32,
+    imply: bool,
+    trace: &mut EstimateTrace,
 ) -> Result<Option<Outcome<f64>>> {
-    let consistent_at = |d: f64| consistent_at_halvings(spec, data, d, halvings);
     let margin = spec.noise.estimate.unwrap_or(1.1);
-    let dscale = data_scale(data);
-    let scale = dscale.y_max;
+    let scale = data_scale(data).y_max;
     let start = 1e-3 * scale;
-    // The bounds the bisection below tries when every test is consistent, down to the
-    // smallest. Where the cells' resolution is the same at all of them (no bisected parameter
-    // whose resolution follows the bound, as a sensor offset's 0.5Δ), the test is monotone in
-    // the bound: a smaller bound shrinks every cell's outer set, so a cell kept there is kept
-    // at every larger bound, and its search tree (the same splits) is a subtree of theirs. So
-    // when the smallest is consistent, every larger one is too: the level decides nothing,
-    // and one test says so instead of twenty. Elsewhere the bisection runs as it always did.
     let tried = bisection_bounds(start, scale);
-    let layout = spec.model.layout()?;
-    let cells_at = |d: f64| resolution(&spec.model, &layout, halvings, d, &dscale);
-    let same_cells = tried.iter().all(|&d| cells_at(d) == cells_at(start));
-    if let (true, Some(&smallest)) = (same_cells, tried.last()) {
-        if consistent_at(smallest)? {
-            return Ok(None);
+    let known = if imply {
+        known_verdicts(spec, data, halvings, &tried, trace)?
+    } else {
+        Vec::new()
+    };
+    let mut consistent_at = |d: f64| -> Result<bool> {
+        if let Some(&(_, v)) = known.iter().find(|(k, _)| k.to_bits() == d.to_bits()) {
+            if d.to_bits() != tried.last().map_or(0, |s| s.to_bits()) {
+                trace.implied += 1;
+            }
+            return Ok(v);
         }
-    }
+        trace.asked += 1;
+        consistent_at_halvings(spec, data, d, halvings)
+    };
     let mut hi = start;
     let mut lo = 0.0;
     let mut n = 0;
@@ -169,6 +277,55 @@ fn estimate_at_halvings(
         n += 1;
     }
     Ok(Some(Outcome::Consistent(margin * hi)))
+}
+
+/// The verdicts at bounds of `tried` (the bisection's bounds while every test is consistent,
+/// smallest last) known from one test at the smallest (see [`estimate_bound_traced`]): that
+/// verdict, and, when it is "consistent", "consistent" at every bound where the test's search
+/// evaluates the same cells. Empty when fewer than three bounds would be known (the test is not
+/// worth running first).
+fn known_verdicts(
+    spec: &Spec,
+    data: &ExperimentData,
+    halvings: u32,
+    tried: &[f64],
+    trace: &mut EstimateTrace,
+) -> Result<Vec<(f64, bool)>> {
+    let Some(&smallest) = tried.last() else {
+        return Ok(Vec::new());
+    };
+    let layout = spec.model.layout()?;
+    let dscale = data_scale(data);
+    let cells_at = |d: f64| resolution(&spec.model, &layout, halvings, d, &dscale);
+    let at_smallest = cells_at(smallest);
+    // (a) the same resolution: the same splits of every cell, whatever the verdicts.
+    let (same, other): (Vec<f64>, Vec<f64>) =
+        tried.iter().partition(|&&d| cells_at(d) == at_smallest);
+    // (b) the same cells while nothing is discarded.
+    let plan = if other.is_empty() {
+        Vec::new()
+    } else {
+        undiscarded_cells(spec, data, smallest, halvings)?
+    };
+    let mut planned = Vec::new();
+    for &d in &other {
+        if undiscarded_cells(spec, data, d, halvings)? == plan {
+            planned.push(d);
+        }
+    }
+    if same.len() + planned.len() < 3 {
+        return Ok(Vec::new());
+    }
+    trace.asked += 1;
+    let (consistent, evaluated) = tested_at(spec, data, smallest, halvings, !planned.is_empty())?;
+    if !consistent {
+        return Ok(vec![(smallest, false)]);
+    }
+    let mut known: Vec<(f64, bool)> = same.into_iter().map(|d| (d, true)).collect();
+    if evaluated.is_some_and(|e| e == plan) {
+        known.extend(planned.into_iter().map(|d| (d, true)));
+    }
+    Ok(known)
 }
 
 /// The bounds [`estimate_at_halvings`]'s bisection tries when every test is consistent:

@@ -423,8 +423,9 @@ fn method_verdict<'a>(
 /// rejects a bound rejects every smaller one (the premise of the bar, [`bracket_below`]), so it
 /// accepts every larger one. That holds where the search's cells are the same at both bounds;
 /// where a bisected parameter's resolution follows the bound (a sensor offset's 0.5Δ, a
-/// bias's), the search trees differ and the verdict is asked, as [`estimate_bound`] does. A
-/// bracket then asks the same questions less often and keeps the same ends.
+/// bias's), the search trees may differ and the verdict is asked (unlike [`estimate_bound`],
+/// this does not compare the searches' cells). A bracket then asks the same questions less
+/// often and keeps the same ends.
 fn known_or_asked<'a>(
     spec: &'a Spec,
     data: &'a ExperimentData,
