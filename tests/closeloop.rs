@@ -982,6 +982,51 @@ fn a_quantiser_declared_or_identified_through_the_spec_holds_the_truth() {
     );
 }
 
+/// The other side of the vacuous end: fresh records of the paper's plant (`examples/paper.yaml`,
+/// random seeds and lengths), their noise scaled to `s` times what the plant drew (`s` = 1, or
+/// 1e-4: a halving that passes a thousandth of the bound before the records contradict it),
+/// carry noise the model set cannot absorb, so the smallest consistent bound is not `(0, 0)`
+/// (no cell admits them at a vanishing bound) and its proven end lies below the largest noise
+/// they carry.
+#[test]
+fn records_with_noise_the_set_cannot_absorb_have_a_positive_smallest_bound() {
+    use smid::core::rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(67_002);
+    let text = std::fs::read_to_string(root().join("examples/paper.yaml")).unwrap();
+    let mut spec = smid::parse_spec(&text, Path::new("paper.yaml")).unwrap();
+    spec.method.member.search = false;
+    let base = root().join("examples");
+    let id = smid::run_spec(&spec, &base, &|_| {}).unwrap().unwrap();
+    for case in 0..4 {
+        let seed = rng.gen_range(2000..3000);
+        let length = rng.gen_range(80..200);
+        let s = if case % 2 == 0 { 1.0 } else { 1e-4 };
+        let fresh = closeloop::fresh_records(&spec, &base, &[], seed, length, 1).unwrap();
+        let mut noise = 0.0f64;
+        let fresh: Vec<_> = fresh
+            .iter()
+            .map(|r| {
+                let w =
+                    r.w.clone()
+                        .expect("a simulated record carries its noise-free output");
+                let mut r = r.with_bound(id.model.delta);
+                for (y, w) in r.y.iter_mut().zip(&w) {
+                    *y = w + s * (*y - w);
+                    noise = noise.max((*y - w).abs());
+                }
+                r
+            })
+            .collect();
+        let (lo, hi) = validate::smallest_bound(&id.model, &fresh, 0.02, None)
+            .unwrap()
+            .expect("consistent at the model's bound");
+        assert!(
+            0.0 < lo && lo <= hi && lo <= noise * (1.0 + 1e-9),
+            "case {case} (seed {seed}, length {length}, noise scaled by {s}): [{lo:e}, {hi:e}], largest noise {noise:e}"
+        );
+    }
+}
+
 /// A model whose cells leave stage 2's intervals wider than the noise on a fresh record (a
 /// sensor drift: `offset + drift·t` over each cell) is not contradicted by the record at any
 /// bound: the smallest consistent bound is then `(0, 0)`, said at once instead of halving
