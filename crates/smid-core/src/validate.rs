@@ -417,9 +417,12 @@ enum CellCheck {
 /// in a cell that holds the truth, or a cell whose stage-2 intervals (a sensor drift's
 /// `offset + drift·t` over its cell) are wider than the noise, where the records test little;
 /// the search stops at once instead of halving towards 0 cell after cell: a cell halved below
-/// a thousandth of the bound without being contradicted is checked once at half that vacuous
-/// end, and if it admits the records there the search ends (a cell's check is monotone in the
-/// bound: the same cell, smaller sets below).
+/// a thousandth of the bound without being contradicted (records consistent at the model's
+/// own bound) is checked once at half that vacuous end, and if it admits the records there
+/// the search ends. The cell's exact set only shrinks with the bound, so it admits them at
+/// every bound the halving would still try; the check is a relaxation started from the last
+/// admitting bound's box, so where it depends on that box, the halving (tightening the box
+/// step by step) might have been contradicted in between and given a positive bound.
 ///
 /// It is the smallest of the cells' own smallest bounds: the cells are visited centre first;
 /// a cell is bisected only when it admits the data just below the best bound found so far
@@ -505,9 +508,10 @@ pub fn smallest_bound(
                 }
                 n += 1;
                 // Never contradicted down to a thousandth of the bound: heading for the vacuous
-                // end. A cell's check is monotone in the bound (the same cell, smaller sets
-                // below), so one that admits the records below that end admits them at every
-                // bound the halving would still try: one check instead of twenty.
+                // end. The cell's set only shrinks with the bound, so a cell admitting the
+                // records below that end admits them at every bound the halving would still
+                // try (as far as the check, a relaxation from `warm`, is monotone): one check
+                // instead of twenty.
                 if a == 0.0 && b < 1e-3 * d0 && !vacuous_asked {
                     vacuous_asked = true;
                     if let CellCheck::Admits(_) =
