@@ -407,21 +407,7 @@ fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
         // which must stay guaranteed), and its consistent end is at most the bound.
         let delta = src.model.as_ref().unwrap().delta;
         let s = 0.2 + 0.5 * ((i as f64 * 0.618_033_988_75).fract());
-        let mut noise = 0.0f64;
-        let scaled: Vec<_> = fresh
-            .iter()
-            .map(|r| {
-                let w =
-                    r.w.clone()
-                        .expect("a simulated record carries its noise-free output");
-                let mut r = r.with_bound(delta);
-                for (y, w) in r.y.iter_mut().zip(&w) {
-                    *y = w + s * (*y - w);
-                    noise = noise.max((*y - w).abs());
-                }
-                r
-            })
-            .collect();
+        let (scaled, noise) = noise_scaled(&fresh, delta, s);
         let (lo, hi) = validate::smallest_bound(src.model.as_ref().unwrap(), &scaled, 0.02, None)
             .unwrap()
             .expect("consistent at the model's bound");
@@ -982,6 +968,27 @@ fn a_quantiser_declared_or_identified_through_the_spec_holds_the_truth() {
     );
 }
 
+/// Simulated records with their noise scaled to `s` times what the plant drew (`y = w + s·e`,
+/// `w` the noise-free output each carries), declared at `bound`; and the largest noise left.
+fn noise_scaled(fresh: &[pipeline::Record], bound: f64, s: f64) -> (Vec<pipeline::Record>, f64) {
+    let mut noise = 0.0f64;
+    let scaled = fresh
+        .iter()
+        .map(|r| {
+            let w =
+                r.w.clone()
+                    .expect("a simulated record carries its noise-free output");
+            let mut r = r.with_bound(bound);
+            for (y, w) in r.y.iter_mut().zip(&w) {
+                *y = w + s * (*y - w);
+                noise = noise.max((*y - w).abs());
+            }
+            r
+        })
+        .collect();
+    (scaled, noise)
+}
+
 /// The other side of the vacuous end: fresh records of the paper's plant (`examples/paper.yaml`,
 /// random seeds and lengths), their noise scaled to `s` times what the plant drew (`s` = 1, or
 /// 1e-4: a halving that passes a thousandth of the bound before the records contradict it),
@@ -1002,21 +1009,7 @@ fn records_with_noise_the_set_cannot_absorb_have_a_positive_smallest_bound() {
         let length = rng.gen_range(80..200);
         let s = if case % 2 == 0 { 1.0 } else { 1e-4 };
         let fresh = closeloop::fresh_records(&spec, &base, &[], seed, length, 1).unwrap();
-        let mut noise = 0.0f64;
-        let fresh: Vec<_> = fresh
-            .iter()
-            .map(|r| {
-                let w =
-                    r.w.clone()
-                        .expect("a simulated record carries its noise-free output");
-                let mut r = r.with_bound(id.model.delta);
-                for (y, w) in r.y.iter_mut().zip(&w) {
-                    *y = w + s * (*y - w);
-                    noise = noise.max((*y - w).abs());
-                }
-                r
-            })
-            .collect();
+        let (fresh, noise) = noise_scaled(&fresh, id.model.delta, s);
         let (lo, hi) = validate::smallest_bound(&id.model, &fresh, 0.02, None)
             .unwrap()
             .expect("consistent at the model's bound");
@@ -1216,6 +1209,56 @@ model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: {na}\n  n
     assert!(powers > 0, "the polynomial path was not drawn");
 }
 
+/// One case of `implied_estimate_verdicts_give_what_asking_each_gives`: the record `u`, `y`
+/// under an estimated bound, a Wiener or Hammerstein model (`na = nb = nk = 1`) with the given
+/// block, effects and prior, the classical test with the given budget. The estimate with
+/// implied verdicts must give what asking each gives, asking at most one test more per cell
+/// level; returns that estimate, its trace, the spec and the data.
+#[allow(clippy::too_many_arguments)]
+fn estimate_both_ways(
+    tag: &str,
+    u: &[f64],
+    y: &[f64],
+    (structure, nonlinearity, unit_gain): (&str, &str, bool),
+    effects: &str,
+    prior: &[String],
+    (max_cells, halvings): (usize, u32),
+    context: &str,
+) -> (
+    smid::core::Result<smid::core::outcome::Outcome<f64>>,
+    pipeline::EstimateTrace,
+    smid::core::spec::Spec,
+    pipeline::ExperimentData,
+) {
+    let rest = format!(
+        "noise: {{ estimate: 1.1 }}\n\
+model:\n  structure: {structure}\n  nonlinearity: {nonlinearity}\n  na: 1\n  nb: 1\n  nk: 1\n  unit_gain: {unit_gain}\n  \
+effects: [ {effects} ]\n  prior: {{ {} }}\n\
+method:\n  eiv: classical\n  member: {{ search: false }}\n  cells: {{ max_cells: {max_cells}, nonlinearity_halvings: {halvings} }}\n",
+        prior.join(", ")
+    );
+    let (spec, data) = common::measured(tag, u, y, &rest);
+    let (implied, trace) = pipeline::estimate_bound_traced(&spec, &data, true);
+    let (asked, every) = pipeline::estimate_bound_traced(&spec, &data, false);
+    let show = |r: &smid::core::Result<smid::core::outcome::Outcome<f64>>| match r {
+        Ok(smid::core::outcome::Outcome::Consistent(d)) => format!("consistent {:?}", d.to_bits()),
+        Ok(smid::core::outcome::Outcome::Falsified(f)) => format!("falsified: {f}"),
+        Err(e) => format!("error: {e}"),
+    };
+    assert_eq!(show(&implied), show(&asked), "{context}");
+    assert_eq!(every.implied, 0, "{context}");
+    // At most one test more per level of cells (the smallest bound, asked first).
+    assert!(
+        trace.asked <= every.asked + 4,
+        "{context}: {trace:?} against {every:?}"
+    );
+    eprintln!(
+        "{context}: {} ({trace:?}; asking each: {every:?})",
+        show(&implied).chars().take(60).collect::<String>()
+    );
+    (asked, trace, spec, data)
+}
+
 /// The estimate's implied verdicts (`pipeline::estimate_bound_traced`: "consistent" at the
 /// smallest bound the bisection may try answers every larger one whose test evaluates the same
 /// cells) give what asking every verdict gives. Cases drawn from the effect registry: effect
@@ -1244,11 +1287,6 @@ fn implied_estimate_verdicts_give_what_asking_each_gives() {
         candidates.len() >= 2,
         "the registry offers too few bisected effects"
     );
-    let show = |r: &smid::core::Result<smid::core::outcome::Outcome<f64>>| match r {
-        Ok(smid::core::outcome::Outcome::Consistent(d)) => format!("consistent {:?}", d.to_bits()),
-        Ok(smid::core::outcome::Outcome::Falsified(f)) => format!("falsified: {f}"),
-        Err(e) => format!("error: {e}"),
-    };
     let mut exercised = 0;
     for case in 0..16 {
         let n = rng.gen_range(120..240);
@@ -1305,34 +1343,22 @@ fn implied_estimate_verdicts_give_what_asking_each_gives() {
                 format!("{name}: [{lo:?}, {:?}]", lo + w)
             })
             .collect();
-        let effect = serde_json::to_string(cand).unwrap();
         let max_cells = rng.gen_range(16..600);
         let halvings = rng.gen_range(2..7);
-        let rest = format!(
-            "noise: {{ estimate: 1.1 }}\n\
-model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 1\n  nb: 1\n  nk: 1\n  unit_gain: false\n  \
-effects: [ {effect} ]\n  prior: {{ {} }}\n\
-method:\n  eiv: classical\n  member: {{ search: false }}\n  cells: {{ max_cells: {max_cells}, nonlinearity_halvings: {halvings} }}\n",
-            prior.join(", ")
-        );
-        let (spec, data) = common::measured("implied", &u, &y, &rest);
-        let (implied, trace) = pipeline::estimate_bound_traced(&spec, &data, true);
-        let (asked, every) = pipeline::estimate_bound_traced(&spec, &data, false);
         let context = format!("case {case} ({}, noise {noise:e}, max_cells {max_cells}, halvings {halvings}, prior {prior:?})", cand.label());
-        assert_eq!(show(&implied), show(&asked), "{context}");
-        assert_eq!(every.implied, 0, "{context}");
-        // At most one test more per level of cells (the smallest bound, asked first).
-        assert!(
-            trace.asked <= every.asked + 4,
-            "{context}: {trace:?} against {every:?}"
+        let (_, trace, _, _) = estimate_both_ways(
+            "implied",
+            &u,
+            &y,
+            ("wiener", "{ type: linear }", false),
+            &serde_json::to_string(cand).unwrap(),
+            &prior,
+            (max_cells, halvings),
+            &context,
         );
         if follows(cand.as_ref()) && trace.implied > 0 {
             exercised += 1;
         }
-        eprintln!(
-            "{context}: {} ({trace:?}; asking each: {every:?})",
-            show(&implied).chars().take(60).collect::<String>()
-        );
     }
     assert!(
         exercised > 0,
@@ -1436,32 +1462,24 @@ method:\n  eiv: classical\n  member: {{ search: false }}\n  cells: {{ max_cells:
             }
             prior.push(format!("{name}: [{lo:?}, {hi:?}]"));
         }
-        let rest = format!(
-            "noise: {{ estimate: 1.1 }}\n\
-model:\n  structure: {}\n  nonlinearity: {}\n  na: 1\n  nb: 1\n  nk: 1\n  unit_gain: true\n  \
-effects: [ {} ]\n  prior: {{ {} }}\n\
-method:\n  eiv: classical\n  member: {{ search: false }}\n  cells: {{ max_cells: {max_cells}, nonlinearity_halvings: {halvings} }}\n",
-            if wiener { "wiener" } else { "hammerstein" },
-            serde_json::to_string(&draw.model).unwrap(),
-            serde_json::to_string(effect).unwrap(),
-            prior.join(", ")
-        );
-        let (spec, data) = common::measured("implied-block", &u, &y, &rest);
-        let (implied, trace) = pipeline::estimate_bound_traced(&spec, &data, true);
-        let (asked, every) = pipeline::estimate_bound_traced(&spec, &data, false);
         let context = format!("block case {case} ({}, {}, noise {noise:e}, max_cells {max_cells}, halvings {halvings}, prior {prior:?})", check.name, effect.label());
-        assert_eq!(show(&implied), show(&asked), "{context}");
-        assert!(
-            trace.asked <= every.asked + 4,
-            "{context}: {trace:?} against {every:?}"
+        let (_, trace, _, _) = estimate_both_ways(
+            "implied-block",
+            &u,
+            &y,
+            (
+                if wiener { "wiener" } else { "hammerstein" },
+                &serde_json::to_string(&draw.model).unwrap(),
+                true,
+            ),
+            &serde_json::to_string(effect).unwrap(),
+            &prior,
+            (max_cells, halvings),
+            &context,
         );
         if trace.implied > 0 {
             differ += 1;
         }
-        eprintln!(
-            "{context}: {} ({trace:?}; asking each: {every:?})",
-            show(&implied).chars().take(60).collect::<String>()
-        );
     }
     assert!(
         differ > 0,
@@ -1491,21 +1509,20 @@ method:\n  eiv: classical\n  member: {{ search: false }}\n  cells: {{ max_cells:
         let e = smid::core::noise::uniform(n, noise, &mut rng);
         let y: Vec<f64> = x.iter().zip(&e).map(|(x, e)| x + e).collect();
         let k = k_boxes * noise / y_max;
-        let rest = format!(
-            "noise: {{ estimate: 1.1 }}\n\
-model:\n  structure: wiener\n  nonlinearity: {{ type: example_gain }}\n  na: 1\n  nb: 1\n  nk: 1\n  unit_gain: true\n  \
-effects: [ {{ type: offset }} ]\n  prior: {{ offset: [{:?}, {:?}], k: [{:?}, {:?}] }}\n\
-method:\n  eiv: classical\n  member: {{ search: false }}\n  cells: {{ max_cells: {max_cells}, nonlinearity_halvings: 4 }}\n",
-            -noise,
-            noise,
-            1.0 - 0.5 * k,
-            1.0 + 0.5 * k
-        );
-        let (spec, data) = common::measured("implied-gain", &u, &y, &rest);
-        let (implied, trace) = pipeline::estimate_bound_traced(&spec, &data, true);
-        let (asked, every) = pipeline::estimate_bound_traced(&spec, &data, false);
         let context = format!("gain case {case} (k box {k:e}, max_cells {max_cells})");
-        assert_eq!(show(&implied), show(&asked), "{context}");
+        let (asked, _, spec, data) = estimate_both_ways(
+            "implied-gain",
+            &u,
+            &y,
+            ("wiener", "{ type: example_gain }", true),
+            "{ type: offset }",
+            &[
+                format!("offset: [{:?}, {:?}]", -noise, noise),
+                format!("k: [{:?}, {:?}]", 1.0 - 0.5 * k, 1.0 + 0.5 * k),
+            ],
+            (max_cells, 4),
+            &context,
+        );
         // The first level's test at the smallest bound its bisection tries (a thousandth of
         // the largest output halved until below 1e-9 of it).
         let scale = pipeline::data_scale(&data).y_max;
@@ -1517,10 +1534,6 @@ method:\n  eiv: classical\n  member: {{ search: false }}\n  cells: {{ max_cells:
         if smallest_kept && matches!(asked, Ok(smid::core::outcome::Outcome::Consistent(_))) {
             occurred += 1;
         }
-        eprintln!(
-            "{context}: {} ({trace:?}; asking each: {every:?}); smallest kept {smallest_kept}",
-            show(&implied)
-        );
     }
     assert!(
         occurred > 0,

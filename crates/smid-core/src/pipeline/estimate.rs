@@ -70,15 +70,27 @@ fn undiscarded_cells(
     halvings: u32,
 ) -> Result<Vec<CellKey>> {
     let (prior, budget) = test_budget(spec, data, d, halvings)?;
+    let (searched, cells) = recorded(&prior, budget, &|_| Ok(Verdict::Feasible(())));
+    searched?;
+    Ok(cells)
+}
+
+/// `cells::search` with `test` as both its test and its finish, and the sorted keys of every
+/// cell it evaluated.
+fn recorded(
+    prior: &[Interval],
+    budget: Budget,
+    test: &(dyn Fn(&[Interval]) -> Result<Verdict<()>> + Sync),
+) -> (Result<Outcome<cells::Search<()>>>, Vec<CellKey>) {
     let seen = std::sync::Mutex::new(Vec::new());
-    let keep = |c: &[Interval]| {
+    let record = |c: &[Interval]| {
         seen.lock().expect("no panic while recording").push(key(c));
-        Ok(Verdict::Feasible(()))
+        test(c)
     };
-    cells::search(&prior, budget, &keep, &keep, &|_| {})?;
-    let mut out = seen.into_inner().expect("no panic while recording");
-    out.sort();
-    Ok(out)
+    let searched = cells::search(prior, budget, &record, &record, &|_| {});
+    let mut cells = seen.into_inner().expect("no panic while recording");
+    cells.sort();
+    (searched, cells)
 }
 
 fn key(c: &[Interval]) -> CellKey {
@@ -94,7 +106,6 @@ fn tested_at(
     halvings: u32,
     record: bool,
 ) -> Result<(bool, Option<Vec<CellKey>>)> {
-    let seen = std::sync::Mutex::new(Vec::new());
     let (prior, budget) = test_budget(spec, data, d, halvings)?;
     let spec = with_bound(spec, d);
     let mut data = data_with_bound(data, d);
@@ -107,22 +118,17 @@ fn tested_at(
         steady: data.steady.clone(),
         records: data.records.clone(),
     };
-    let test = |c: &[Interval]| {
-        if record {
-            seen.lock().expect("no panic while recording").push(key(c));
-        }
-        test_cell(&spec.model, &layout, &spec.method, &training, c)
+    let test = |c: &[Interval]| test_cell(&spec.model, &layout, &spec.method, &training, c);
+    let (searched, cells) = if record {
+        let (s, c) = recorded(&prior, budget, &test);
+        (s, Some(c))
+    } else {
+        (cells::search(&prior, budget, &test, &test, &|_| {}), None)
     };
-    let verdict = match cells::search(&prior, budget, &test, &test, &|_| {}) {
-        Ok(Outcome::Consistent(s)) => !s.leaves.is_empty(),
-        Ok(Outcome::Falsified(_)) => false,
-        Err(e) => return Err(e),
+    let verdict = match searched? {
+        Outcome::Consistent(s) => !s.leaves.is_empty(),
+        Outcome::Falsified(_) => false,
     };
-    let cells = record.then(|| {
-        let mut v = seen.into_inner().expect("no panic while recording");
-        v.sort();
-        v
-    });
     Ok((verdict, cells))
 }
 

@@ -366,21 +366,21 @@ fn identify_estimated(
 pub fn identify_bracketed(
     spec: &Spec,
     data: &ExperimentData,
-    mut bracket: Bracket,
+    bracket: Bracket,
     truth: &[(String, f64)],
     progress: &(dyn Fn(&cells::Progress) + Sync),
 ) -> Result<BelowBar> {
-    let d = loop {
-        match bracket {
-            Bracket::Above(above) => return Ok(BelowBar::Above(above)),
-            Bracket::Falsified(f) => return Ok(BelowBar::Identified(Outcome::Falsified(f))),
-            Bracket::At(d) => break d,
-            open => bracket = open.advanced(spec, data),
+    Ok(match bracket.narrowed(spec, data) {
+        Bracket::Above(above) => BelowBar::Above(above),
+        Bracket::Falsified(f) => BelowBar::Identified(Outcome::Falsified(f)),
+        Bracket::At(d) => {
+            BelowBar::Identified(identify_at_estimate(spec, data, d, truth, progress)?)
         }
-    };
-    Ok(BelowBar::Identified(identify_at_estimate(
-        spec, data, d, truth, progress,
-    )?))
+        // `narrowed` advances until the bracket is none of these.
+        Bracket::Started(_) | Bracket::Coarse(_) => {
+            unreachable!("a narrowed bracket is finished")
+        }
+    })
 }
 
 /// The margin of `noise.estimate` (at least 1.01, so a bracket's upper end is raised).
