@@ -62,6 +62,8 @@ pub(crate) struct Solved {
     /// final multiplier, in original units. Near 0 for an equation the optimum does not need;
     /// a hint for choosing equations, never part of a bound.
     pub eq_weight: Vec<f64>,
+    /// Interior-point iterations the run took (at most the cap, [`MAX_ITER`]).
+    pub iterations: usize,
 }
 
 /// The outcome of one bound.
@@ -420,17 +422,34 @@ impl<'a> Prepared<'a> {
 
     /// A well-centred interior point of this LP (the zero objective's path at a moderate
     /// barrier), from which every objective's run starts: fewer iterations than a cold start.
-    pub(crate) fn warm_start(&self) -> Option<Start> {
+    ///
+    /// Its run also looks for a proof that the LP is empty: the certificate of the zero
+    /// objective (see [`certificate`]) is a guaranteed lower bound of `0` over the feasible
+    /// points, so a positive one proves there are none (Farkas over the boxes). When the rows
+    /// contradict each other the iterates' multipliers grow along such a ray, and the run
+    /// stops at the first iterate that proves it instead of spending its iteration cap:
+    /// [`Warm::Empty`], which answers every objective of the round at once.
+    pub(crate) fn warm_start(&self) -> Warm {
         let mut ipm = Ipm::new(self, &vec![0.0; self.n]);
         ipm.stop_at = Some(2e-2);
-        let (_, _) = ipm.run_mut(&|_: &[f64], _: &[f64], _: &[f64]| None, 0.0, 1.0);
+        let cert = |lam: &[f64], mu: &[f64], tmu: &[f64]| -> Option<f64> {
+            let (lam, mu, tmu) = self.unscaled(1.0, lam, mu, tmu);
+            certificate(self.lp, &[], &lam, &mu, &tmu)
+        };
+        let (v, _) = ipm.run_mut(&cert, 0.0, 1.0, Some(EMPTY_ABOVE_ZERO));
+        if v.is_some_and(|v| v > EMPTY_ABOVE_ZERO) {
+            return Warm::Empty(ipm.iterations);
+        }
         let ok = ipm.z.iter().all(|v| v.is_finite() && *v > 0.0 && *v < 1.0)
             && ipm
                 .s
                 .iter()
                 .chain(&ipm.lam)
                 .all(|v| v.is_finite() && *v > 0.0);
-        ok.then_some(Start {
+        if !ok {
+            return Warm::Cold;
+        }
+        Warm::Start(Start {
             z: ipm.z,
             zl: ipm.zl,
             zu: ipm.zu,
@@ -441,27 +460,40 @@ impl<'a> Prepared<'a> {
         })
     }
 
+    /// A scaled dual point in the original rows' units, for [`certificate`]: `λ = κ λ̂ / ρ`
+    /// (clamped at 0), `μ = κ μ̂ / ρ`.
+    fn unscaled(
+        &self,
+        kappa: f64,
+        lam: &[f64],
+        mu: &[f64],
+        tmu: &[f64],
+    ) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let lam = lam
+            .iter()
+            .zip(&self.rho_g)
+            .map(|(l, r)| (kappa * l / r).max(0.0))
+            .collect();
+        let mu = mu
+            .iter()
+            .zip(&self.rho_e)
+            .map(|(m, r)| kappa * m / r)
+            .collect();
+        let tmu = tmu
+            .iter()
+            .zip(&self.rho_te)
+            .map(|(m, r)| kappa * m / r)
+            .collect();
+        (lam, mu, tmu)
+    }
+
     /// [`Self::minimise`], with the last primal iterate and the equalities' weights (see
     /// [`Solved`]).
     pub(crate) fn minimise_at(&self, c: &[(usize, f64)], start: Option<&Start>) -> Solved {
         let (q, kappa) = self.objective(c);
         // The certificate of a scaled dual point, in the original rows: λ = κ λ̂ / ρ.
         let cert = |lam: &[f64], mu: &[f64], tmu: &[f64]| -> Option<f64> {
-            let lam: Vec<f64> = lam
-                .iter()
-                .zip(&self.rho_g)
-                .map(|(l, r)| (kappa * l / r).max(0.0))
-                .collect();
-            let mu: Vec<f64> = mu
-                .iter()
-                .zip(&self.rho_e)
-                .map(|(m, r)| kappa * m / r)
-                .collect();
-            let tmu: Vec<f64> = tmu
-                .iter()
-                .zip(&self.rho_te)
-                .map(|(m, r)| kappa * m / r)
-                .collect();
+            let (lam, mu, tmu) = self.unscaled(kappa, lam, mu, tmu);
             certificate(self.lp, c, &lam, &mu, &tmu)
         };
         // The primal objective in original units, c·z = c·lo + κ q·ẑ, for the stopping test.
@@ -477,15 +509,6 @@ impl<'a> Prepared<'a> {
             // The multipliers of the zero objective, scaled to this one's magnitude.
             ipm.lam.clone_from(&st.lam);
         }
-        let (v, zt) = ipm.run_mut(&cert, offset, kappa);
-        let point: Vec<f64> = zt
-            .iter()
-            .enumerate()
-            .map(|(j, &x)| {
-                let b = self.lp.boxes[j];
-                (b.lo + self.w[j] * x).clamp(b.lo, b.hi)
-            })
-            .collect();
         // Above the objective's own maximum over the boxes: the LP is empty.
         let top: f64 = c
             .iter()
@@ -494,8 +517,18 @@ impl<'a> Prepared<'a> {
                 (v * b.lo).max(v * b.hi)
             })
             .sum();
+        let empty_above = top + 1e-12 * (1.0 + top.abs());
+        let (v, zt) = ipm.run_mut(&cert, offset, kappa, Some(empty_above));
+        let point: Vec<f64> = zt
+            .iter()
+            .enumerate()
+            .map(|(j, &x)| {
+                let b = self.lp.boxes[j];
+                (b.lo + self.w[j] * x).clamp(b.lo, b.hi)
+            })
+            .collect();
         let bound = match v {
-            Some(v) if v > top + 1e-12 * (1.0 + top.abs()) => Bound::Infeasible,
+            Some(v) if v > empty_above => Bound::Infeasible,
             v => Bound::Value(v),
         };
         let eq_weight = ipm
@@ -508,6 +541,7 @@ impl<'a> Prepared<'a> {
             bound,
             point,
             eq_weight,
+            iterations: ipm.iterations,
         }
     }
 }
@@ -646,6 +680,8 @@ struct Ipm<'p, 'a> {
     refine: usize,
     /// Stop (without certifying) once the complementarity falls below this: a warm start.
     stop_at: Option<f64>,
+    /// Iterations of the last run.
+    iterations: usize,
     pool: Pool,
 }
 
@@ -705,8 +741,33 @@ impl Dir {
     }
 }
 
+/// A certified lower bound of the zero objective above this proves the LP empty (the margin
+/// [`Prepared::minimise_at`] allows any objective's maximum).
+const EMPTY_ABOVE_ZERO: f64 = 1e-12;
+
+/// How a round's warm start ended ([`Prepared::warm_start`]).
+#[derive(Debug, Clone)]
+pub(crate) enum Warm {
+    /// A well-centred interior point to start every objective from.
+    Start(Start),
+    /// The LP is proven empty, after this many iterations.
+    Empty(usize),
+    /// Neither: each objective starts cold.
+    Cold,
+}
+
+impl Warm {
+    /// The start point, if any.
+    pub(crate) fn start(&self) -> Option<&Start> {
+        match self {
+            Warm::Start(s) => Some(s),
+            _ => None,
+        }
+    }
+}
+
 /// Maximum interior-point iterations per bound.
-const MAX_ITER: usize = 80;
+pub(crate) const MAX_ITER: usize = 80;
 
 impl<'p, 'a> Ipm<'p, 'a> {
     fn new(p: &'p Prepared<'a>, q: &[f64]) -> Self {
@@ -765,6 +826,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
             dbox: vec![0.0; n],
             refine: 0,
             stop_at: None,
+            iterations: 0,
             pool: Pool::default(),
         }
     }
@@ -1093,11 +1155,17 @@ impl<'p, 'a> Ipm<'p, 'a> {
     /// Run to convergence (or the cap), certifying the dual points near the end: the best
     /// certified bound (`cert` maps a scaled dual point to its bound), and the last primal
     /// iterate (scaled).
+    /// The run: Mehrotra iterations until the certified bound meets the primal objective,
+    /// stops improving, or the iteration cap. With `empty_above`, an iteration whose barrier
+    /// parameter did not fall (the iterates diverge, as the multipliers do along a ray when the
+    /// rows contradict each other) is certified too, and the run ends as soon as a certificate
+    /// exceeds it (the LP is proven empty: the caller reads the bound so).
     fn run_mut(
         &mut self,
         cert: &dyn Fn(&[f64], &[f64], &[f64]) -> Option<f64>,
         offset: f64,
         kappa: f64,
+        empty_above: Option<f64>,
     ) -> (Option<f64>, Vec<f64>) {
         let p = self.p;
         let n = p.n;
@@ -1110,7 +1178,9 @@ impl<'p, 'a> Ipm<'p, 'a> {
         // `trace` level of the `log` facade (target `smid::stage3`; `SMID_LOG=trace` in the CLI):
         // one line per iteration (asked once, not per iteration).
         let trace = log::log_enabled!(target: "smid::stage3", log::Level::Trace);
-        for _it in 0..MAX_ITER {
+        let mut last_mu = f64::INFINITY;
+        for it in 0..MAX_ITER {
+            self.iterations = it + 1;
             // Residuals.
             let mut rd = self
                 .pool
@@ -1149,6 +1219,14 @@ impl<'p, 'a> Ipm<'p, 'a> {
             let mu_c = comp / npairs;
             let inf = |v: &[f64]| v.iter().fold(0.0f64, |a, b| a.max(b.abs()));
             let (ep, ed) = (inf(&rp).max(inf(&rpt)).max(inf(&rg)), inf(&rd));
+            // Diverging: does the dual point already prove the LP empty?
+            if let Some(top) = empty_above.filter(|_| mu_c >= last_mu) {
+                if let Some(v) = cert(&self.lam, &self.mu, &self.tmu).filter(|v| *v > top) {
+                    best = Some(v);
+                    break;
+                }
+            }
+            last_mu = mu_c;
             // Certify the dual point once it is close; stop when the bound stops improving.
             if mu_c < 1e-8 {
                 match cert(&self.lam, &self.mu, &self.tmu) {
@@ -1170,7 +1248,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
             }
             if trace {
                 let obj: f64 = (0..n).map(|j| self.q[j] * self.z[j]).sum();
-                log::trace!(target: "smid::stage3", "ipm: it {_it} ep {ep:.2e} ed {ed:.2e} mu {mu_c:.2e} obj {obj:.12e}");
+                log::trace!(target: "smid::stage3", "ipm: it {it} ep {ep:.2e} ed {ed:.2e} mu {mu_c:.2e} obj {obj:.12e}");
             }
 
             if self.stop_at.is_some_and(|t| mu_c < t) {

@@ -11,7 +11,7 @@
 //! are plain coefficients. The McCormick envelopes over a box of `θ_k` and of `δ_s` contain
 //! every product of the box, so the LP's feasible set contains every `(θ, δ)` consistent with
 //! the data and its coordinate bounds are guaranteed.
-use super::ipm::{BlockLp, Bound, Prepared, Solved};
+use super::ipm::{BlockLp, Bound, Prepared, Solved, Warm};
 use super::EivProblem;
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
@@ -446,12 +446,15 @@ pub(crate) fn solve_ends(
     let Some(prep) = Prepared::new(&blp) else {
         return Ok(Ends::Sparse);
     };
-    let start = prep.warm_start();
+    let warm = prep.warm_start();
+    if matches!(warm, Warm::Empty(_)) {
+        return Ok(Ends::Empty);
+    }
     let found: Vec<Solved> = ends
         .par_iter()
         .map(|&i| {
             let (c, max) = (i / 2, i % 2 == 1);
-            prep.minimise_at(&[(c, if max { -1.0 } else { 1.0 })], start.as_ref())
+            prep.minimise_at(&[(c, if max { -1.0 } else { 1.0 })], warm.start())
         })
         .collect();
     let mut out = Vec::with_capacity(ends.len());

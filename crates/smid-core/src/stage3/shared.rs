@@ -168,6 +168,7 @@ fn emptied(
 mod tests {
     use super::*;
     use crate::stage3::classical;
+    use crate::stage3::relax::SharedModel;
     use crate::stage3::testutil::{cases, problem, random_case, random_extra_case, truth};
     use proptest::prelude::*;
 
@@ -191,6 +192,81 @@ mod tests {
                 assert!(shared.bounds[0].radius() < 0.7 * classical.bounds[0].radius());
             }
         }
+    }
+
+    /// A round's LP may be proven empty before the interior-point iteration cap: by its warm
+    /// start, or by an objective's run whose multipliers diverge along a ray
+    /// (`ipm::Prepared::warm_start`, `run_mut`). Over θ boxes holding the truth (with its δ a
+    /// point of every such LP) no round may say "empty"; over small boxes moved off the truth,
+    /// each "empty" must be one the sparse simplex does not find feasible, and the LPs the
+    /// simplex proves empty must be proven so early: by the warm start, or by every objective
+    /// within fewer iterations than the cap (the runs that only ended at the cap, before).
+    #[test]
+    fn a_round_proves_its_lp_empty_only_when_it_is_and_early() {
+        use super::super::ipm::{Bound, Prepared, Warm, MAX_ITER};
+        use super::super::relax::{solve_ends, Ends};
+        use rand::{Rng, SeedableRng};
+        let (mut empty, mut early) = (0, 0);
+        for seed in 0..10u64 {
+            let (m, out, input) = random_case(seed, 60);
+            let prob = problem(&out, &input, seed % 2 == 0);
+            let start = classical::solve(&prob).unwrap();
+            let model = SharedModel::new(&prob, start.equations.clone());
+            let db = model.initial_deltas();
+            let truth = truth(&m);
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            for trial in 0..8 {
+                let holds_truth = trial < 2;
+                let tb: Vec<Interval> = (0..truth.len())
+                    .map(|k| {
+                        let r = 0.05 * start.bounds[k].radius().max(1e-9);
+                        let c = if holds_truth {
+                            truth[k] + rng.gen_range(-0.5..0.5) * r
+                        } else {
+                            truth[k] + rng.gen_range(-40.0..40.0) * r
+                        };
+                        Interval::new(c - r, c + r)
+                    })
+                    .collect();
+                let ends: Vec<usize> = (0..2 * model.free.len()).collect();
+                let found = solve_ends(&model, &tb, &db, &model.times, &ends).unwrap();
+                let said_empty = matches!(found, Ends::Empty);
+                assert!(
+                    !(holds_truth && said_empty),
+                    "seed {seed}: a box holding the truth was called empty"
+                );
+                let simplex = model
+                    .build(&tb, &db, &model.times)
+                    .unwrap()
+                    .solver()
+                    .unwrap()
+                    .feasible()
+                    .unwrap();
+                if said_empty {
+                    assert_ne!(simplex, Some(true), "seed {seed} trial {trial}: not empty");
+                }
+                if simplex == Some(false) {
+                    empty += 1;
+                    assert!(
+                        said_empty,
+                        "seed {seed} trial {trial}: emptiness not proven"
+                    );
+                    let (blp, _) = model.block_lp(&tb, &db, &model.times).unwrap();
+                    let prep = Prepared::new(&blp).unwrap();
+                    let proven_early = matches!(prep.warm_start(), Warm::Empty(k) if k < MAX_ITER)
+                        || ends.iter().all(|&i| {
+                            let c = [(i / 2, if i % 2 == 1 { -1.0 } else { 1.0 })];
+                            let s = prep.minimise_at(&c, None);
+                            s.bound == Bound::Infeasible && s.iterations < MAX_ITER
+                        });
+                    if proven_early {
+                        early += 1;
+                    }
+                }
+            }
+        }
+        assert!(empty >= 20, "only {empty} empty boxes drawn");
+        assert_eq!(early, empty, "{early} of {empty} empty LPs proven early");
     }
 
     #[test]
