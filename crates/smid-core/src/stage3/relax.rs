@@ -450,13 +450,18 @@ pub(crate) fn solve_ends(
     if matches!(warm, Warm::Empty(_)) {
         return Ok(Ends::Empty);
     }
-    let found: Vec<Solved> = ends
+    // One end proven empty answers the round: the ends not yet started are not run.
+    let found: Option<Vec<Solved>> = ends
         .par_iter()
         .map(|&i| {
             let (c, max) = (i / 2, i % 2 == 1);
-            prep.minimise_at(&[(c, if max { -1.0 } else { 1.0 })], warm.start())
+            let solved = prep.minimise_at(&[(c, if max { -1.0 } else { 1.0 })], warm.start());
+            (solved.bound != Bound::Infeasible).then_some(solved)
         })
         .collect();
+    let Some(found) = found else {
+        return Ok(Ends::Empty);
+    };
     let mut out = Vec::with_capacity(ends.len());
     for (&i, solved) in ends.iter().zip(found) {
         let max = i % 2 == 1;
