@@ -23,7 +23,10 @@
 //! every sum carried with a rigorous bound of its rounding error. The true `(θ, δ, θδ)` satisfies
 //! every row and lies in the boxes, so the bound holds at the truth: an inaccurate or stopped
 //! solve gives a looser bound, never a wrong one. A lower bound above the objective variable's
-//! box proves the LP empty.
+//! box proves the LP empty, and so does a positive bound of the zero objective (Farkas over the
+//! boxes): a run whose iterates diverge (the multipliers growing along such a ray) is certified
+//! at each such iteration and ends at the first proof, and a round's warm start proves it for
+//! every objective at once ([`Prepared::warm_start`]).
 use crate::interval::Interval;
 use crate::lp::ROW_PAD;
 
@@ -62,7 +65,7 @@ pub(crate) struct Solved {
     /// final multiplier, in original units. Near 0 for an equation the optimum does not need;
     /// a hint for choosing equations, never part of a bound.
     pub eq_weight: Vec<f64>,
-    /// Interior-point iterations the run took (at most the cap, [`MAX_ITER`]).
+    /// Newton steps the run took (at most the cap, [`MAX_ITER`]).
     pub iterations: usize,
 }
 
@@ -430,8 +433,15 @@ impl<'a> Prepared<'a> {
     /// stops at the first iterate that proves it instead of spending its iteration cap:
     /// [`Warm::Empty`], which answers every objective of the round at once.
     pub(crate) fn warm_start(&self) -> Warm {
+        self.warm_start_to(2e-2)
+    }
+
+    /// [`Self::warm_start`] with the zero objective's run stopped once the barrier parameter
+    /// falls below `stop` (0: run to the end, the certificate then within 1e-11 of 0 on a
+    /// non-empty LP).
+    pub(crate) fn warm_start_to(&self, stop: f64) -> Warm {
         let mut ipm = Ipm::new(self, &vec![0.0; self.n]);
-        ipm.stop_at = Some(2e-2);
+        ipm.stop_at = Some(stop);
         let cert = |lam: &[f64], mu: &[f64], tmu: &[f64]| -> Option<f64> {
             let (lam, mu, tmu) = self.unscaled(1.0, lam, mu, tmu);
             certificate(self.lp, &[], &lam, &mu, &tmu)
@@ -680,7 +690,7 @@ struct Ipm<'p, 'a> {
     refine: usize,
     /// Stop (without certifying) once the complementarity falls below this: a warm start.
     stop_at: Option<f64>,
-    /// Iterations of the last run.
+    /// Newton steps of the last run.
     iterations: usize,
     pool: Pool,
 }
@@ -750,7 +760,7 @@ const EMPTY_ABOVE_ZERO: f64 = 1e-12;
 pub(crate) enum Warm {
     /// A well-centred interior point to start every objective from.
     Start(Start),
-    /// The LP is proven empty, after this many iterations.
+    /// The LP is proven empty, after this many Newton steps.
     Empty(usize),
     /// Neither: each objective starts cold.
     Cold,
@@ -1154,12 +1164,13 @@ impl<'p, 'a> Ipm<'p, 'a> {
 
     /// Run to convergence (or the cap), certifying the dual points near the end: the best
     /// certified bound (`cert` maps a scaled dual point to its bound), and the last primal
-    /// iterate (scaled).
-    /// The run: Mehrotra iterations until the certified bound meets the primal objective,
-    /// stops improving, or the iteration cap. With `empty_above`, an iteration whose barrier
-    /// parameter did not fall (the iterates diverge, as the multipliers do along a ray when the
-    /// rows contradict each other) is certified too, and the run ends as soon as a certificate
-    /// exceeds it (the LP is proven empty: the caller reads the bound so).
+    /// iterate (scaled). Mehrotra iterations until the certified bound meets the primal
+    /// objective, stops improving, or the iteration cap. With `empty_above`, an iteration
+    /// whose barrier parameter did not fall (the iterates diverge, as the multipliers do along
+    /// a ray when the rows contradict each other; now and then a converging run's too) is
+    /// certified as well, and the run ends as soon as a certificate exceeds it (the LP is
+    /// proven empty: the caller reads the bound so). `iterations` counts the Newton steps
+    /// taken.
     fn run_mut(
         &mut self,
         cert: &dyn Fn(&[f64], &[f64], &[f64]) -> Option<f64>,
@@ -1180,7 +1191,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
         let trace = log::log_enabled!(target: "smid::stage3", log::Level::Trace);
         let mut last_mu = f64::INFINITY;
         for it in 0..MAX_ITER {
-            self.iterations = it + 1;
+            self.iterations = it;
             // Residuals.
             let mut rd = self
                 .pool
@@ -1383,6 +1394,7 @@ impl<'p, 'a> Ipm<'p, 'a> {
             for r in 0..nte {
                 self.tmu[r] += ad * st.dtmu[r];
             }
+            self.iterations = it + 1;
             st.recycle(&self.pool);
             for v in [tau, rd, rg, rp, inv_s, inv_z, inv_u, r2] {
                 self.pool.put(v);

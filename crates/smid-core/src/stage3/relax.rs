@@ -388,7 +388,7 @@ pub(crate) fn pair_ends(ends: &[Option<f64>]) -> FreeBounds {
 
 /// Bound every free θ of the LP over boxes `tb`, `db` and the equations `times`, by the
 /// structured interior-point method ([`super::ipm`]), the objectives in parallel. `None`
-/// when a bound proves the LP empty; `(None, _)` entries where no finite bound came out. When
+/// when the warm start or a bound proves the LP empty; `(None, _)` entries where no finite bound came out. When
 /// the block form does not apply (a box not finite, an equation without an uncertain sample),
 /// the sparse clarabel path answers.
 pub(crate) fn bound_free(
@@ -426,7 +426,7 @@ pub(crate) struct End {
 pub(crate) enum Ends {
     /// Per requested end, in order.
     Found(Vec<End>),
-    /// A bound proved the LP empty.
+    /// The LP is proven empty (by the round's warm start, or by one end's bound).
     Empty,
     /// The block form does not apply; nothing was solved.
     Sparse,
@@ -434,6 +434,8 @@ pub(crate) enum Ends {
 
 /// The ends `ends` of the free θ (`2c`: lower end of free θ `c`, `2c + 1`: upper end) over the
 /// equations `times`, by the structured interior-point method, in parallel from one warm start.
+/// A warm start that proves the LP empty answers at once (even with no end asked for), and once
+/// an end proves it, the ends not yet started are not run.
 pub(crate) fn solve_ends(
     model: &SharedModel,
     tb: &[Interval],
@@ -447,7 +449,8 @@ pub(crate) fn solve_ends(
         return Ok(Ends::Sparse);
     };
     let warm = prep.warm_start();
-    if matches!(warm, Warm::Empty(_)) {
+    if let Warm::Empty(steps) = warm {
+        log::debug!(target: "smid::stage3", "shared: the round's LP proven empty by its warm start ({steps} Newton steps)");
         return Ok(Ends::Empty);
     }
     // One end proven empty answers the round: the ends not yet started are not run.
@@ -462,10 +465,17 @@ pub(crate) fn solve_ends(
     let Some(found) = found else {
         return Ok(Ends::Empty);
     };
+    log::trace!(
+        target: "smid::stage3",
+        "shared: {} ends in {} Newton steps",
+        found.len(),
+        found.iter().map(|s| s.iterations).sum::<usize>()
+    );
     let mut out = Vec::with_capacity(ends.len());
     for (&i, solved) in ends.iter().zip(found) {
         let max = i % 2 == 1;
         let value = match solved.bound {
+            // Not reached (filtered above); the same answer if it were.
             Bound::Infeasible => return Ok(Ends::Empty),
             Bound::Value(v) => v.map(|v| {
                 let pad = RESULT_PAD * (1.0 + v.abs());

@@ -198,15 +198,16 @@ mod tests {
     /// start, or by an objective's run whose multipliers diverge along a ray
     /// (`ipm::Prepared::warm_start`, `run_mut`). Over θ boxes holding the truth (with its δ a
     /// point of every such LP) no round may say "empty"; over small boxes moved off the truth,
-    /// each "empty" must be one the sparse simplex does not find feasible, and the LPs the
-    /// simplex proves empty must be proven so early: by the warm start, or by every objective
-    /// within fewer iterations than the cap (the runs that only ended at the cap, before).
+    /// and over boxes bisected between the two towards the edge of emptiness, each "empty" must
+    /// be one the sparse simplex does not find feasible; and the LPs the simplex proves empty
+    /// must be proven so early, by the warm start and by every objective started cold (runs
+    /// that only ended at the cap, before).
     #[test]
     fn a_round_proves_its_lp_empty_only_when_it_is_and_early() {
         use super::super::ipm::{Bound, Prepared, Warm, MAX_ITER};
         use super::super::relax::{solve_ends, Ends};
         use rand::{Rng, SeedableRng};
-        let (mut empty, mut early) = (0, 0);
+        let (mut empty, mut early, mut edge_feasible) = (0, 0, 0);
         for seed in 0..10u64 {
             let (m, out, input) = random_case(seed, 60);
             let prob = problem(&out, &input, seed % 2 == 0);
@@ -214,27 +215,15 @@ mod tests {
             let model = SharedModel::new(&prob, start.equations.clone());
             let db = model.initial_deltas();
             let truth = truth(&m);
-            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-            for trial in 0..8 {
-                let holds_truth = trial < 2;
-                let tb: Vec<Interval> = (0..truth.len())
-                    .map(|k| {
-                        let r = 0.05 * start.bounds[k].radius().max(1e-9);
-                        let c = if holds_truth {
-                            truth[k] + rng.gen_range(-0.5..0.5) * r
-                        } else {
-                            truth[k] + rng.gen_range(-40.0..40.0) * r
-                        };
-                        Interval::new(c - r, c + r)
-                    })
+            let ends: Vec<usize> = (0..2 * model.free.len()).collect();
+            // The round's verdict and the simplex's on the box of radius `r_k` at `c`.
+            let verdicts = |c: &[f64], r: &[f64]| {
+                let tb: Vec<Interval> = c
+                    .iter()
+                    .zip(r)
+                    .map(|(c, r)| Interval::new(c - r, c + r))
                     .collect();
-                let ends: Vec<usize> = (0..2 * model.free.len()).collect();
                 let found = solve_ends(&model, &tb, &db, &model.times, &ends).unwrap();
-                let said_empty = matches!(found, Ends::Empty);
-                assert!(
-                    !(holds_truth && said_empty),
-                    "seed {seed}: a box holding the truth was called empty"
-                );
                 let simplex = model
                     .build(&tb, &db, &model.times)
                     .unwrap()
@@ -242,31 +231,92 @@ mod tests {
                     .unwrap()
                     .feasible()
                     .unwrap();
+                (matches!(found, Ends::Empty), simplex, tb)
+            };
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            for trial in 0..8 {
+                let holds_truth = trial < 2;
+                let r: Vec<f64> = (0..truth.len())
+                    .map(|k| 0.05 * start.bounds[k].radius().max(1e-9))
+                    .collect();
+                let shift: Vec<f64> = r
+                    .iter()
+                    .map(|r| {
+                        let f = if holds_truth { 0.5 } else { 40.0 };
+                        rng.gen_range(-f..f) * r
+                    })
+                    .collect();
+                let at = |s: f64| -> Vec<f64> {
+                    truth.iter().zip(&shift).map(|(t, d)| t + s * d).collect()
+                };
+                let tb_at = |s: f64| -> Vec<Interval> {
+                    at(s)
+                        .iter()
+                        .zip(&r)
+                        .map(|(c, r)| Interval::new(c - r, c + r))
+                        .collect()
+                };
+                let (said_empty, simplex, tb) = verdicts(&at(1.0), &r);
+                assert!(
+                    !(holds_truth && said_empty),
+                    "seed {seed}: a box holding the truth was called empty"
+                );
+                if holds_truth {
+                    // Run to the end, the zero objective's certificate nears 0 from below:
+                    // still no proof of emptiness.
+                    let (blp, _) = model.block_lp(&tb, &db, &model.times).unwrap();
+                    let warm = Prepared::new(&blp).unwrap().warm_start_to(0.0);
+                    assert!(!matches!(warm, Warm::Empty(_)), "seed {seed}: truth's box");
+                }
                 if said_empty {
                     assert_ne!(simplex, Some(true), "seed {seed} trial {trial}: not empty");
                 }
-                if simplex == Some(false) {
-                    empty += 1;
-                    assert!(
-                        said_empty,
-                        "seed {seed} trial {trial}: emptiness not proven"
-                    );
-                    let (blp, _) = model.block_lp(&tb, &db, &model.times).unwrap();
-                    let prep = Prepared::new(&blp).unwrap();
-                    let proven_early = matches!(prep.warm_start(), Warm::Empty(k) if k < MAX_ITER)
-                        || ends.iter().all(|&i| {
-                            let c = [(i / 2, if i % 2 == 1 { -1.0 } else { 1.0 })];
-                            let s = prep.minimise_at(&c, None);
-                            s.bound == Bound::Infeasible && s.iterations < MAX_ITER
-                        });
-                    if proven_early {
-                        early += 1;
+                if simplex != Some(false) {
+                    continue;
+                }
+                empty += 1;
+                assert!(
+                    said_empty,
+                    "seed {seed} trial {trial}: emptiness not proven"
+                );
+                let (blp, _) = model.block_lp(&tb, &db, &model.times).unwrap();
+                let prep = Prepared::new(&blp).unwrap();
+                let proven_early = matches!(prep.warm_start(), Warm::Empty(k) if k < MAX_ITER)
+                    && ends.iter().all(|&i| {
+                        let c = [(i / 2, if i % 2 == 1 { -1.0 } else { 1.0 })];
+                        let s = prep.minimise_at(&c, None);
+                        s.bound == Bound::Infeasible && s.iterations < MAX_ITER
+                    });
+                if proven_early {
+                    early += 1;
+                }
+                // Towards the edge: bisect the shift between the truth (not empty) and here.
+                let (mut lo, mut hi) = (0.0, 1.0);
+                for _ in 0..10 {
+                    let mid = 0.5 * (lo + hi);
+                    let (said_empty, simplex, _) = verdicts(&at(mid), &r);
+                    if said_empty {
+                        assert_ne!(simplex, Some(true), "seed {seed} trial {trial} at {mid}");
+                    }
+                    match simplex {
+                        Some(true) => {
+                            let (blp, _) = model.block_lp(&tb_at(mid), &db, &model.times).unwrap();
+                            let warm = Prepared::new(&blp).unwrap().warm_start_to(0.0);
+                            assert!(!matches!(warm, Warm::Empty(_)), "seed {seed} at {mid}");
+                            edge_feasible += 1;
+                            lo = mid;
+                        }
+                        _ => hi = mid,
                     }
                 }
             }
         }
         assert!(empty >= 20, "only {empty} empty boxes drawn");
         assert_eq!(early, empty, "{early} of {empty} empty LPs proven early");
+        assert!(
+            edge_feasible >= 100,
+            "only {edge_feasible} feasible boxes near the edge"
+        );
     }
 
     #[test]
