@@ -446,8 +446,8 @@ impl<'a> Prepared<'a> {
             let (lam, mu, tmu) = self.unscaled(1.0, lam, mu, tmu);
             certificate(self.lp, &[], &lam, &mu, &tmu)
         };
-        let (v, _) = ipm.run_mut(&cert, 0.0, 1.0, Some(EMPTY_ABOVE_ZERO));
-        if v.is_some_and(|v| v > EMPTY_ABOVE_ZERO) {
+        let (v, _) = ipm.run_mut(&cert, 0.0, 1.0, Some(empty_above(0.0)));
+        if v.is_some_and(|v| v > empty_above(0.0)) {
             return Warm::Empty(ipm.iterations);
         }
         let ok = ipm.z.iter().all(|v| v.is_finite() && *v > 0.0 && *v < 1.0)
@@ -527,7 +527,7 @@ impl<'a> Prepared<'a> {
                 (v * b.lo).max(v * b.hi)
             })
             .sum();
-        let empty_above = top + 1e-12 * (1.0 + top.abs());
+        let empty_above = empty_above(top);
         let (v, zt) = ipm.run_mut(&cert, offset, kappa, Some(empty_above));
         let point: Vec<f64> = zt
             .iter()
@@ -751,9 +751,12 @@ impl Dir {
     }
 }
 
-/// A certified lower bound of the zero objective above this proves the LP empty (the margin
-/// [`Prepared::minimise_at`] allows any objective's maximum).
-const EMPTY_ABOVE_ZERO: f64 = 1e-12;
+/// A certified lower bound of `min c·z` above this proves the LP empty, where `top` is the
+/// objective's own maximum over the boxes (0 for the zero objective: a Farkas proof). The
+/// margin only makes the proof harder to give.
+fn empty_above(top: f64) -> f64 {
+    top + 1e-12 * (1.0 + top.abs())
+}
 
 /// How a round's warm start ended ([`Prepared::warm_start`]).
 #[derive(Debug, Clone)]

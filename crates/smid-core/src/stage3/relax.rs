@@ -454,12 +454,15 @@ pub(crate) fn solve_ends(
         return Ok(Ends::Empty);
     }
     // One end proven empty answers the round: the ends not yet started are not run.
-    let found: Option<Vec<Solved>> = ends
+    let found: Option<Vec<(Option<f64>, Solved)>> = ends
         .par_iter()
         .map(|&i| {
             let (c, max) = (i / 2, i % 2 == 1);
             let solved = prep.minimise_at(&[(c, if max { -1.0 } else { 1.0 })], warm.start());
-            (solved.bound != Bound::Infeasible).then_some(solved)
+            match solved.bound {
+                Bound::Infeasible => None,
+                Bound::Value(v) => Some((v, solved)),
+            }
         })
         .collect();
     let Some(found) = found else {
@@ -469,23 +472,19 @@ pub(crate) fn solve_ends(
         target: "smid::stage3",
         "shared: {} ends in {} Newton steps",
         found.len(),
-        found.iter().map(|s| s.iterations).sum::<usize>()
+        found.iter().map(|(_, s)| s.iterations).sum::<usize>()
     );
     let mut out = Vec::with_capacity(ends.len());
-    for (&i, solved) in ends.iter().zip(found) {
+    for (&i, (v, solved)) in ends.iter().zip(found) {
         let max = i % 2 == 1;
-        let value = match solved.bound {
-            // Not reached (filtered above); the same answer if it were.
-            Bound::Infeasible => return Ok(Ends::Empty),
-            Bound::Value(v) => v.map(|v| {
-                let pad = RESULT_PAD * (1.0 + v.abs());
-                if max {
-                    -v + pad
-                } else {
-                    v - pad
-                }
-            }),
-        };
+        let value = v.map(|v| {
+            let pad = RESULT_PAD * (1.0 + v.abs());
+            if max {
+                -v + pad
+            } else {
+                v - pad
+            }
+        });
         out.push(End {
             value,
             point: glob.iter().map(|&g| solved.point[g]).collect(),
