@@ -803,11 +803,14 @@ impl ModelPoint {
         // k-step prediction; regressors that read the output read the data.
         let data_iv: Vec<Interval> = measured_x.iter().map(|&v| Interval::new(v, v)).collect();
         let d = self.equation_terms(u, dt, Some(&data_iv));
+        // The first sample whose equation has its whole past in the record (the input's too).
+        let first = na.max(self.linear.b.len().saturating_sub(1) + self.nk);
         let mut x = vec![0.0; n];
         for t in 0..n {
             // Past outputs x_{t-k-i}, i >= 0, from the data (all of them in the record); then
-            // k steps of the model. Before that, the free run.
-            if t < k.max(warm) || t + 1 < k + na {
+            // k steps of the model, the first of them at an equation with its whole past (no
+            // input before the record read as zero). Before that, the free run.
+            if t < k.max(warm) || t + 1 < k + first {
                 x[t] = free[t];
                 continue;
             }
