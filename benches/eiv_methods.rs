@@ -59,6 +59,7 @@ fn bench(c: &mut Criterion) {
         use_band_samples: band,
         extra: &[],
         prior: None,
+        lagged: None,
     };
     g.bench_function("stage3_classical_nbit10", |b| {
         b.iter(|| stage3::solve(EivMethod::Classical, &prob(false)).expect("bounds"))

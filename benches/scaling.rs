@@ -53,6 +53,7 @@ fn bench(c: &mut Criterion) {
                 use_band_samples: m != EivMethod::Classical,
                 extra: &[],
                 prior: None,
+                lagged: None,
             };
             g.bench_with_input(BenchmarkId::new(m.name(), n), &prob, |b, p| {
                 b.iter(|| stage3::solve(m, p).expect("bounds"))

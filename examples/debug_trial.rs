@@ -21,6 +21,7 @@ fn main() {
         output: &[],
         effects: &[],
         dt: 1.0,
+        feedback: false,
     };
     let data = pipeline::simulate_experiments(&spec, &mut plant).unwrap();
     let x = data.records[0].x.clone().unwrap();
@@ -57,6 +58,7 @@ fn plant_truth(t: &Trial) -> Vec<(String, f64)> {
         output: &[],
         effects: &[],
         dt: 1.0,
+        feedback: false,
     }
     .truth()
 }

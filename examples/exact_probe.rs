@@ -31,6 +31,7 @@ fn main() {
                 output: &[],
                 effects: &[],
                 dt: 1.0,
+                feedback: false,
             };
             let id = pipeline::run_with_plant(&spec, &mut plant)
                 .unwrap()
@@ -57,6 +58,7 @@ fn main() {
             use_band_samples: true,
             extra: &[],
             prior: None,
+            lagged: None,
         };
         let t0 = std::time::Instant::now();
         let shared = stage3::solve(EivMethod::Shared, &prob).unwrap();

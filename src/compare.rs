@@ -118,6 +118,7 @@ pub fn compare(
                         .method
                         .band_samples
                         .unwrap_or(m != EivMethod::Classical),
+                    lagged: None,
                     extra: &[],
                     prior: None,
                 };

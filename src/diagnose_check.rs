@@ -396,6 +396,7 @@ pub fn trial_in(
             output: &output,
             effects: &effects,
             dt: 1.0,
+            feedback: false,
         };
         run_trial(&spec, &mut p, &case.kind, seed, csv, keep, &mut out)
     });

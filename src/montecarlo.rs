@@ -68,6 +68,7 @@ pub(crate) fn trial_model(
         effects: Vec::new(),
         prior: Default::default(),
         stable: false,
+        feedback: false,
     }
 }
 
@@ -370,6 +371,7 @@ impl Trial {
             output: &[],
             effects: &[],
             dt: 1.0,
+            feedback: false,
         };
         pipeline::run_with_plant(spec, &mut plant)
     }

@@ -137,6 +137,7 @@ pub fn simulator(
         output: &[],
         effects: &[],
         dt: 1.0,
+        feedback: false,
     }
 }
 

@@ -92,6 +92,7 @@ fn a_record_with_an_undeclared_delay_falsifies_the_model_at_a_sample() {
         output: &sim.output,
         effects: &delay,
         dt: 1.0,
+        feedback: false,
     };
     let fresh = pipeline::fresh_record(&spec, &mut plant, 1001, 200).unwrap();
     let v = validate_on(&id.model, std::slice::from_ref(&fresh));

@@ -105,7 +105,7 @@ proptest! {
             InnerBound { interval: Interval::new(v + off - dx, v + off + dx), kind: InnerKind::Inverted }
         }).collect();
         let input: Vec<Interval> = u.iter().map(|&v| Interval::new(v, v)).collect();
-        let prob = EivProblem { locate: true, na: 2, nb: 2, fixed: vec![None, None, Some(0.0), None, None], unit_gain: true, output: &out, input: &input, use_band_samples: false, extra: &[], prior: None };
+        let prob = EivProblem { locate: true, na: 2, nb: 2, fixed: vec![None, None, Some(0.0), None, None], unit_gain: true, lagged: None, output: &out, input: &input, use_band_samples: false, extra: &[], prior: None };
         match stage3::solve(EivMethod::Classical, &prob) {
             Ok(r) => {
                 let truth = [lin.a[0], lin.a[1], 0.0, lin.b[1], lin.b[2]];

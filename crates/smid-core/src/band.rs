@@ -26,6 +26,9 @@
 //!    leaves the sample's band unbounded (never a guess). The sensor terms over the cell are
 //!    added as intervals.
 //!
+//! With `model.feedback` the autoregressive part reads the past outputs: steps 1 and 2 take
+//! them inside their measurement boxes (`y ± Δ` less the sensor terms) instead of inverting.
+//!
 //! The band is the hull over the cells; a cell whose `θ` the budget left unbounded makes it
 //! unbounded. Guarantee: with the training and the record's noise inside their bounds, the true
 //! parameters lie in some cell, in its polytope and its nonlinearity set, so the true output at
@@ -236,10 +239,16 @@ fn cell_band(
             e += mag[k] * iv.radius();
         };
         for i in 1..=o.na {
-            let iv = w
-                .len()
-                .checked_sub(i)
-                .map_or_else(Interval::entire, |j| w[j].interval);
+            let iv = if set.model.feedback {
+                // `model.feedback`: the past outputs themselves, inside their measurement box.
+                t.checked_sub(i).map_or_else(Interval::entire, |s| {
+                    Interval::new(yc[s] - dy[s], yc[s] + dy[s]).outward()
+                })
+            } else {
+                w.len()
+                    .checked_sub(i)
+                    .map_or_else(Interval::entire, |j| w[j].interval)
+            };
             take(i - 1, -1.0, iv, &mut g);
         }
         for j in 0..=o.nb {
@@ -282,7 +291,9 @@ fn theta_polytope(prob: &EivProblem, theta: &[Interval]) -> Polytope {
         let e0 = x.center();
         let mut s0 = x.radius();
         for i in 1..=prob.na {
-            let iv = prob.output[t - i].interval;
+            let iv = prob
+                .lagged
+                .map_or(prob.output[t - i].interval, |w| w[t - i]);
             g[i - 1] += iv.center();
             s0 += mag[i - 1] * iv.radius();
         }

@@ -119,6 +119,12 @@ impl ModelSpec {
             Ok(())
         };
         limits(self.base_orders(), "model")?;
+        if self.feedback && self.unit_gain {
+            return Err(SmidError::invalid(
+                "model.feedback",
+                "a model whose autoregressive part reads the chain's output takes no unit steady-state gain (eq 8): set `unit_gain: false`",
+            ));
+        }
         for (i, e) in self.effects.iter().enumerate() {
             let mut o = Orders {
                 na: 0,

@@ -59,6 +59,9 @@ pub struct SimulatedPlant<'a> {
     pub effects: &'a [Box<dyn Effect>],
     /// Sample time (for equation terms that use it).
     pub dt: f64,
+    /// The linear block's autoregressive part reads the chain's output (`model.feedback`): the
+    /// output side runs inside the loop.
+    pub feedback: bool,
 }
 
 impl SimulatedPlant<'_> {
@@ -84,12 +87,8 @@ impl SimulatedPlant<'_> {
             })
     }
 
-    fn inner_signal(&self, u: &[f64]) -> Vec<f64> {
-        let v = self.entering(u);
-        if self.effects.is_empty() {
-            // The exact operation order of the plant FMUs (bit-for-bit agreement).
-            return self.linear.simulate(&v);
-        }
+    /// The equation terms' sequence of the plant's effects on `u`.
+    fn equation_terms(&self, u: &[f64]) -> Vec<f64> {
         let signals = Signals::input(u, self.dt);
         let mut d = vec![0.0; u.len()];
         for e in self.effects {
@@ -99,20 +98,74 @@ impl SimulatedPlant<'_> {
                 }
             }
         }
+        d
+    }
+
+    /// The output side from the linear block's output on (the nonlinearity when Wiener, then
+    /// the output blocks).
+    fn output_side(&self) -> Vec<&dyn Nonlinearity> {
+        let mut side: Vec<&dyn Nonlinearity> = Vec::new();
+        if self.structure == Structure::Wiener {
+            side.push(self.nonlinearity);
+        }
+        side.extend(self.output.iter().map(|b| b.as_ref()));
+        side
+    }
+
+    /// With [`feedback`](Self::feedback): the linear block's output `x` and the true output
+    /// `w`, stepped together (`x_t = -Σ a_i w_{t-i} + Σ b_j v_{t-j} + d_t`, `w_t` the output
+    /// side's response to `x` up to `t`).
+    fn closed_loop(&self, u: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let v = self.entering(u);
+        let d = self.equation_terms(u);
+        let lin = self.total_linear();
+        let side = self.output_side();
+        let mut mem: Vec<Vec<f64>> = side.iter().map(|b| b.initial_memory()).collect();
+        let (mut x, mut w) = (Vec::with_capacity(u.len()), Vec::with_capacity(u.len()));
+        for t in 0..u.len() {
+            let mut xt = d[t];
+            for (j, b) in lin.b.iter().enumerate() {
+                if t >= j {
+                    xt += b * v[t - j];
+                }
+            }
+            for (i, a) in lin.a.iter().enumerate() {
+                if t > i {
+                    xt -= a * w[t - 1 - i];
+                }
+            }
+            let wt = side
+                .iter()
+                .zip(mem.iter_mut())
+                .fold(xt, |z, (b, m)| b.step(m, z));
+            x.push(xt);
+            w.push(wt);
+        }
+        (x, w)
+    }
+
+    fn inner_signal(&self, u: &[f64]) -> Vec<f64> {
+        if self.feedback {
+            return self.closed_loop(u).0;
+        }
+        let v = self.entering(u);
+        if self.effects.is_empty() {
+            // The exact operation order of the plant FMUs (bit-for-bit agreement).
+            return self.linear.simulate(&v);
+        }
+        let d = self.equation_terms(u);
         self.total_linear().simulate_with(&v, &d)
     }
 }
 
 impl Plant for SimulatedPlant<'_> {
     fn run(&mut self, u: &[f64]) -> Result<Vec<f64>> {
-        let x = self.inner_signal(u);
-        let mut w = match self.structure {
-            Structure::Wiener => self.nonlinearity.simulate(&x),
-            Structure::Hammerstein => x,
+        let w = if self.feedback {
+            self.closed_loop(u).1
+        } else {
+            let x = self.inner_signal(u);
+            self.output_side().iter().fold(x, |w, b| b.simulate(&w))
         };
-        for b in self.output {
-            w = b.simulate(&w);
-        }
         Ok(w.into_iter()
             .enumerate()
             .map(|(t, w)| self.effects.iter().fold(w, |w, e| e.plant_output(t, w)))

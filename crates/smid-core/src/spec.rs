@@ -84,6 +84,10 @@ pub struct SimulatorSpec {
     /// data with an effect a model may lack, without an FMU.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub effects: Vec<Box<dyn Effect>>,
+    /// The linear block's autoregressive part reads the chain's output, the output side inside
+    /// the loop (as `model.feedback`). Default `false`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub feedback: bool,
 }
 
 impl SimulatorSpec {
@@ -97,6 +101,7 @@ impl SimulatorSpec {
             output: &self.output,
             effects: &self.effects,
             dt: 1.0,
+            feedback: self.feedback,
         }
     }
     /// The linear block.
@@ -426,6 +431,15 @@ pub struct ModelSpec {
     /// otherwise unbounded `θ`). An assumption: the bounds are guaranteed for stable plants.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub stable: bool,
+    /// The linear block's autoregressive part reads the chain's **output** (after the output
+    /// side's blocks, before the sensor terms): `x_t = -Σ a_i w_{t-i} + Σ b_j v_{t-nk-j} + …`,
+    /// `w_t = N(x_t)`. An output block then acts **inside the loop**: a tank's level clipped at
+    /// its rim goes on from the clipped level, where a Wiener block would clip only what is
+    /// measured. Stage 3 reads the past outputs at the measurements (`w ∈ y ± Δ` through the
+    /// sensor terms), so an equation is usable wherever the inner sample `x_t` is bounded, a
+    /// clipped sample giving a half-space. Default `false` (eq 1: the block's own past).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub feedback: bool,
     /// Effects: further terms of the model (delay, actuator lag, sensor offset or drift,
     /// friction...), each a registered `type`; their values are identified, not given.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

@@ -68,8 +68,17 @@ pub(super) fn least_squares_theta(set: &ModelSet, k: usize) -> Result<Option<Vec
         b.interval.is_finite() && b.kind == crate::inversion::InnerKind::Inverted
     };
     let mut rows: Vec<(Vec<f64>, f64)> = Vec::new();
+    // The past outputs the autoregressive part reads: the inner signal's (eq 1), or the
+    // chain's output with `model.feedback`.
+    let past = |t: usize| -> Option<f64> {
+        match &sig.lagged {
+            None => ok(&sig.output[t]).then(|| sig.output[t].interval.center()),
+            Some(w) => w[t].is_finite().then(|| w[t].center()),
+        }
+    };
     for t in o.na.max(o.nb)..sig.output.len() {
-        if !(0..=o.na).all(|i| ok(&sig.output[t - i]))
+        if !ok(&sig.output[t])
+            || !(1..=o.na).all(|i| past(t - i).is_some())
             || !(0..=o.nb).all(|j| sig.input[t - j].is_finite())
             || !sig.extra.iter().all(|e| e.values[t].is_finite())
         {
@@ -77,7 +86,7 @@ pub(super) fn least_squares_theta(set: &ModelSet, k: usize) -> Result<Option<Vec
         }
         let mut phi = Vec::with_capacity(p);
         for i in 1..=o.na {
-            phi.push(-sig.output[t - i].interval.center());
+            phi.push(-past(t - i).unwrap_or(f64::NAN));
         }
         for j in 0..=o.nb {
             phi.push(sig.input[t - j].center());
@@ -239,6 +248,13 @@ pub fn theta_reproducing(
             return Ok(None);
         }
         let v = pt.linear_input(&r.u);
+        // The past outputs the autoregressive part reads (`model.feedback`: through the
+        // output side).
+        let past = if pt.feedback {
+            pt.true_output(xr)
+        } else {
+            xr.clone()
+        };
         let x_iv: Vec<Interval> = xr.iter().map(|&a| Interval::new(a, a)).collect();
         let cols: Vec<Vec<f64>> = pt
             .effects
@@ -259,7 +275,7 @@ pub fn theta_reproducing(
             .collect();
         for t in o.na.max(o.nb + o.nk)..n {
             let mut phi = Vec::with_capacity(p);
-            phi.extend((1..=o.na).map(|i| -xr[t - i]));
+            phi.extend((1..=o.na).map(|i| -past[t - i]));
             phi.extend((0..=o.nb).map(|j| v[t - j]));
             phi.extend(cols.iter().map(|c| c.get(t).copied().unwrap_or(f64::NAN)));
             if phi.len() == p && phi.iter().chain([&xr[t]]).all(|a| a.is_finite()) {
@@ -590,6 +606,7 @@ fn assemble(
             b: theta[o.na..=o.na + o.nb].to_vec(),
         },
         nk: o.nk,
+        feedback: model.feedback,
         extras: theta[o.na + o.nb + 1..].to_vec(),
         psi,
         effects: model.effects.clone(),
@@ -619,6 +636,9 @@ pub struct ModelPoint {
     pub output: Vec<Box<dyn Nonlinearity>>,
     pub linear: LinearModel,
     pub nk: usize,
+    /// `model.feedback`: the autoregressive part reads the chain's output `w`, so the free run
+    /// steps the output side sample by sample.
+    pub feedback: bool,
     /// Coefficients of the equation terms.
     pub extras: Vec<f64>,
     /// Values of the bisected (sensor) parameters.
@@ -732,6 +752,26 @@ impl ModelPoint {
             .collect()
     }
 
+    /// The blocks from the linear block's output to the true output, in signal order: the
+    /// nonlinearity when Wiener, then the output blocks.
+    fn output_side(&self) -> Vec<&dyn Nonlinearity> {
+        let mut side: Vec<&dyn Nonlinearity> = Vec::with_capacity(self.output.len() + 1);
+        if self.structure == Structure::Wiener {
+            side.push(self.nonlinearity.as_ref());
+        }
+        side.extend(self.output.iter().map(|b| b.as_ref()));
+        side
+    }
+
+    /// The true output `w` of a linear-block output sequence `x` from rest.
+    pub fn true_output(&self, x: &[f64]) -> Vec<f64> {
+        let mut w = x.to_vec();
+        for b in self.output_side() {
+            w = b.simulate(&w);
+        }
+        w
+    }
+
     /// Free-run simulation from rest on the input alone.
     pub fn simulate(&self, u: &[f64], dt: f64) -> Simulation {
         self.predict(u, None, dt, usize::MAX, 0)
@@ -748,6 +788,10 @@ impl ModelPoint {
     /// samples take `x_data` as they are (the measured initial condition, as MATLAB's
     /// `compare` estimates one), then the model runs on the input alone (`k = usize::MAX`: the
     /// free run), or, for a `k`-step-ahead prediction, from `x_data` up to `t - k` for each `t`.
+    /// With [`feedback`](Self::feedback) the autoregressive part reads the chain's output:
+    /// `x_data` are then the measured true outputs `w` (`y - s`), the past the loop reads,
+    /// and the free run steps the output side sample by sample; a `k`-step prediction starts
+    /// the output side's memory where the one-step predictions up to `t - k` left it.
     pub fn predict(
         &self,
         u: &[f64],
@@ -761,41 +805,54 @@ impl ModelPoint {
         let xd = x_data.filter(|d| d.len() == n);
         let online = self.effects.iter().any(|e| e.uses_output());
         let na = self.linear.a.len();
+        let side = self.output_side();
+        // The output side stepped sample by sample (`model.feedback` reads its past).
+        let step_side = |mem: &mut [Vec<f64>], x: f64| -> f64 {
+            side.iter()
+                .zip(mem.iter_mut())
+                .fold(x, |w, (b, m)| b.step(m, w))
+        };
+        let rest: Vec<Vec<f64>> = side.iter().map(|b| b.initial_memory()).collect();
         // The free run (with the warm start).
         let batch = self.equation_terms(u, dt, None);
         let mut free = Vec::with_capacity(n);
+        let mut free_w = Vec::with_capacity(n);
+        let mut mem = rest.clone();
         let mut free_iv: Vec<Interval> = Vec::with_capacity(n);
         for s in 0..n {
             let xs = match xd {
-                Some(d) if s < warm => d[s],
+                Some(d) if s < warm && !self.feedback => d[s],
                 _ => {
                     let mut ds = batch[s];
                     if online {
                         ds += self.online_terms(u, dt, &free_iv, s);
                     }
+                    let past = if self.feedback { &free_w } else { &free };
                     let hist: Vec<f64> = (1..=na)
-                        .map(|i| if s >= i { free[s - i] } else { 0.0 })
+                        .map(|i| if s >= i { past[s - i] } else { 0.0 })
                         .collect();
                     self.linear_step(&v, ds, s, &hist)
                 }
             };
             free.push(xs);
+            if self.feedback {
+                let ws = step_side(&mut mem, xs);
+                // The warm start reads the measured outputs (the loop's past) as they are.
+                free_w.push(match xd {
+                    Some(d) if s < warm => d[s],
+                    _ => ws,
+                });
+            }
             free_iv.push(Interval::new(xs, xs));
         }
-        let out = |x: &[f64]| -> Vec<f64> {
-            let mut w = match self.structure {
-                Structure::Wiener => self.nonlinearity.simulate(x),
-                Structure::Hammerstein => x.to_vec(),
-            };
-            for b in &self.output {
-                w = b.simulate(&w);
-            }
-            w
-        };
         let measured_x = match xd {
             Some(x) if k < n && k > 0 => x,
             _ => {
-                let w = out(&free);
+                let w = if self.feedback {
+                    free_w
+                } else {
+                    self.true_output(&free)
+                };
                 let yy = self.measure(&w);
                 return Simulation { x: free, w, y: yy };
             }
@@ -803,9 +860,36 @@ impl ModelPoint {
         // k-step prediction; regressors that read the output read the data.
         let data_iv: Vec<Interval> = measured_x.iter().map(|&v| Interval::new(v, v)).collect();
         let d = self.equation_terms(u, dt, Some(&data_iv));
+        // With feedback the past outputs are the data; the output side's memory a prediction
+        // starts from is that of the one-step predictions up to there.
+        let data_mem = if self.feedback {
+            let mut m = rest.clone();
+            let mut mems = Vec::with_capacity(n);
+            for t in 0..n {
+                let hist: Vec<f64> = (1..=na)
+                    .map(|i| if t >= i { measured_x[t - i] } else { 0.0 })
+                    .collect();
+                let xt = if t < na {
+                    free[t]
+                } else {
+                    self.linear_step(&v, d[t], t, &hist)
+                };
+                step_side(&mut m, xt);
+                mems.push(m.clone());
+            }
+            mems
+        } else {
+            Vec::new()
+        };
+        let past = measured_x;
         // The first sample whose equation has its whole past in the record (the input's too).
         let first = na.max(self.linear.b.len().saturating_sub(1) + self.nk);
         let mut x = vec![0.0; n];
+        let mut w_pred = if self.feedback {
+            free_w.clone()
+        } else {
+            Vec::new()
+        };
         for t in 0..n {
             // Past outputs x_{t-k-i}, i >= 0, from the data (all of them in the record); then
             // k steps of the model, the first of them at an equation with its whole past (no
@@ -816,25 +900,34 @@ impl ModelPoint {
             }
             let start = t + 1 - k;
             let mut hist: Vec<f64> = (0..na)
-                .map(|i| {
-                    if start > i {
-                        measured_x[start - 1 - i]
-                    } else {
-                        0.0
-                    }
-                })
+                .map(|i| if start > i { past[start - 1 - i] } else { 0.0 })
                 .collect();
+            let mut m = match start.checked_sub(1) {
+                Some(p) if self.feedback => data_mem[p].clone(),
+                _ => rest.clone(),
+            };
             let mut xs = 0.0;
             for s in start..=t {
                 xs = self.linear_step(&v, d[s], s, &hist);
+                let next = if self.feedback {
+                    let ws = step_side(&mut m, xs);
+                    w_pred[t] = ws;
+                    ws
+                } else {
+                    xs
+                };
                 if na > 0 {
                     hist.rotate_right(1);
-                    hist[0] = xs;
+                    hist[0] = next;
                 }
             }
             x[t] = xs;
         }
-        let w = out(&x);
+        let w = if self.feedback {
+            w_pred
+        } else {
+            self.true_output(&x)
+        };
         let yy = self.measure(&w);
         Simulation { x, w, y: yy }
     }
@@ -952,13 +1045,20 @@ pub fn free_run(
 
 /// The inner-signal estimate a k-step predictor starts from: Hammerstein without output blocks
 /// `y - s` (the centre member's sensor terms), otherwise the centres of the stage-2 bounds of
-/// the first cell where inverted, the free-run inner signal elsewhere.
+/// the first cell where inverted, the free-run inner signal elsewhere. With `model.feedback`
+/// the past the loop reads: the true outputs `y - s` ([`ModelPoint::predict`]).
 pub fn inner_estimate(
     model: &ModelSet,
     point: &ModelPoint,
     rec: &crate::pipeline::Record,
 ) -> Result<Vec<f64>> {
     let free = point.simulate(&rec.u, rec.dt);
+    if model.model.feedback {
+        // The loop's past outputs are measured: the true outputs behind the record at this
+        // member's sensor terms.
+        let s = point.sensor_terms(rec.y.len());
+        return Ok(rec.y.iter().zip(&s).map(|(y, s)| y - s).collect());
+    }
     // A Hammerstein model without output blocks measures the linear block's output directly.
     match model.model.structure {
         crate::nonlinearity::Structure::Hammerstein if model.model.output.is_empty() => {
@@ -993,6 +1093,148 @@ pub fn inner_estimate(
                     }
                 })
                 .collect())
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use serde::{Deserialize, Serialize};
+
+    /// `min(s, x)`: memoryless, clips from above.
+    #[derive(Debug, Serialize, Deserialize)]
+    struct Clip(f64);
+    #[typetag::serde(name = "members_test_clip")]
+    impl Nonlinearity for Clip {
+        fn step(&self, _m: &mut Vec<f64>, x: f64) -> f64 {
+            x.min(self.0)
+        }
+    }
+
+    /// `w_t = k w_{t-1} + (1 - k) x_t`: a block with memory.
+    #[derive(Debug, Serialize, Deserialize)]
+    struct Lag(f64);
+    #[typetag::serde(name = "members_test_lag")]
+    impl Nonlinearity for Lag {
+        fn initial_memory(&self) -> Vec<f64> {
+            vec![0.0]
+        }
+        fn step(&self, m: &mut Vec<f64>, x: f64) -> f64 {
+            m[0] = self.0 * m[0] + (1.0 - self.0) * x;
+            m[0]
+        }
+    }
+
+    fn feedback_point(rng: &mut impl Rng, with_lag: bool) -> ModelPoint {
+        let na = rng.gen_range(1..=3);
+        let poles: Vec<f64> = (0..na).map(|_| rng.gen_range(-0.8..0.9)).collect();
+        // A(q) = Π (1 - p q⁻¹).
+        let mut a = vec![1.0];
+        for p in &poles {
+            let mut next = a.clone();
+            next.push(0.0);
+            for i in 1..next.len() {
+                next[i] -= p * a[i - 1];
+            }
+            a = next;
+        }
+        let nb = rng.gen_range(0..=2);
+        let output: Vec<Box<dyn Nonlinearity>> = if with_lag {
+            vec![Box::new(Lag(rng.gen_range(0.1..0.7)))]
+        } else {
+            Vec::new()
+        };
+        ModelPoint {
+            structure: Structure::Wiener,
+            nonlinearity: Box::new(Clip(rng.gen_range(0.3..1.0))),
+            input: Vec::new(),
+            output,
+            linear: LinearModel {
+                a: a[1..].to_vec(),
+                b: (0..=nb).map(|_| rng.gen_range(-1.0..1.0)).collect(),
+            },
+            nk: rng.gen_range(0..=2),
+            feedback: true,
+            extras: Vec::new(),
+            psi: Vec::new(),
+            effects: Vec::new(),
+            effect_cells: Vec::new(),
+        }
+    }
+
+    /// With feedback, a member's free run is the built-in plant's closed loop (an independent
+    /// stepping of the same equations), blocks with memory included; its `k`-step prediction of
+    /// memoryless blocks is the brute-force one: `k` steps from the measured past at each `t`.
+    #[test]
+    fn a_feedback_member_runs_the_plants_loop_and_predicts_from_the_measured_past() {
+        for seed in 0..40u64 {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let with_lag = seed % 2 == 0;
+            let p = feedback_point(&mut rng, with_lag);
+            let n = rng.gen_range(30..120);
+            let u: Vec<f64> = (0..n).map(|_| rng.gen_range(-2.0..2.0)).collect();
+            let mut plant = crate::plant::SimulatedPlant {
+                linear: p.linear.clone(),
+                nonlinearity: p.nonlinearity.as_ref(),
+                structure: Structure::Wiener,
+                input: &[],
+                output: &p.output,
+                effects: &[],
+                dt: 1.0,
+                feedback: true,
+            };
+            // The plant's input is the linear block's (the delay is the member's).
+            let v = p.linear_input(&u);
+            let truth = crate::plant::Plant::run(&mut plant, &v).unwrap();
+            let sim = p.simulate(&u, 1.0);
+            for t in 0..n {
+                assert!(
+                    (sim.y[t] - truth[t]).abs() <= 1e-12 * (1.0 + truth[t].abs()),
+                    "seed {seed}, t = {t}: {} against the plant's {}",
+                    sim.y[t],
+                    truth[t]
+                );
+            }
+            assert!(
+                sim.y.iter().zip(&sim.x).any(|(w, x)| (w - x).abs() > 1e-9),
+                "seed {seed}: the loop never clips: the test is vacuous"
+            );
+            if with_lag {
+                continue;
+            }
+            // Measured outputs: the truth with noise; k steps from them.
+            let y: Vec<f64> = truth
+                .iter()
+                .map(|w| w + rng.gen_range(-0.05..0.05))
+                .collect();
+            let na = p.linear.a.len();
+            // Predicted from the first equation whose inputs are all in the record.
+            let first = na.max(p.linear.b.len() - 1 + p.nk);
+            for k in [1usize, 2, 5] {
+                let pred = p.predict(&u, Some(&y), 1.0, k, 0).y;
+                for t in (k + first - 1)..n {
+                    let start = t + 1 - k;
+                    let mut w: Vec<f64> = y[..start].to_vec();
+                    for s in start..=t {
+                        let mut x = 0.0;
+                        for (j, b) in p.linear.b.iter().enumerate() {
+                            x += b * v[s - j];
+                        }
+                        for (i, a) in p.linear.a.iter().enumerate() {
+                            x -= a * w[s - 1 - i];
+                        }
+                        w.push(p.nonlinearity.simulate(&[x])[0]);
+                    }
+                    assert!(
+                        (pred[t] - w[t]).abs() <= 1e-12 * (1.0 + w[t].abs()),
+                        "seed {seed}, k = {k}, t = {t}: {} against {}",
+                        pred[t],
+                        w[t]
+                    );
+                }
+            }
         }
     }
 }

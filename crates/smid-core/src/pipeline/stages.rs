@@ -474,6 +474,9 @@ pub struct StageSignals {
     pub output: Vec<InnerBound>,
     pub input: Vec<Interval>,
     pub extra: Vec<Regressor>,
+    /// `model.feedback`: the chain's output `w_t` the autoregressive part reads, bounded
+    /// from the measurements (`y ± Δ` through the sensor terms); unknown in the gaps.
+    pub lagged: Option<Vec<Interval>>,
     /// Index of each record's first sample in the concatenation.
     pub starts: Vec<usize>,
 }
@@ -489,7 +492,8 @@ impl StageSignals {
 /// Stage 2 for one cell over records: the outputs corrected by the sensor terms (`y - s`, the
 /// interval `s` widening the noise bound), inverted (Wiener) or taken as the linear block's
 /// output (Hammerstein); the input as is (Wiener) or propagated through the nonlinearity
-/// (Hammerstein); delayed by `nk`; the equation terms' regressors.
+/// (Hammerstein); delayed by `nk`; the equation terms' regressors; with `model.feedback` the
+/// past outputs the loop reads, inside their measurement boxes (`StageSignals::lagged`).
 pub fn stage2(
     model: &ModelSpec,
     layout: &Layout,
@@ -513,6 +517,7 @@ pub fn stage2(
                 values: Vec::new(),
             })
             .collect(),
+        lagged: model.feedback.then(Vec::new),
         starts: Vec::new(),
     };
     for (r, rec) in records.iter().enumerate() {
@@ -525,6 +530,9 @@ pub fn stage2(
             for e in &mut out.extra {
                 e.values
                     .extend(std::iter::repeat_n(Interval::entire(), gap));
+            }
+            if let Some(w) = &mut out.lagged {
+                w.extend(std::iter::repeat_n(Interval::entire(), gap));
             }
         }
         out.starts.push(out.output.len());
@@ -556,6 +564,13 @@ pub fn stage2(
             .map(|b| b.interval)
             .collect();
         out.output.extend(output);
+        if let Some(w) = &mut out.lagged {
+            w.extend(
+                yc.iter()
+                    .zip(&dy)
+                    .map(|(&y, &d)| Interval::new(y - d, y + d).outward()),
+            );
+        }
         out.input.extend((0..n).map(|t| {
             if t >= o.nk {
                 input[t - o.nk]
@@ -601,6 +616,7 @@ pub fn eiv_problem<'a>(
         extra: &sig.extra,
         prior: prior.or(layout.theta_prior.as_deref()),
         use_band_samples: method.use_band_samples(),
+        lagged: sig.lagged.as_deref(),
     }
 }
 

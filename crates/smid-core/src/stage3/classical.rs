@@ -503,6 +503,7 @@ mod tests {
                 output: &out,
                 input: &input,
                 use_band_samples: false,
+                lagged: None,
                 extra: &[],
                 prior: None,
             };
@@ -537,6 +538,7 @@ mod tests {
             output: &out,
             input: &input,
             use_band_samples: false,
+            lagged: None,
             extra: &[],
             prior: None,
         };

@@ -68,6 +68,12 @@ pub struct EivProblem<'a> {
     pub extra: &'a [Regressor],
     /// Optional prior box on θ (all coefficients, in θ order incl. extras); None = unbounded.
     pub prior: Option<&'a [Interval]>,
+    /// The signal the autoregressive part reads (`model.feedback`: the chain's output `w_t`,
+    /// bounded from the measurements), one interval per sample, indexed as `output`; a
+    /// non-finite one is unknown. `None`: the inner output itself (eq 1). With it the equation
+    /// is `x_t + Σ a_i w_{t-i} = Σ b_j v_{t-j} + Σ c_k φ_k(t)`: every method solves it as the
+    /// problem with the lagged samples in the input's place ([`EivProblem::flattened`]).
+    pub lagged: Option<&'a [Interval]>,
 }
 
 /// An extra regressor column `φ_k` of the linear block (an additive effect such as an offset,
@@ -221,9 +227,13 @@ impl EivProblem<'_> {
         self.na.max(self.nb)..n
     }
 
-    /// Every output sample of the equation at `t` usable.
+    /// Every output sample of the equation at `t` usable: `x_t` and its past (eq 1), or `x_t`
+    /// and the past outputs known ([`lagged`](Self::lagged)).
     fn outputs_usable_at(&self, t: usize) -> bool {
-        (0..=self.na).all(|i| self.usable(&self.output[t - i]))
+        match self.lagged {
+            None => (0..=self.na).all(|i| self.usable(&self.output[t - i])),
+            Some(w) => self.usable(&self.output[t]) && (1..=self.na).all(|i| w[t - i].is_finite()),
+        }
     }
 
     /// Every input sample of the equation at `t` known.
@@ -292,10 +302,84 @@ impl EivProblem<'_> {
                 && b.interval.lo <= b.interval.hi
                 && (b.interval.lo.is_finite() != b.interval.hi.is_finite())
         };
-        self.times_where(|t| {
-            let outputs = &self.output[t - self.na..=t];
-            outputs.iter().any(one_sided) && outputs.iter().all(|b| self.usable(b) || one_sided(b))
+        self.times_where(|t| match self.lagged {
+            None => {
+                let outputs = &self.output[t - self.na..=t];
+                outputs.iter().any(one_sided)
+                    && outputs.iter().all(|b| self.usable(b) || one_sided(b))
+            }
+            Some(w) => one_sided(&self.output[t]) && (1..=self.na).all(|i| w[t - i].is_finite()),
         })
+    }
+
+    /// A problem with [`lagged`](Self::lagged) past outputs as the problem every method
+    /// solves (`None` without them). The lagged signal takes the input's place, shifted by one
+    /// sample (`v'_t = -w_{t-1}`, lags `0..na-1`, so its coefficients are `a_1..a_na`), and the
+    /// input's lags `v_{t-j}` become exact extra columns (coefficients `b_0..b_nb`) ahead of the
+    /// problem's own extras: θ keeps its order, `[a's, b's, extras]`. The lagged samples are
+    /// then one uncertain variable each, shared by the `na` equations that read them, as a
+    /// Hammerstein model's uncertain input is. An outer bound of the flattened problem is one
+    /// of the problem: the two sets of equations are the same. Refused under the unit gain
+    /// (its row reads the `a`'s by their place) and for an uncertain input (it would need a
+    /// second shared signal).
+    pub fn flattened(&self) -> Result<Option<Flattened>> {
+        let Some(w) = self.lagged else {
+            return Ok(None);
+        };
+        if w.len() != self.output.len() {
+            return Err(SmidError::invalid(
+                "lagged",
+                format!(
+                    "expected {} samples (as the inner output), got {}",
+                    self.output.len(),
+                    w.len()
+                ),
+            ));
+        }
+        if self.unit_gain {
+            return Err(SmidError::invalid(
+                "model.feedback",
+                "the unit steady-state gain (eq 8) is not taken with feedback: set `unit_gain: false`",
+            ));
+        }
+        if let Some(t) = self
+            .input
+            .iter()
+            .position(|v| v.is_finite() && v.radius() > 1e-9 * (1.0 + v.center().abs()))
+        {
+            return Err(SmidError::Unsupported {
+                plugin: "model.feedback".into(),
+                what: format!(
+                    "an uncertain input sample (t = {t}: an input-side block or a Hammerstein nonlinearity) with the past outputs read from data: give the nonlinearity at the output side"
+                ),
+            });
+        }
+        let shifted = |signal: &[Interval], lag: usize, negate: bool| -> Vec<Interval> {
+            (0..signal.len())
+                .map(|t| match t.checked_sub(lag) {
+                    Some(s) if signal[s].is_finite() => {
+                        if negate {
+                            Interval::new(-signal[s].hi, -signal[s].lo)
+                        } else {
+                            signal[s]
+                        }
+                    }
+                    _ => Interval::entire(),
+                })
+                .collect()
+        };
+        let mut extra: Vec<Regressor> = (0..=self.nb)
+            .map(|j| Regressor {
+                name: format!("input lag {j}"),
+                values: shifted(self.input, j, false),
+            })
+            .collect();
+        extra.extend(self.extra.iter().cloned());
+        Ok(Some(Flattened {
+            na: self.na,
+            input: shifted(w, 1, true),
+            extra,
+        }))
     }
 
     /// Check the shape of the problem: one `fixed` (and `prior`) entry per θ entry, a prior of
@@ -377,6 +461,51 @@ impl EivProblem<'_> {
                 }
             })
             .collect()
+    }
+}
+
+/// The owned parts of a [`EivProblem::flattened`] problem.
+#[derive(Debug, Clone)]
+pub struct Flattened {
+    na: usize,
+    input: Vec<Interval>,
+    extra: Vec<Regressor>,
+}
+
+impl Flattened {
+    /// The flattened problem of `of` (the problem it was made from). With `na = 0` it is `of`
+    /// without the lagged signal (no equation reads it).
+    pub fn problem<'f>(&'f self, of: &EivProblem<'f>) -> EivProblem<'f> {
+        if self.na == 0 {
+            return EivProblem {
+                lagged: None,
+                ..of.clone()
+            };
+        }
+        EivProblem {
+            na: 0,
+            nb: self.na - 1,
+            input: &self.input,
+            extra: &self.extra,
+            lagged: None,
+            ..of.clone()
+        }
+    }
+
+    /// A flattened problem's error in the names of the problem it was made from (θ keeps its
+    /// order; the flattened problem calls `a_i` `b_{i-1}` and `b_j` by its column name).
+    pub fn error(&self, e: SmidError, of: &EivProblem) -> SmidError {
+        match e {
+            SmidError::Unbounded { parameter, message } => {
+                let flat = self.problem(of).names();
+                let parameter = flat
+                    .iter()
+                    .position(|n| *n == parameter)
+                    .map_or(parameter, |k| of.name(k));
+                SmidError::Unbounded { parameter, message }
+            }
+            e => e,
+        }
     }
 }
 
@@ -507,6 +636,7 @@ impl schemars::JsonSchema for EivMethod {
 ///     output: &output,
 ///     input: &input,
 ///     use_band_samples: false,
+///     lagged: None,
 ///     locate: true,
 ///     extra: &[],
 ///     prior: None,
@@ -578,6 +708,9 @@ pub trait Stage3Method: Send + Sync {
     /// the start (the result of [`start`](Self::start) through the registry, or
     /// [`prior_start`]), then [`solve_from`](Self::solve_from).
     fn solve(&self, prob: &EivProblem) -> Result<EivResult> {
+        if let Some(f) = prob.flattened()? {
+            return self.solve(&f.problem(prob)).map_err(|e| f.error(e, prob));
+        }
         prob.validate()?;
         self.check(prob)?;
         let start = match self.start() {
@@ -723,7 +856,10 @@ pub fn parse_options<T: serde::de::DeserializeOwned>(
 /// A cheap necessary test of consistency: whether the classical outer set is non-empty
 /// (`false` proves that no θ fits; `true` proves nothing). See [`classical::feasible`].
 pub fn feasible(prob: &EivProblem) -> Result<bool> {
-    classical::feasible(prob)
+    match prob.flattened()? {
+        Some(f) => classical::feasible(&f.problem(prob)).map_err(|e| f.error(e, prob)),
+        None => classical::feasible(prob),
+    }
 }
 
 /// Stage 3 by the chosen method (the pipeline's entry point).
@@ -734,7 +870,119 @@ pub fn solve(m: EivMethod, prob: &EivProblem) -> Result<EivResult> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stage3::testutil::random_extra_case;
+    use crate::stage3::testutil::{feedback_case, random_extra_case};
+
+    /// Past outputs read from data (`lagged`): every registered method that takes the
+    /// flattened problem bounds the true θ of random clipped loops, in θ's own order; the
+    /// flattened problem's equations are the problem's (each residual the same at random points
+    /// of the boxes); a unit gain and an uncertain input are refused with an error.
+    #[test]
+    fn lagged_past_outputs_are_bounded_by_every_method_with_the_truth_inside() {
+        use rand::{Rng, SeedableRng};
+        let mut solved = 0;
+        for seed in 0..12u64 {
+            let (na, nb, theta, out, input, lagged) = feedback_case(seed);
+            let p = theta.len();
+            let constant = Regressor {
+                name: "constant".into(),
+                values: vec![Interval::new(1.0, 1.0); out.len()],
+            };
+            let extra = [constant];
+            assert_eq!(na + nb + 2, p);
+            let prob = EivProblem {
+                na,
+                nb,
+                fixed: vec![None; p],
+                unit_gain: false,
+                output: &out,
+                input: &input,
+                use_band_samples: false,
+                locate: true,
+                extra: &extra,
+                prior: None,
+                lagged: Some(&lagged),
+            };
+            // The flattened equations are the problem's: residuals agree at random points.
+            let f = prob.flattened().unwrap().unwrap();
+            let flat = f.problem(&prob);
+            assert_eq!(flat.names().len(), p);
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 100);
+            let times = prob.equation_times();
+            assert_eq!(times, flat.equation_times(), "seed {seed}");
+            assert_eq!(
+                prob.one_sided_times(),
+                flat.one_sided_times(),
+                "seed {seed}"
+            );
+            for &t in &times {
+                let th: Vec<f64> = (0..p).map(|_| rng.gen_range(-2.0..2.0)).collect();
+                let pick = |i: Interval| i.lo + (i.hi - i.lo) * 0.37;
+                let xt = pick(out[t].interval);
+                let mut r = xt;
+                for i in 1..=na {
+                    r += th[i - 1] * pick(lagged[t - i]);
+                }
+                for j in 0..=nb {
+                    r -= th[na + j] * input[t - j].center();
+                }
+                r -= th[p - 1];
+                let mut rf = xt;
+                for j in 0..=flat.nb {
+                    // v'_{t-j} = -w_{t-1-j}, the same sample picked the same way.
+                    rf -= th[j] * -pick(lagged[t - 1 - j]);
+                }
+                for (k, col) in flat.extra.iter().enumerate() {
+                    rf -= th[flat.n_ab() + k] * col.values[t].center();
+                }
+                assert!(
+                    (r - rf).abs() <= 1e-12 * (1.0 + r.abs()),
+                    "seed {seed}, t = {t}"
+                );
+            }
+            for (m, method) in all() {
+                if !method.available() {
+                    continue;
+                }
+                match method.solve(&prob) {
+                    Ok(r) => {
+                        solved += 1;
+                        for (k, b) in r.bounds.iter().enumerate() {
+                            assert!(
+                                b.contains(theta[k]),
+                                "seed {seed}, {}: {} = {} outside {b:?}",
+                                m.name(),
+                                prob.name(k),
+                                theta[k]
+                            );
+                        }
+                    }
+                    Err(SmidError::Unsupported { .. } | SmidError::Unbounded { .. }) => {}
+                    Err(e) => panic!("seed {seed}, {}: {e}", m.name()),
+                }
+            }
+            assert!(matches!(
+                EivProblem {
+                    unit_gain: true,
+                    ..prob.clone()
+                }
+                .flattened(),
+                Err(SmidError::Invalid { .. })
+            ));
+            let uncertain: Vec<Interval> = input
+                .iter()
+                .map(|v| Interval::new(v.lo - 0.1, v.hi + 0.1))
+                .collect();
+            assert!(matches!(
+                EivProblem {
+                    input: &uncertain,
+                    ..prob.clone()
+                }
+                .flattened(),
+                Err(SmidError::Unsupported { .. })
+            ));
+        }
+        assert!(solved >= 24, "only {solved} method runs gave bounds");
+    }
 
     /// The one location of an emptiness, with stand-in prefix tests (the first `k` equations
     /// feasible): the bisection finds equation `k`; without `locate`, or when a prefix's LP

@@ -582,6 +582,7 @@ mod tests {
             output: &[],
             input: &[],
             use_band_samples: false,
+            lagged: None,
             extra: &[],
             prior: None,
         };

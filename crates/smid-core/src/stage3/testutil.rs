@@ -75,6 +75,7 @@ pub(crate) fn problem<'a>(
         output: out,
         input,
         use_band_samples: band,
+        lagged: None,
         extra: &[],
         prior: None,
     }
@@ -199,4 +200,81 @@ pub(crate) fn random_extra_case(seed: u64, n: usize, friction_radius: f64) -> Ex
         input,
         extra,
     }
+}
+
+/// `(na, nb, θ, stage-2 bounds of x, input, measured past outputs)` of [`feedback_case`].
+pub(crate) type FeedbackCase = (
+    usize,
+    usize,
+    Vec<f64>,
+    Vec<InnerBound>,
+    Vec<Interval>,
+    Vec<Interval>,
+);
+
+/// A random loop with a clip inside it, `x_t = -Σ a_i w_{t-i} + Σ b_j u_{t-j} + c`,
+/// `w_t = min(s, x_t)`, measured as `w_t + η_t` (`|η_t| <= d`): the true θ (`a`'s, `b`'s,
+/// `c`), the stage-2 bounds of `x` (a clipped sample known from below only) and the measured
+/// past outputs.
+pub(crate) fn feedback_case(seed: u64) -> FeedbackCase {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let na = rng.gen_range(1..=3);
+    let nb = rng.gen_range(0..=2);
+    let poles: Vec<f64> = (0..na).map(|_| rng.gen_range(-0.7..0.9)).collect();
+    let mut a = vec![1.0];
+    for p in &poles {
+        let mut next = a.clone();
+        next.push(0.0);
+        for i in 1..next.len() {
+            next[i] -= p * a[i - 1];
+        }
+        a = next;
+    }
+    let a = a[1..].to_vec();
+    let b: Vec<f64> = (0..=nb).map(|_| rng.gen_range(-1.0..1.0)).collect();
+    let c = rng.gen_range(-0.2..0.2);
+    let n = rng.gen_range(60..160);
+    let u: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+    let mut x: Vec<f64> = Vec::with_capacity(n);
+    let mut w: Vec<f64> = Vec::with_capacity(n);
+    // The clip sits inside the range the loop would reach.
+    let s = rng.gen_range(0.2..0.6) * (1.0 + b.iter().map(|v| v.abs()).sum::<f64>());
+    for t in 0..n {
+        let mut xt = c;
+        for (j, bj) in b.iter().enumerate() {
+            if t >= j {
+                xt += bj * u[t - j];
+            }
+        }
+        for (i, ai) in a.iter().enumerate() {
+            if t > i {
+                xt -= ai * w[t - 1 - i];
+            }
+        }
+        x.push(xt);
+        w.push(xt.min(s));
+    }
+    let d = 10f64.powf(rng.gen_range(-3.0..-1.5));
+    let y: Vec<f64> = w.iter().map(|v| v + rng.gen_range(-d..=d)).collect();
+    let out: Vec<InnerBound> = y
+        .iter()
+        .map(|&y| {
+            if y + d < s {
+                InnerBound {
+                    interval: Interval::new(y - d, y + d),
+                    kind: InnerKind::Inverted,
+                }
+            } else {
+                // At the clip or possibly so: `x >= y - d`, no upper end.
+                InnerBound {
+                    interval: Interval::new(y - d, f64::INFINITY),
+                    kind: InnerKind::Band,
+                }
+            }
+        })
+        .collect();
+    let lagged: Vec<Interval> = y.iter().map(|&y| Interval::new(y - d, y + d)).collect();
+    let input: Vec<Interval> = u.iter().map(|&v| Interval::new(v, v)).collect();
+    let theta: Vec<f64> = a.iter().chain(&b).copied().chain([c]).collect();
+    (na, nb, theta, out, input, lagged)
 }
