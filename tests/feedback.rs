@@ -7,6 +7,7 @@
 //! nonlinearity set, every inner-signal sample). The true loop's data can never falsify it.
 use smid::core::nonlinearity::Structure;
 use smid::core::pipeline;
+use smid::core::plant::Plant;
 use smid::core::registry;
 use smid::montecarlo::any_record;
 use smid::plugin_check::{simulator, PluginTrial};
@@ -43,7 +44,15 @@ fn every_output_side_plugin_inside_the_loop_is_bounded_with_the_truth_inside() {
                         .parameters
                         .iter()
                         .all(|p| p.lower.is_finite() && p.upper.is_finite());
-                    (case, seed, id.all_contain_truth(), bounded)
+                    // The loop passes through the block's nonlinear part on this record
+                    // (else feedback changes nothing).
+                    let u = &id.model.training.records[0].u;
+                    let (x, w) = (plant.inner(u).unwrap(), plant.run(u).unwrap());
+                    let acts = x
+                        .iter()
+                        .zip(&w)
+                        .any(|(x, w)| (x - w).abs() > 1e-9 * (1.0 + x.abs()));
+                    (case, seed, id.all_contain_truth(), bounded && acts)
                 }
                 Ok(Outcome::Falsified(f)) => {
                     panic!("{case} seed {seed}: the true loop's data falsified it: {f}")
@@ -66,12 +75,88 @@ fn every_output_side_plugin_inside_the_loop_is_bounded_with_the_truth_inside() {
     }
     let answered = runs.iter().filter(|r| r.2 == Some(true) && r.3).count();
     eprintln!(
-        "{answered} of {} trials bounded every parameter with the truth inside",
+        "{answered} of {} trials bounded every parameter with the truth inside, the loop passing through the block's nonlinear part",
         runs.len()
     );
     assert!(
-        answered * 2 >= runs.len(),
-        "only {answered} of {} trials gave finite bounds: {runs:?}",
+        answered + 2 >= runs.len(),
+        "only {answered} of {} trials gave finite bounds with the loop through the block: {runs:?}",
         runs.len()
     );
+}
+
+/// The diagnosis offers the output side inside the loop exactly where the model class can take
+/// it and it changes the model: for every registered plugin as the Wiener nonlinearity or as an
+/// output block, with and without the unit gain, an input block or the Hammerstein structure.
+#[test]
+fn the_diagnosis_offers_the_loop_where_the_class_takes_it() {
+    use smid::core::diagnose::inside_the_loop;
+    smid::link_plugins();
+    let mut offered = 0;
+    for entry in registry::models() {
+        let has_params = !registry::parameter_names(entry.tag).is_empty();
+        let plugin = (entry.example)();
+        for (structure, as_output_block, unit_gain, input_block) in [
+            (Structure::Wiener, false, false, false),
+            (Structure::Wiener, true, false, false),
+            (Structure::Wiener, false, true, false),
+            (Structure::Wiener, true, false, true),
+            (Structure::Hammerstein, true, false, false),
+        ] {
+            let mut spec = smid::parse_spec(
+                "plant: { data: { dynamic: { file: x.csv, u: u, y: y } } }\nnoise: { delta: 0.01 }\nmodel: { structure: wiener, nonlinearity: { type: linear }, na: 2, nb: 1, unit_gain: false }\n",
+                std::path::Path::new("loop.yaml"),
+            )
+            .unwrap();
+            let m = &mut spec.model;
+            m.structure = structure;
+            m.unit_gain = unit_gain;
+            if as_output_block {
+                if !plugin.supports(Structure::Wiener) {
+                    continue;
+                }
+                m.output
+                    .push(serde_json::from_value(serde_json::to_value(&plugin).unwrap()).unwrap());
+                for n in registry::parameter_names(entry.tag) {
+                    m.prior.insert(format!("out1.{n}"), [0.1, 1.0]);
+                }
+            } else {
+                if !plugin.supports(structure) {
+                    continue;
+                }
+                m.nonlinearity =
+                    serde_json::from_value(serde_json::to_value(&plugin).unwrap()).unwrap();
+            }
+            if input_block {
+                m.input
+                    .push(serde_json::from_value(serde_json::json!({"type": "lag"})).unwrap());
+                m.prior.insert("in1.p".into(), [0.1, 0.5]);
+            }
+            if let Err(e) = m.layout() {
+                panic!("{}: the base is no valid model: {e}", entry.tag);
+            }
+            let output_side = as_output_block || (structure == Structure::Wiener && has_params);
+            let expected =
+                output_side && !unit_gain && !input_block && structure == Structure::Wiener;
+            let got = inside_the_loop(m);
+            assert_eq!(
+                got.is_some(),
+                expected,
+                "{} ({structure:?}, output block {as_output_block}, unit gain {unit_gain}, input block {input_block})",
+                entry.tag
+            );
+            if let Some(g) = got {
+                offered += 1;
+                assert!(g.feedback && g.layout().is_ok());
+                let mut back = g.duplicate();
+                back.feedback = false;
+                assert_eq!(
+                    serde_json::to_value(&back).unwrap(),
+                    serde_json::to_value(&*m).unwrap(),
+                    "the candidate changes only the flag"
+                );
+            }
+        }
+    }
+    assert!(offered >= 5, "offered {offered} times");
 }

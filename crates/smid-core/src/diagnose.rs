@@ -1661,7 +1661,49 @@ pub fn candidates(
             ));
         }
     }
+    if let Some(m) = inside_the_loop(base)
+        .filter(|_| opts.only.is_empty() || opts.only.iter().any(|t| t == FEEDBACK))
+    {
+        out.push((
+            m,
+            Evidence {
+                label: "the output side inside the loop (`model.feedback`)".into(),
+                tag: FEEDBACK.into(),
+                added_parameters: 0,
+                priors: Vec::new(),
+                train: TrainVerdict::Failed {
+                    message: "not tried".into(),
+                },
+                chosen: false,
+                equivalent_to: Vec::new(),
+                untried: None,
+            },
+        ));
+    }
     out
+}
+
+/// The tag of the structural candidate [`inside_the_loop`] (`--only feedback`).
+pub const FEEDBACK: &str = "feedback";
+
+/// `base` with its output side inside the loop (`model.feedback`): the linear block's past
+/// outputs read after the output-side blocks. Offered where that changes the model and the
+/// class can take it: an output side with parameters (a Wiener nonlinearity with parameters
+/// or an output block), an exact input (Wiener, no input block: stage 3 shares one uncertain
+/// signal, here the past outputs), no unit gain (eq 8 is not taken with feedback), not yet
+/// inside the loop. No parameter is added.
+pub fn inside_the_loop(base: &ModelSpec) -> Option<ModelSpec> {
+    let output_side = !base.output.is_empty()
+        || (base.structure == crate::nonlinearity::Structure::Wiener
+            && !crate::registry::parameter_names(&base.nonlinearity_tag()).is_empty());
+    let exact_input =
+        base.structure == crate::nonlinearity::Structure::Wiener && base.input.is_empty();
+    if base.feedback || base.unit_gain || !output_side || !exact_input || base.na == 0 {
+        return None;
+    }
+    let mut m = base.duplicate();
+    m.feedback = true;
+    m.layout().is_ok().then_some(m)
 }
 
 /// Gives candidate `m` the prior box of [`design_prior_for`] where it needs one (its
@@ -2111,12 +2153,14 @@ fn check_only(only: &[String]) -> Result<()> {
     let plugins: Vec<&str> = crate::registry::models().iter().map(|e| e.tag).collect();
     match only
         .iter()
-        .find(|t| !effects.contains(&t.as_str()) && !plugins.contains(&t.as_str()))
+        .find(|t| {
+            !effects.contains(&t.as_str()) && !plugins.contains(&t.as_str()) && *t != FEEDBACK
+        })
     {
         Some(t) => Err(SmidError::invalid(
             "only",
             format!(
-                "no registered effect or plugin `{t}`; effects: {}; plugins: {}",
+                "no registered effect or plugin `{t}`, nor `{FEEDBACK}` (the output side inside the loop); effects: {}; plugins: {}",
                 effects.join(", "),
                 plugins.join(", ")
             ),

@@ -42,6 +42,20 @@ fn roots(a: &[f64]) -> Option<Vec<nalgebra::Complex<f64>>> {
     Some(schur.complex_eigenvalues().iter().copied().collect())
 }
 
+/// The coefficients `a_1..a_n` of `A(q) = Π (1 - p_k q⁻¹)` with real poles `p_k`.
+pub fn from_real_poles(poles: &[f64]) -> Vec<f64> {
+    let mut a = vec![1.0];
+    for p in poles {
+        let mut next = a.clone();
+        next.push(0.0);
+        for i in 1..next.len() {
+            next[i] -= p * a[i - 1];
+        }
+        a = next;
+    }
+    a[1..].to_vec()
+}
+
 /// The nearest stable polynomial in the roots: `a` with every root of
 /// `z^n + a_1 z^(n-1) + ... + a_n` of modulus above 1 moved radially to just inside the unit
 /// circle (modulus `1 - 1e-12`), the others kept; `None` when the roots cannot be computed. A

@@ -125,6 +125,15 @@ impl ModelSpec {
                 "a model whose autoregressive part reads the chain's output takes no unit steady-state gain (eq 8): set `unit_gain: false`",
             ));
         }
+        if self.feedback
+            && (self.structure == crate::nonlinearity::Structure::Hammerstein
+                || !self.input.is_empty())
+        {
+            return Err(SmidError::invalid(
+                "model.feedback",
+                "the past outputs are read from data in the place of an uncertain input, so the linear block's input must be exact: no `model.input` blocks and `structure: wiener` (put the blocks on the output side)",
+            ));
+        }
         for (i, e) in self.effects.iter().enumerate() {
             let mut o = Orders {
                 na: 0,
@@ -588,6 +597,9 @@ pub struct SimulationMember {
     /// Whether the exact LP at fixed `θ` proved it consistent. `false`: no point of the set was
     /// certified within the budget, and this is the best free run over the outer bounds, a
     /// stand-in for simulation (reported as not certified, never as a member of the set).
+    /// With `model.feedback` the LP holds each sample's inner value and its measured past
+    /// output as two variables (stage 3's problem): the point lies in the set stage 3 bounds,
+    /// which holds the true `θ`, but need not reproduce the records as a loop within the bound.
     #[serde(default = "certified_default")]
     pub certified: bool,
     /// The largest distance of its free run from any training sample

@@ -9,7 +9,10 @@
 //! fixed `θ` ([`consistency_at`], as exact-grid certifies its inner hull) proves the equations
 //! hold inside the stage-2 boxes. Nelder-Mead (argmin) first reaches a certified `θ` from the
 //! centre's (minimising the consistency measure), then minimises the free-run error with the
-//! uncertified points as an extreme barrier, so the member it returns is certified.
+//! uncertified points as an extreme barrier, so the member it returns is certified. With
+//! `model.feedback` the certificate is the one of stage 3's problem (each sample's inner value
+//! and its measured past output two variables): the member is a point of the identified set,
+//! not necessarily a loop that stays within the bound of every record.
 use super::{
     cells_from_centre, central_values, finite_centre, inner_estimate, least_squares_theta, point,
 };
@@ -659,14 +662,20 @@ impl<'s> Search<'s> {
         // velocity's sign where the centre's interval column says "may not have moved", as on
         // EMPS), each clamped into this cell's bounds; the better run stands in.
         let (_, from_centre) = split_values(self, sp, centre);
-        let refit: Option<Vec<f64>> = super::theta_reproducing(
-            self.set,
-            &self.values_of(sp, &sp.base, &from_centre),
-            &self.x_warm,
-        )
-        .ok()
-        .flatten()
-        .map(|(v, _)| v.into_iter().map(|(_, x)| x).collect());
+        // With `model.feedback` the warm-start data are the measured outputs, not the linear
+        // block's: no refit from them.
+        let refit: Option<Vec<f64>> = (!self.set.model.feedback)
+            .then(|| {
+                super::theta_reproducing(
+                    self.set,
+                    &self.values_of(sp, &sp.base, &from_centre),
+                    &self.x_warm,
+                )
+                .ok()
+                .flatten()
+            })
+            .flatten()
+            .map(|(v, _)| v.into_iter().map(|(_, x)| x).collect());
         [Some(from_centre), refit]
             .into_iter()
             .flatten()

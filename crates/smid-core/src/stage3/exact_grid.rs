@@ -770,7 +770,7 @@ pub fn solve_from(
         return Err(SmidError::Unsupported {
             plugin: "exact-grid".into(),
             what:
-                "an uncertain input signal (Hammerstein structure): the b's would need gridding too"
+                "an uncertain input signal (a Hammerstein nonlinearity, an input-side block, or the measured past outputs of `model.feedback`): the coefficients that multiply it would need gridding too"
                     .into(),
         });
     }
@@ -1050,27 +1050,14 @@ mod tests {
         use rand::{Rng, SeedableRng};
         let (mut rejected, mut certified) = (0, 0);
         for seed in 0..12u64 {
-            let (na, nb, theta, out, input, lagged) = feedback_case(seed);
-            let p = theta.len();
-            let extra = [crate::stage3::Regressor {
-                name: "constant".into(),
-                values: vec![Interval::new(1.0, 1.0); out.len()],
-            }];
+            let case = feedback_case(seed);
+            let theta = &case.theta;
             let prob = EivProblem {
-                na,
-                nb,
-                fixed: vec![None; p],
-                unit_gain: false,
-                output: &out,
-                input: &input,
-                use_band_samples: false,
                 locate: false,
-                extra: &extra,
-                prior: None,
-                lagged: Some(&lagged),
+                ..case.problem()
             };
-            let s = consistency_at(&prob, &theta).unwrap();
-            assert!(s <= 1e-7, "seed {seed}: the truth measures {s}");
+            let s = consistency_at(&prob, theta).unwrap();
+            assert!(s <= CERTIFIED, "seed {seed}: the truth measures {s}");
             let Ok(outer) = crate::stage3::solve(EivMethod::Classical, &prob) else {
                 continue;
             };

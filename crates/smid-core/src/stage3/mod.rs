@@ -336,6 +336,21 @@ impl EivProblem<'_> {
                 ),
             ));
         }
+        let own = theta_names(self.na, self.nb);
+        if let Some(r) = self.extra.iter().find(|r| own.contains(&r.name)) {
+            return Err(SmidError::invalid(
+                "extra.name",
+                format!("`{}` must differ from {}", r.name, own.join(", ")),
+            ));
+        }
+        if self.na == 0 {
+            // No equation reads a past output.
+            return Ok(Some(Flattened {
+                na: 0,
+                input: Vec::new(),
+                extra: Vec::new(),
+            }));
+        }
         if self.unit_gain {
             return Err(SmidError::invalid(
                 "model.feedback",
@@ -350,7 +365,7 @@ impl EivProblem<'_> {
             return Err(SmidError::Unsupported {
                 plugin: "model.feedback".into(),
                 what: format!(
-                    "an uncertain input sample (t = {t}: an input-side block or a Hammerstein nonlinearity) with the past outputs read from data: give the nonlinearity at the output side"
+                    "an uncertain input sample (t = {t}) with the past outputs read from data (stage 3 shares one uncertain signal, here the past outputs): `model.layout` refuses the input-side blocks and the Hammerstein structure that make one"
                 ),
             });
         }
@@ -383,8 +398,18 @@ impl EivProblem<'_> {
     }
 
     /// Check the shape of the problem: one `fixed` (and `prior`) entry per θ entry, a prior of
-    /// closed intervals, regressor names distinct from each other and from the `a`'s and `b`'s.
+    /// closed intervals, regressor names distinct from each other and from the `a`'s and `b`'s;
+    /// no [`lagged`](Self::lagged) past outputs (those are solved flattened, and only
+    /// [`Stage3Method::solve`], [`solve`] and [`feasible`] flatten: a method's own entry point
+    /// refuses them here).
     pub fn validate(&self) -> Result<()> {
+        if self.lagged.is_some() {
+            // A method's own entry point reads the inner output's past, not these.
+            return Err(SmidError::invalid(
+                "lagged",
+                "past outputs read from data are solved through `Stage3Method::solve` (or `stage3::solve`, `stage3::feasible`), which flattens the problem first; a method's own entry point does not read them",
+            ));
+        }
         let p = self.p();
         if self.fixed.len() != p {
             return Err(SmidError::invalid(
@@ -492,17 +517,45 @@ impl Flattened {
         }
     }
 
-    /// A flattened problem's error in the names of the problem it was made from (θ keeps its
-    /// order; the flattened problem calls `a_i` `b_{i-1}` and `b_j` by its column name).
+    /// A flattened problem's error in the names of the problem it was made from: θ keeps its
+    /// order, and the flattened problem calls `a_i` `b{i-1}`, `b_j` `input lag j`, and the
+    /// past outputs its input. Each flattened name, as a whole parameter or quoted in a
+    /// message, becomes the problem's.
     pub fn error(&self, e: SmidError, of: &EivProblem) -> SmidError {
+        if self.na == 0 {
+            return e;
+        }
+        let flat = self.problem(of).names();
+        let own = of.names();
+        let rename = |name: String| -> String {
+            flat.iter()
+                .position(|n| *n == name)
+                .map_or(name, |k| own[k].clone())
+        };
+        // Quoted names in one pass (a placeholder per index keeps `b0` -> `a1` from being
+        // renamed again as the problem's own `b0`).
+        let text = |m: String| -> String {
+            let mut m = m;
+            for (k, n) in flat.iter().enumerate() {
+                m = m.replace(&format!("`{n}`"), &format!("`\u{1}{k}\u{1}`"));
+            }
+            for (k, n) in own.iter().enumerate() {
+                m = m.replace(&format!("`\u{1}{k}\u{1}`"), &format!("`{n}`"));
+            }
+            m.replace("the input", "the past outputs (in the input's place)")
+        };
         match e {
-            SmidError::Unbounded { parameter, message } => {
-                let flat = self.problem(of).names();
-                let parameter = flat
-                    .iter()
-                    .position(|n| *n == parameter)
-                    .map_or(parameter, |k| of.name(k));
-                SmidError::Unbounded { parameter, message }
+            SmidError::Unbounded { parameter, message } => SmidError::Unbounded {
+                parameter: rename(parameter),
+                message: text(message),
+            },
+            SmidError::Invalid { field, message } => SmidError::Invalid {
+                field,
+                message: text(message),
+            },
+            SmidError::Inconsistent(mut f) => {
+                f.detail = text(f.detail);
+                SmidError::Inconsistent(f)
             }
             e => e,
         }
@@ -881,27 +934,12 @@ mod tests {
         use rand::{Rng, SeedableRng};
         let mut solved = 0;
         for seed in 0..12u64 {
-            let (na, nb, theta, out, input, lagged) = feedback_case(seed);
+            let case = feedback_case(seed);
+            let (na, nb, theta) = (case.na, case.nb, &case.theta);
+            let (out, input, lagged) = (&case.out, &case.input, &case.lagged);
             let p = theta.len();
-            let constant = Regressor {
-                name: "constant".into(),
-                values: vec![Interval::new(1.0, 1.0); out.len()],
-            };
-            let extra = [constant];
             assert_eq!(na + nb + 2, p);
-            let prob = EivProblem {
-                na,
-                nb,
-                fixed: vec![None; p],
-                unit_gain: false,
-                output: &out,
-                input: &input,
-                use_band_samples: false,
-                locate: true,
-                extra: &extra,
-                prior: None,
-                lagged: Some(&lagged),
-            };
+            let prob = case.problem();
             // The flattened equations are the problem's: residuals agree at random points.
             let f = prob.flattened().unwrap().unwrap();
             let flat = f.problem(&prob);
@@ -920,7 +958,7 @@ mod tests {
                 let xt = pick(out[t].interval);
                 let mut r = xt;
                 for i in 1..=na {
-                    r += th[i - 1] * pick(lagged[t - i]);
+                    r += th[i - 1] * lagged[t - i].center();
                 }
                 for j in 0..=nb {
                     r -= th[na + j] * input[t - j].center();
@@ -928,8 +966,8 @@ mod tests {
                 r -= th[p - 1];
                 let mut rf = xt;
                 for j in 0..=flat.nb {
-                    // v'_{t-j} = -w_{t-1-j}, the same sample picked the same way.
-                    rf -= th[j] * -pick(lagged[t - 1 - j]);
+                    // The flattened input's sample (`-w_{t-1-j}`) at its centre.
+                    rf -= th[j] * flat.input[t - j].center();
                 }
                 for (k, col) in flat.extra.iter().enumerate() {
                     rf -= th[flat.n_ab() + k] * col.values[t].center();

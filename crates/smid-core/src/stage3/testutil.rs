@@ -202,15 +202,36 @@ pub(crate) fn random_extra_case(seed: u64, n: usize, friction_radius: f64) -> Ex
     }
 }
 
-/// `(na, nb, θ, stage-2 bounds of x, input, measured past outputs)` of [`feedback_case`].
-pub(crate) type FeedbackCase = (
-    usize,
-    usize,
-    Vec<f64>,
-    Vec<InnerBound>,
-    Vec<Interval>,
-    Vec<Interval>,
-);
+/// A [`feedback_case`]: orders, the true θ (`a`'s, `b`'s, then the constant's coefficient),
+/// the stage-2 bounds of `x`, the input, the measured past outputs and the constant column.
+pub(crate) struct FeedbackCase {
+    pub na: usize,
+    pub nb: usize,
+    pub theta: Vec<f64>,
+    pub out: Vec<InnerBound>,
+    pub input: Vec<Interval>,
+    pub lagged: Vec<Interval>,
+    pub extra: Vec<Regressor>,
+}
+
+impl FeedbackCase {
+    /// The problem with the past outputs read from data, every coefficient free.
+    pub fn problem(&self) -> EivProblem<'_> {
+        EivProblem {
+            na: self.na,
+            nb: self.nb,
+            fixed: vec![None; self.theta.len()],
+            unit_gain: false,
+            output: &self.out,
+            input: &self.input,
+            use_band_samples: false,
+            locate: true,
+            extra: &self.extra,
+            prior: None,
+            lagged: Some(&self.lagged),
+        }
+    }
+}
 
 /// A random loop with a clip inside it, `x_t = -Σ a_i w_{t-i} + Σ b_j u_{t-j} + c`,
 /// `w_t = min(s, x_t)`, measured as `w_t + η_t` (`|η_t| <= d`): the true θ (`a`'s, `b`'s,
@@ -221,16 +242,7 @@ pub(crate) fn feedback_case(seed: u64) -> FeedbackCase {
     let na = rng.gen_range(1..=3);
     let nb = rng.gen_range(0..=2);
     let poles: Vec<f64> = (0..na).map(|_| rng.gen_range(-0.7..0.9)).collect();
-    let mut a = vec![1.0];
-    for p in &poles {
-        let mut next = a.clone();
-        next.push(0.0);
-        for i in 1..next.len() {
-            next[i] -= p * a[i - 1];
-        }
-        a = next;
-    }
-    let a = a[1..].to_vec();
+    let a = crate::linear::from_real_poles(&poles);
     let b: Vec<f64> = (0..=nb).map(|_| rng.gen_range(-1.0..1.0)).collect();
     let c = rng.gen_range(-0.2..0.2);
     let n = rng.gen_range(60..160);
@@ -276,5 +288,17 @@ pub(crate) fn feedback_case(seed: u64) -> FeedbackCase {
     let lagged: Vec<Interval> = y.iter().map(|&y| Interval::new(y - d, y + d)).collect();
     let input: Vec<Interval> = u.iter().map(|&v| Interval::new(v, v)).collect();
     let theta: Vec<f64> = a.iter().chain(&b).copied().chain([c]).collect();
-    (na, nb, theta, out, input, lagged)
+    let extra = vec![Regressor {
+        name: "constant".into(),
+        values: vec![Interval::new(1.0, 1.0); n],
+    }];
+    FeedbackCase {
+        na,
+        nb,
+        theta,
+        out,
+        input,
+        lagged,
+        extra,
+    }
 }
