@@ -175,7 +175,7 @@ enum Command {
         /// Effects added at most.
         #[arg(long, default_value_t = 2)]
         max_effects: usize,
-        /// Only these effect types (comma-separated).
+        /// Only these candidates (comma-separated): effect types, plugin types, or `feedback` (the output side inside the loop).
         #[arg(long, value_delimiter = ',')]
         only: Vec<String>,
     },

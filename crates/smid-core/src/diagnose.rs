@@ -62,7 +62,8 @@ pub const FIT_SLACK: f64 = 1.0;
 pub struct Options {
     /// Effects added at most.
     pub max_effects: usize,
-    /// Restrict the candidates to these `type` tags (empty: every registered effect).
+    /// Restrict the candidates to these `type` tags, or `feedback` for the output side inside
+    /// the loop (empty: every candidate).
     pub only: Vec<String>,
     /// Horizon of the k-step prediction in the final table.
     pub k: usize,
@@ -1661,8 +1662,10 @@ pub fn candidates(
             ));
         }
     }
+    // Not with steady-state points: stage 1 reads them as the gain times the input, which
+    // does not hold inside the loop.
     if let Some(m) = inside_the_loop(base)
-        .filter(|_| opts.only.is_empty() || opts.only.iter().any(|t| t == FEEDBACK))
+        .filter(|_| !steady && (opts.only.is_empty() || opts.only.iter().any(|t| t == FEEDBACK)))
     {
         out.push((
             m,
@@ -1688,14 +1691,19 @@ pub const FEEDBACK: &str = "feedback";
 
 /// `base` with its output side inside the loop (`model.feedback`): the linear block's past
 /// outputs read after the output-side blocks. Offered where that changes the model and the
-/// class can take it: an output side with parameters (a Wiener nonlinearity with parameters
-/// or an output block), an exact input (Wiener, no input block: stage 3 shares one uncertain
-/// signal, here the past outputs), no unit gain (eq 8 is not taken with feedback), not yet
-/// inside the loop. No parameter is added.
+/// class can take it: an output side with parameters (a Wiener nonlinearity or an output
+/// block with parameters), an exact input (Wiener, no input block: stage 3 shares one
+/// uncertain signal, here the past outputs), no unit gain (eq 8 is not taken with feedback),
+/// not yet inside the loop. No parameter is added. (The diagnosis offers it only without
+/// steady-state points, which stage 1 cannot read inside the loop.)
 pub fn inside_the_loop(base: &ModelSpec) -> Option<ModelSpec> {
-    let output_side = !base.output.is_empty()
+    let has_parameters = |tag: &str| !crate::registry::parameter_names(tag).is_empty();
+    let output_side = base
+        .output
+        .iter()
+        .any(|b| has_parameters(&crate::nonlinearity::tag_of_model(b.as_ref())))
         || (base.structure == crate::nonlinearity::Structure::Wiener
-            && !crate::registry::parameter_names(&base.nonlinearity_tag()).is_empty());
+            && has_parameters(&base.nonlinearity_tag()));
     let exact_input =
         base.structure == crate::nonlinearity::Structure::Wiener && base.input.is_empty();
     if base.feedback || base.unit_gain || !output_side || !exact_input || base.na == 0 {

@@ -339,6 +339,9 @@ impl ModelSpec {
         if !m.output.is_empty() {
             s = format!("{s} -> [{}]", tags(&m.output));
         }
+        if m.feedback {
+            s.push_str(", output side inside the loop");
+        }
         for e in &m.effects {
             s.push_str(" + ");
             s.push_str(&e.label());

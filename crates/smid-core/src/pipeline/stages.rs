@@ -124,6 +124,14 @@ fn stage1_with(
     cell: &[Interval],
     assume_design: bool,
 ) -> Result<Box<dyn NonlinearitySet>> {
+    if model.feedback && steady.is_some() {
+        // At rest inside the loop the linear block's output is `Σb ū - Σa w̄`, not its gain
+        // times the input: the points would carry the wrong inner signal into the polygons.
+        return Err(SmidError::invalid(
+            "model.feedback",
+            "steady-state points are read as the linear block's gain times the input, which does not hold inside the loop: identify from dynamic records only (`experiment.steady_state.skip: true`, or no steady-state file) with a prior box on the nonlinearity's parameters",
+        ));
+    }
     let range = layout.nonlinearity_cells.clone();
     if !range.is_empty() {
         let set = model.nonlinearity.set_from_box(&cell[range])?;

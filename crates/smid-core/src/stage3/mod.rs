@@ -542,7 +542,10 @@ impl Flattened {
             for (k, n) in own.iter().enumerate() {
                 m = m.replace(&format!("`\u{1}{k}\u{1}`"), &format!("`{n}`"));
             }
-            m.replace("the input", "the past outputs (in the input's place)")
+            m.replace(
+                "the input is",
+                "the past outputs (in the input's place) are",
+            )
         };
         match e {
             SmidError::Unbounded { parameter, message } => SmidError::Unbounded {
@@ -550,7 +553,10 @@ impl Flattened {
                 message: text(message),
             },
             SmidError::Invalid { field, message } => SmidError::Invalid {
-                field,
+                field: match field.strip_prefix("prior.") {
+                    Some(name) => format!("prior.{}", rename(name.to_string())),
+                    None => field,
+                },
                 message: text(message),
             },
             SmidError::Inconsistent(mut f) => {
@@ -757,9 +763,11 @@ pub trait Stage3Method: Send + Sync {
         Ok(())
     }
 
-    /// Guaranteed θ bounds of `prob`: [`EivProblem::validate`], [`check`](Self::check), then
-    /// the start (the result of [`start`](Self::start) through the registry, or
-    /// [`prior_start`]), then [`solve_from`](Self::solve_from).
+    /// Guaranteed θ bounds of `prob`: a problem with [`lagged`](EivProblem::lagged) past
+    /// outputs is solved as its [`flattened`](EivProblem::flattened) problem (the bounds in
+    /// its own θ order, errors in its own names); then [`EivProblem::validate`],
+    /// [`check`](Self::check), the start (the result of [`start`](Self::start) through the
+    /// registry, or [`prior_start`]), then [`solve_from`](Self::solve_from).
     fn solve(&self, prob: &EivProblem) -> Result<EivResult> {
         if let Some(f) = prob.flattened()? {
             return self.solve(&f.problem(prob)).map_err(|e| f.error(e, prob));
@@ -1020,6 +1028,49 @@ mod tests {
             ));
         }
         assert!(solved >= 24, "only {solved} method runs gave bounds");
+    }
+
+    /// A lagged problem is refused by a method's own entry point, and the flattened problem's
+    /// findings come back in the problem's names: a fixed `a1` outside its prior is named
+    /// `a1` (the flattened problem calls it `b0`), a bad prior's field `prior.a1`.
+    #[test]
+    fn a_lagged_problem_is_refused_unflattened_and_named_in_its_own_terms() {
+        let case = feedback_case(3);
+        let prob = case.problem();
+        let p = prob.p();
+        assert!(
+            matches!(prob.validate(), Err(SmidError::Invalid { ref field, .. }) if field == "lagged")
+        );
+        assert!(classical::feasible(&prob).is_err());
+        let mut fixed = vec![None; p];
+        fixed[0] = Some(5.0);
+        let mut prior = vec![Interval::entire(); p];
+        prior[0] = Interval::new(-1.0, 1.0);
+        let outside = EivProblem {
+            fixed,
+            prior: Some(&prior),
+            ..prob.clone()
+        };
+        match method(EivMethod::Classical).solve(&outside) {
+            Err(SmidError::Inconsistent(f)) => {
+                assert!(
+                    f.detail.contains("`a1`") && !f.detail.contains("`b0`"),
+                    "{}",
+                    f.detail
+                )
+            }
+            other => panic!("expected the fixed a1 outside its prior: {other:?}"),
+        }
+        let mut bad = vec![Interval::entire(); p];
+        bad[0] = Interval { lo: 1.0, hi: -1.0 };
+        let reversed = EivProblem {
+            prior: Some(&bad),
+            ..prob.clone()
+        };
+        match method(EivMethod::Classical).solve(&reversed) {
+            Err(SmidError::Invalid { field, .. }) => assert_eq!(field, "prior.a1"),
+            other => panic!("expected a reversed prior of a1: {other:?}"),
+        }
     }
 
     /// The one location of an emptiness, with stand-in prefix tests (the first `k` equations
