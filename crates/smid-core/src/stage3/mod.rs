@@ -71,8 +71,11 @@ pub struct EivProblem<'a> {
     /// The signal the autoregressive part reads (`model.feedback`: the chain's output `w_t`,
     /// bounded from the measurements), one interval per sample, indexed as `output`; a
     /// non-finite one is unknown. `None`: the inner output itself (eq 1). With it the equation
-    /// is `x_t + Σ a_i w_{t-i} = Σ b_j v_{t-j} + Σ c_k φ_k(t)`: every method solves it as the
-    /// problem with the lagged samples in the input's place ([`EivProblem::flattened`]).
+    /// is `x_t + Σ a_i w_{t-i} = Σ b_j v_{t-j} + Σ c_k φ_k(t)`. The methods solve it as the
+    /// problem with the lagged samples in the input's place ([`EivProblem::flattened`], applied
+    /// by [`Stage3Method::solve`]; `exact-grid` refuses that uncertain input), and
+    /// [`EivProblem::validate`] refuses it unflattened. The exact LPs at fixed θ
+    /// (`exact_grid::consistency_at`) and the one-step band read it as it is.
     pub lagged: Option<&'a [Interval]>,
 }
 
