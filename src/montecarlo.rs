@@ -115,6 +115,7 @@ impl Trial {
                 encoder_bits: Some(self.bits),
                 simulate: None,
                 estimate: None,
+                from: None,
             },
             experiment,
             model: trial_model(Default::default(), Box::new(OutputBacklashModel::default())),

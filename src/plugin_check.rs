@@ -98,6 +98,7 @@ impl PluginTrial {
                 encoder_bits: Some(self.bits),
                 simulate: None,
                 estimate: None,
+                from: None,
             },
             experiment,
             model: montecarlo::trial_model(self.structure, self.model),

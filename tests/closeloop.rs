@@ -462,33 +462,47 @@ fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
 
 /// The measured-data examples, identified with the default stage-3 method at their estimated
 /// bound from their training rows, validate on their held-out rows (read once, here):
-/// CONSISTENT, PASS, and a guaranteed one-step band finite at almost every sample that no
-/// measurement contradicts. Their free run is compared with the least-squares ARX of the same
-/// orders plus a constant: with bounds the sound method accepts they do not beat it (README,
-/// *Measured data*), and the test keeps them within 3 points of it.
+/// CONSISTENT, PASS, and a guaranteed one-step band that no measurement contradicts. Their
+/// free run is compared with the least-squares ARX of the same orders plus a constant.
+/// - The tanks (the overflow inside the loop, the bound from the free run: README, *Measured
+///   data*): a certified member, at or above issue 27's target of 72 % held out, and above the
+///   baseline. Its set is wide (the bound is the model's free-run error), so its band is not
+///   asked to be finite.
+/// - EMPS (the Coulomb friction the baseline lacks, the bound from the relaxation): more than
+///   3 points above the baseline, with a band finite at almost every sample.
 #[test]
 fn measured_examples_validate_on_their_held_out_rows() {
-    // The least free-run fit against the ARX+constant baseline's: the tanks' declared model is
-    // the baseline's class (within 3 points); EMPS declares the Coulomb friction the baseline
-    // lacks, and its stand-in, fitted from least squares with the friction's sign read at the
-    // measured motion, beats the baseline by more than 3 points (94.6 % against 88.5 %; from
-    // the centre alone it scored 87.7 %).
+    struct Case {
+        spec: &'static str,
+        held_out: &'static str,
+        above_baseline: f64,
+        at_least: f64,
+        band_finite: bool,
+        certified: bool,
+    }
     let cases = [
-        (
-            "examples/tanks.yaml",
-            "../shared/data/cascaded-tanks/tanks_estimation.csv@683..1024",
-            -3.0,
-        ),
-        (
-            "examples/emps.yaml",
-            "../shared/data/emps/emps_train.csv@15000..24841",
-            3.0,
-        ),
+        Case {
+            spec: "examples/tanks.yaml",
+            held_out: "../shared/data/cascaded-tanks/tanks_estimation.csv@683..1024",
+            above_baseline: 0.0,
+            at_least: 72.0,
+            band_finite: false,
+            certified: true,
+        },
+        Case {
+            spec: "examples/emps.yaml",
+            held_out: "../shared/data/emps/emps_train.csv@15000..24841",
+            above_baseline: 3.0,
+            at_least: f64::NEG_INFINITY,
+            band_finite: true,
+            certified: false,
+        },
     ];
     // The two side by side (each run is mostly sequential work).
     use rayon::prelude::*;
-    cases.par_iter().for_each(|&(spec_path, held_out, margin)| {
-        let data = root().join(held_out.split('@').next().unwrap());
+    cases.par_iter().for_each(|c| {
+        let spec_path = c.spec;
+        let data = root().join(c.held_out.split('@').next().unwrap());
         if !data.exists() {
             eprintln!("skipping {spec_path}: {} is absent", data.display());
             return;
@@ -498,8 +512,15 @@ fn measured_examples_validate_on_their_held_out_rows() {
         let id = smid::run_spec(&src.spec, &src.base, &|_| {})
             .unwrap_or_else(|e| panic!("{spec_path}: {e}"))
             .unwrap();
+        if c.certified {
+            let m = id.model.simulation_member.as_ref();
+            assert!(
+                m.is_some_and(|m| m.certified),
+                "{spec_path}: the member is not certified: {m:?}"
+            );
+        }
         src.model = Some(id.model);
-        let csv = root().join(held_out);
+        let csv = root().join(c.held_out);
         let fresh = closeloop::fresh_records(&src.spec, &src.base, &[csv], 0, 0, 1).unwrap();
         let v = validate_on(src.model.as_ref().unwrap(), &fresh);
         let base = v.baseline.expect("an ARX baseline");
@@ -508,14 +529,15 @@ fn measured_examples_validate_on_their_held_out_rows() {
             v.free_run.fit_percent, v.member, base.fit_percent
         );
         assert!(
-            v.free_run.fit_percent > base.fit_percent + margin,
+            v.free_run.fit_percent > base.fit_percent + c.above_baseline
+                && v.free_run.fit_percent >= c.at_least,
             "{spec_path}: free run {:?} vs ARX {:?}",
             v.free_run,
             base
         );
         let band = v.band.as_ref().expect("validate computes the band");
         assert!(
-            band.outside == 0 && 10 * band.finite >= 9 * band.samples,
+            band.outside == 0 && (!c.band_finite || 10 * band.finite >= 9 * band.samples),
             "{spec_path}: {band:?}"
         );
         assert!(
@@ -1208,6 +1230,104 @@ model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: {na}\n  n
     }
     assert_eq!(checked, 12);
     assert!(powers > 0, "the polynomial path was not drawn");
+}
+
+/// `noise.from: free_run` on records a model of too low an order explains only with a larger
+/// error than its equation error (random second-order plants, a first-order model, random
+/// inputs and sizes; the built-in Wiener chain and, in odd cases, a random registered
+/// output-side block at its example before the measurement): the bound is at least the
+/// relaxation's estimate, the member is certified, and its free run, recomputed here from its
+/// values alone, lies within the bound of every training sample (the set at that bound holds a
+/// simulator; at the relaxation's bound the same models' best simulators run farther).
+#[test]
+fn a_bound_from_the_free_run_holds_a_certified_simulator() {
+    use smid::core::outcome::Outcome;
+    use smid::core::rand::{Rng, SeedableRng};
+    smid::link_plugins();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(70_001);
+    let mut raised = 0;
+    for case in 0..6 {
+        let poles: Vec<f64> = (0..2).map(|_| rng.gen_range(0.5..0.9)).collect();
+        let a = [-(poles[0] + poles[1]), poles[0] * poles[1]];
+        let b = rng.gen_range(0.2..0.6);
+        let n = rng.gen_range(80..140);
+        let levels: Vec<f64> = (0..6).map(|_| rng.gen_range(-1.0..2.0)).collect();
+        let hold = rng.gen_range(4..12);
+        let u: Vec<f64> = (0..n).map(|t| levels[(t / hold) % 6]).collect();
+        let mut x = vec![0.0; n];
+        for t in 0..n {
+            let mut v = if t > 0 { b * u[t - 1] } else { 0.0 };
+            for (i, ai) in a.iter().enumerate() {
+                if t > i {
+                    v -= ai * x[t - 1 - i];
+                }
+            }
+            x[t] = v;
+        }
+        let noise = rng.gen_range(0.005..0.02);
+        let e = smid::core::noise::uniform(n, noise, &mut rng);
+        let y: Vec<f64> = x.iter().zip(&e).map(|(x, e)| x + e).collect();
+        let spec_with = |from: &str| {
+            common::measured(
+                "from-free-run",
+                &u,
+                &y,
+                &format!(
+                    "noise: {{ estimate: 1.1{from} }}\nmethod: {{ eiv: classical }}\n\
+model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 1\n  nb: 0\n  nk: 1\n  unit_gain: false\n  stable: true\n"
+                ),
+            )
+        };
+        let identified = |from: &str| {
+            let (spec, data) = spec_with(from);
+            match pipeline::identify(&spec, data, &[]).unwrap() {
+                Outcome::Consistent(id) => id,
+                Outcome::Falsified(f) => panic!("case {case} ({from}): falsified: {f}"),
+            }
+        };
+        let relaxed = identified("");
+        let id = identified(", from: free_run");
+        let delta = id.model.delta;
+        assert!(
+            delta >= relaxed.model.delta,
+            "case {case}: {delta:e} below the relaxation's {:e}",
+            relaxed.model.delta
+        );
+        let m = id
+            .model
+            .simulation_member
+            .as_ref()
+            .unwrap_or_else(|| panic!("case {case}: no member at {delta:e}"));
+        assert!(
+            m.certified,
+            "case {case}: the member at {delta:e} is not certified"
+        );
+        let get = |k: &str| m.values.iter().find(|(n, _)| n == k).unwrap().1;
+        let (a1, b0) = (get("a1"), get("b0"));
+        // Its run from the first equation (t0 = 1), the measured output before it.
+        let mut prev = y[0];
+        let mut distance = 0.0f64;
+        for t in 1..n {
+            let v = -a1 * prev + b0 * u[t - 1];
+            distance = distance.max((y[t] - v).abs());
+            prev = v;
+        }
+        assert!(
+            distance <= delta * (1.0 + 1e-9),
+            "case {case}: the member's free run lies {distance:e} from the records, beyond the bound {delta:e}"
+        );
+        if delta > relaxed.model.delta {
+            raised += 1;
+        }
+        eprintln!(
+            "case {case}: relaxation {:.3e}, from the free run {delta:.3e}, member at {distance:.3e}, training fit {:.2} %",
+            relaxed.model.delta, m.training_fit
+        );
+    }
+    assert!(
+        raised >= 4,
+        "the free run raised the bound in {raised} of 6 cases"
+    );
 }
 
 /// One case of `implied_estimate_verdicts_give_what_asking_each_gives`: the record `u`, `y`

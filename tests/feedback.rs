@@ -85,6 +85,71 @@ fn every_output_side_plugin_inside_the_loop_is_bounded_with_the_truth_inside() {
     );
 }
 
+/// A loop member's free-run distance from the training records (`training_within`, which runs
+/// the loop from a warm start the output side reaches) is a bound at which the model is
+/// consistent: for every registered output-side plugin inside the loop (a random trial as
+/// above), the same records with that bound declared are never falsified. This is what
+/// `noise.from: free_run` raises an estimated bound to.
+#[test]
+fn a_loop_members_free_run_distance_is_a_bound_at_which_the_loop_is_consistent() {
+    smid::link_plugins();
+    let cases: Vec<String> = registry::check_cases()
+        .into_iter()
+        .filter(|c| c.structure == Structure::Wiener)
+        .map(|c| c.name)
+        .collect();
+    use rayon::prelude::*;
+    let checked: Vec<(String, Option<f64>)> = cases
+        .into_par_iter()
+        .map(|case| {
+            let seed = 7100;
+            let trial = PluginTrial::random(&case, seed).unwrap();
+            let (mut spec, nl, linear) = trial.spec();
+            any_record(&mut spec, &nl.parameters(), seed);
+            spec.model.feedback = true;
+            spec.model.unit_gain = false;
+            let mut plant = simulator(linear, nl.as_ref(), Structure::Wiener);
+            plant.feedback = true;
+            let id = match pipeline::run_with_plant(&spec, &mut plant) {
+                Ok(Outcome::Consistent(id)) => id,
+                Ok(Outcome::Falsified(f)) => panic!("{case}: the true loop's data falsified it: {f}"),
+                Err(e) => {
+                    eprintln!("{case}: no answer: {e}");
+                    return (case, None);
+                }
+            };
+            let Some(within) = id.model.simulation_member.as_ref().and_then(|m| m.within)
+            else {
+                return (case, None);
+            };
+            let d = within * (1.0 + 1e-9) + 1e-12;
+            let at = pipeline::with_bound(&spec, d);
+            let data = pipeline::ExperimentData {
+                steady: None,
+                steady_record: None,
+                records: id.model.training.records.clone(),
+                filter: None,
+            };
+            match pipeline::identify(&at, pipeline::data_with_bound(&data, d), &[]) {
+                Ok(Outcome::Consistent(_)) => {}
+                Ok(Outcome::Falsified(f)) => panic!(
+                    "{case}: falsified at its member's free-run distance {within:e} (bound {:e}): {f}",
+                    id.model.delta
+                ),
+                Err(e) => panic!("{case}: at its member's free-run distance {within:e}: {e}"),
+            }
+            (case, Some(within))
+        })
+        .collect();
+    eprintln!("{checked:?}");
+    let with = checked.iter().filter(|c| c.1.is_some()).count();
+    assert!(
+        with + 1 >= checked.len(),
+        "a member distance in only {with} of {} cases: {checked:?}",
+        checked.len()
+    );
+}
+
 /// The diagnosis offers the output side inside the loop exactly where the model class can take
 /// it and it changes the model: for every registered plugin as the Wiener nonlinearity or as an
 /// output block, with and without the unit gain, an input block or the Hammerstein structure.

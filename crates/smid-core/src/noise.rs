@@ -28,12 +28,39 @@ pub struct NoiseSpec {
     /// is that estimate (as `result.json` stores it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub estimate: Option<f64>,
+    /// What `estimate` measures (default `relaxation`). `relaxation`: the smallest bound for
+    /// which stage 3's relaxation finds the training records consistent, a lower end of the
+    /// model's smallest consistent bound. `free_run`: then the largest free-run error on the
+    /// training records of the best simulator found in the set at that bound, an upper end (a
+    /// trajectory of the model within it of every sample): the set at the margin times it
+    /// holds that simulator, certified, where a bound at the lower end may hold no member that
+    /// simulates at all (measured data, whose model error is not a sensor's noise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub from: Option<EstimateFrom>,
+}
+
+/// What an estimated noise bound measures ([`NoiseSpec::from`]).
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum EstimateFrom {
+    /// The smallest bound the stage-3 relaxation finds consistent (the lower end).
+    #[default]
+    Relaxation,
+    /// The largest training free-run error of the best simulator found (the upper end).
+    FreeRun,
 }
 
 impl NoiseSpec {
     /// Whether the bound is (to be) estimated from the data.
     pub fn estimated(&self) -> bool {
         self.estimate.is_some()
+    }
+
+    /// Whether an estimated bound is the free-run distance of a simulator (`from: free_run`).
+    pub fn from_free_run(&self) -> bool {
+        self.estimate.is_some() && self.from == Some(EstimateFrom::FreeRun)
     }
 
     /// Whether the bound is still to be estimated: `estimate` without a `delta` (with both,
@@ -52,6 +79,10 @@ impl NoiseSpec {
             Some(_) if self.encoder_bits.is_some() => Err(SmidError::invalid(
                 "noise",
                 "give `estimate` or `encoder_bits`, not both",
+            )),
+            None if self.from.is_some() => Err(SmidError::invalid(
+                "noise.from",
+                "says what an estimated bound measures: give it with `estimate`",
             )),
             _ => Ok(()),
         }

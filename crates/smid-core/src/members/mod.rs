@@ -16,7 +16,7 @@ use crate::nonlinearity::{Nonlinearity, Structure};
 use std::ops::Range;
 
 pub mod simulation;
-pub use simulation::simulation_member;
+pub use simulation::{best_free_run, simulation_member, simulation_member_seeded};
 
 /// The cells of a model set from the centre of the bisected parameters outwards: by the
 /// distance of each cell's centre to the centre of the hull (relative to the hull's widths),
@@ -803,8 +803,54 @@ impl ModelPoint {
         warm: usize,
     ) -> Simulation {
         let n = u.len();
-        let v = self.linear_input(u);
         let xd = x_data.filter(|d| d.len() == n);
+        let (free, free_w) = self.free_run_from(u, xd, dt, warm, false);
+        match xd {
+            Some(x) if k < n && k > 0 => self.k_step(u, x, dt, k, warm, free, free_w),
+            _ => {
+                let w = if self.feedback {
+                    free_w
+                } else {
+                    self.true_output(&free)
+                };
+                let yy = self.measure(&w);
+                Simulation { x: free, w, y: yy }
+            }
+        }
+    }
+
+    /// A trajectory of the model inside the loop (`model.feedback`) whose warm start the loop
+    /// reaches: for the first `warm` samples the linear block's output (free there: no
+    /// equation reads it) is the data `w_data` (the measured true outputs) and the output is
+    /// that value through the output side, memory included; from `warm` on the loop runs on
+    /// the input. Every sample of it, the warm start included, is an output of the chain, so
+    /// its distance from the records is a bound at which the model holds it
+    /// ([`training_within`]). Without feedback, the free run as [`Self::predict`] gives it.
+    pub fn reachable_run(&self, u: &[f64], w_data: &[f64], dt: f64, warm: usize) -> Simulation {
+        if !self.feedback {
+            return self.predict(u, Some(w_data), dt, usize::MAX, warm);
+        }
+        let xd = Some(w_data).filter(|d| d.len() == u.len());
+        let (x, w) = self.free_run_from(u, xd, dt, warm, true);
+        let y = self.measure(&w);
+        Simulation { x, w, y }
+    }
+
+    /// The free run with its warm start: the linear block's output and, with feedback, the
+    /// chain's output the loop reads. Without feedback the first `warm` samples of `x` are the
+    /// data; with it the first `warm` outputs are the data as measured (`reach` false: the
+    /// loop's measured past, as MATLAB's `compare` starts a run) or the data passed through
+    /// the output side as the linear block's output (`reach` true: a trajectory of the model).
+    fn free_run_from(
+        &self,
+        u: &[f64],
+        xd: Option<&[f64]>,
+        dt: f64,
+        warm: usize,
+        reach: bool,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let n = u.len();
+        let v = self.linear_input(u);
         let online = self.effects.iter().any(|e| e.uses_output());
         let na = self.linear.a.len();
         let side = self.output_side();
@@ -814,16 +860,14 @@ impl ModelPoint {
                 .zip(mem.iter_mut())
                 .fold(x, |w, (b, m)| b.step(m, w))
         };
-        let rest: Vec<Vec<f64>> = side.iter().map(|b| b.initial_memory()).collect();
-        // The free run (with the warm start).
         let batch = self.equation_terms(u, dt, None);
         let mut free = Vec::with_capacity(n);
         let mut free_w = Vec::with_capacity(n);
-        let mut mem = rest.clone();
+        let mut mem: Vec<Vec<f64>> = side.iter().map(|b| b.initial_memory()).collect();
         let mut free_iv: Vec<Interval> = Vec::with_capacity(n);
         for s in 0..n {
             let xs = match xd {
-                Some(d) if s < warm && !self.feedback => d[s],
+                Some(d) if s < warm && (!self.feedback || reach) => d[s],
                 _ => {
                     let mut ds = batch[s];
                     if online {
@@ -839,26 +883,40 @@ impl ModelPoint {
             free.push(xs);
             if self.feedback {
                 let ws = step_side(&mut mem, xs);
-                // The warm start reads the measured outputs (the loop's past) as they are.
+                // The warm start reads the measured outputs (the loop's past) as they are,
+                // unless the run is to be the model's own.
                 free_w.push(match xd {
-                    Some(d) if s < warm => d[s],
+                    Some(d) if s < warm && !reach => d[s],
                     _ => ws,
                 });
             }
             free_iv.push(Interval::new(xs, xs));
         }
-        let measured_x = match xd {
-            Some(x) if k < n && k > 0 => x,
-            _ => {
-                let w = if self.feedback {
-                    free_w
-                } else {
-                    self.true_output(&free)
-                };
-                let yy = self.measure(&w);
-                return Simulation { x: free, w, y: yy };
-            }
+        (free, free_w)
+    }
+
+    /// The k-step predictions of [`Self::predict`] from the free run `(free, free_w)`.
+    #[allow(clippy::too_many_arguments)]
+    fn k_step(
+        &self,
+        u: &[f64],
+        measured_x: &[f64],
+        dt: f64,
+        k: usize,
+        warm: usize,
+        free: Vec<f64>,
+        free_w: Vec<f64>,
+    ) -> Simulation {
+        let n = u.len();
+        let v = self.linear_input(u);
+        let na = self.linear.a.len();
+        let side = self.output_side();
+        let step_side = |mem: &mut [Vec<f64>], x: f64| -> f64 {
+            side.iter()
+                .zip(mem.iter_mut())
+                .fold(x, |w, (b, m)| b.step(m, w))
         };
+        let rest: Vec<Vec<f64>> = side.iter().map(|b| b.initial_memory()).collect();
         // k-step prediction; regressors that read the output read the data.
         let data_iv: Vec<Interval> = measured_x.iter().map(|&v| Interval::new(v, v)).collect();
         let d = self.equation_terms(u, dt, Some(&data_iv));
@@ -958,18 +1016,39 @@ impl ModelPoint {
 /// model at which every training output lies within this bound: the model's **exact**
 /// smallest consistent bound is at most it, whatever stage 3's relaxations say (they give the
 /// lower end: a bound they falsify). `None` with steady-state points (the member's response at
-/// rest is not checked here), with `model.feedback` (the warm start's measured outputs may be
-/// out of the loop's reach), where the run is not finite, or where the point lies outside
+/// rest is not checked here), where the run is not finite, or where the point lies outside
 /// the model class (see `in_model_class`: fixed entries, the prior boxes, unit gain,
-/// stability as declared).
+/// stability as declared). With `model.feedback` the run is [`ModelPoint::reachable_run`]:
+/// its warm start passes the measured outputs through the output side (a level above the rim
+/// by its noise is clipped there), so that every sample of it is an output of the loop and
+/// the warm start's own distance counts.
 pub fn training_within(set: &ModelSet, values: &[(String, f64)]) -> Result<Option<f64>> {
-    // With `model.feedback` the warm start reads the measured outputs as the loop's past, which
-    // the output side may not reach (a level above the rim by its noise): that run is no
-    // trajectory of the model, so it proves nothing.
-    if set.training.steady.is_some() || set.model.feedback {
+    if set.training.steady.is_some() {
         return Ok(None);
     }
     let layout = set.layout()?;
+    // A bisected parameter a rounding step outside its prior (a degenerate prior `[1, 1]`
+    // read back as 1 + 5e-14 from a cell's outward bounds) is put on it: the run below is
+    // then the one of that point of the class.
+    let values: Vec<(String, f64)> = values
+        .iter()
+        .map(|(k, v)| {
+            let prior = layout.dims.iter().find(|d| d.name == *k).map(|d| d.prior);
+            let v = match prior {
+                Some(b) if !b.contains(*v) => {
+                    let tol = 1e-9 * (1.0 + b.lo.abs().max(b.hi.abs()));
+                    if *v >= b.lo - tol && *v <= b.hi + tol {
+                        v.clamp(b.lo, b.hi)
+                    } else {
+                        *v
+                    }
+                }
+                _ => *v,
+            };
+            (k.clone(), v)
+        })
+        .collect();
+    let values = values.as_slice();
     let p = point(set, values)?;
     if !in_model_class(set, layout, values, &p) {
         return Ok(None);
@@ -978,7 +1057,8 @@ pub fn training_within(set: &ModelSet, values: &[(String, f64)]) -> Result<Optio
     let t0 = o.na.max(o.nb + o.nk);
     let mut worst = 0.0f64;
     for rec in &set.training.records {
-        let run = free_run(set, &p, rec, t0)?;
+        let xd = inner_estimate(set, &p, rec)?;
+        let run = p.reachable_run(&rec.u, &xd, rec.dt, t0.min(rec.y.len())).y;
         for (y, yh) in rec.y.iter().zip(&run) {
             let e = (y - yh).abs();
             if !e.is_finite() {

@@ -508,21 +508,59 @@ impl<'s> Search<'s> {
     /// stays above [`FAR`].
     fn search(&self, sp: &CellSpace, opts: &Options) -> (Option<(f64, SimulationMember)>, f64) {
         let last = Cell::new(f64::INFINITY);
-        let found = self.search_cell(sp, opts, &last);
+        let z0 = vec![0.0; sp.moved.len() + self.a_free().len()];
+        let found = self
+            .certified_point(sp, opts, &last, z0)
+            .and_then(|(g, th)| self.best_certified_run(sp, opts, g, th));
         (found, last.get())
     }
 
-    /// [`Self::search`]'s work; `last_measure` takes the phase-1 measure of the last run.
-    fn search_cell(
+    /// The best certified member of the cell found from the point `(g, th)` of it (a free run
+    /// that simulates well, not certified itself): phase 2 from the point itself where it is
+    /// certified, else phase 1 from its nonlinearity, bisected parameters and `a`'s (the
+    /// certified point nearest it), then phase 2. A search from the centre alone stays among
+    /// the certified points near the centre, which may all simulate badly where the set holds
+    /// good simulators farther out (on a wide set: the tanks' loop at a bound of 2.4 V, a
+    /// certified member at -27 % training fit beside a centre at 78 %).
+    fn search_from(
+        &self,
+        sp: &CellSpace,
+        opts: &Options,
+        g: Vec<f64>,
+        mut th: Vec<f64>,
+    ) -> Option<(f64, SimulationMember)> {
+        self.fix_gain(&mut th);
+        if self.certify(sp, &g, &th) <= CERTIFIED {
+            return self.best_certified_run(sp, opts, g, th);
+        }
+        let mut z: Vec<f64> = sp
+            .moved
+            .iter()
+            .map(|&i| (g[i] - sp.base[i]) / sp.radius[i])
+            .collect();
+        z.extend(
+            self.a_free()
+                .iter()
+                .map(|&i| (th[i] - sp.theta0[i]) / sp.theta_scale(i, &sp.theta0)),
+        );
+        let last = Cell::new(f64::INFINITY);
+        let (g1, th1) = self.certified_point(sp, opts, &last, z)?;
+        self.best_certified_run(sp, opts, g1, th1)
+    }
+
+    /// Phase 1 from the search coordinates `z1`: a certified point `(g, θ)` of the cell,
+    /// stable where the model is declared stable; `last_measure` takes the phase-1 measure of
+    /// the last run.
+    fn certified_point(
         &self,
         sp: &CellSpace,
         opts: &Options,
         last_measure: &Cell<f64>,
-    ) -> Option<(f64, SimulationMember)> {
+        mut z1: Vec<f64>,
+    ) -> Option<(Vec<f64>, Vec<f64>)> {
         let split = sp.moved.len();
         // Phase 1: a certified point, restarting from the best point so far (Nelder-Mead
         // stalls on kinked measures).
-        let mut z1 = vec![0.0; split + self.a_free().len()];
         let mut step = 0.1;
         let mut last = f64::INFINITY;
         for run in 0..opts.restarts.max(1) {
@@ -597,7 +635,20 @@ impl<'s> Search<'s> {
                 None => {}
             }
         }
-        // Phase 2: the best free run among certified points, from the certified one.
+        Some((g1, theta1))
+    }
+
+    /// Phase 2: the best free run among certified points of the cell, from the certified point
+    /// `(g1, theta1)`: `(squared error, member)`.
+    fn best_certified_run(
+        &self,
+        sp: &CellSpace,
+        opts: &Options,
+        g1: Vec<f64>,
+        theta1: Vec<f64>,
+    ) -> Option<(f64, SimulationMember)> {
+        let split = sp.moved.len();
+        let stable_only = self.set.model.stable;
         let gain = self.gain_slot();
         let t_free: Vec<usize> = (0..self.layout.p())
             .filter(|&i| self.layout.fixed[i].is_none() && Some(i) != gain)
@@ -935,9 +986,183 @@ impl<'s> Search<'s> {
 /// probed) and the best `opts.cells` are searched, in that order; when the best-ranked cell
 /// gives no certified point, the search stops there.
 pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<SimulationMember>> {
+    simulation_member_seeded(set, opts, &[])
+}
+
+/// [`simulation_member`] that also searches from each of `seeds` (points given by name, as a
+/// member's `values`: a simulator found before, at a smaller bound): in the cell that holds
+/// the seed's nonlinearity and bisected parameters, from the seed itself where it is
+/// certified, else from the certified point nearest it. A seed no cell holds is passed over.
+pub fn simulation_member_seeded(
+    set: &ModelSet,
+    opts: &Options,
+    seeds: &[Vec<(String, f64)>],
+) -> Result<Option<SimulationMember>> {
     if !set.cells.iter().any(|c| c.bounded()) || !opts.search {
         return Ok(None);
     }
+    let (search, spaces, centre_values, centre_fit) = prepared(set, opts)?;
+    let layout = search.layout;
+    let searched: Vec<&CellSpace> = spaces
+        .iter()
+        .take(opts.cells.max(1))
+        .map(|(_, sp)| sp)
+        .collect();
+    let found: Vec<Option<(f64, SimulationMember)>> = if opts.gives_up_early() {
+        // A ranking search (no spread: the diagnosis's candidates) goes one cell at a time:
+        // when its best-ranked cell ended far from a certified point (measure above FAR) it
+        // does not search the lower-ranked ones (in the 12-bit diagnoses none of 9 such
+        // searches certified a later cell, and each cost as much as the first: 0.5-3.6 s).
+        let mut out = Vec::new();
+        for sp in &searched {
+            let (f, last) = search.search(sp, opts);
+            let stop = f.is_none() && out.iter().all(Option::is_none) && last > FAR;
+            out.push(f);
+            if stop {
+                break;
+            }
+        }
+        out
+    } else {
+        // A full search goes on (on examples/hammerstein-wiener.yaml the best-ranked cell's
+        // first run ends at 2.1 and never certifies, and the next cell does); its cells are
+        // independent, so searched side by side, kept in rank order (the member does not
+        // depend on the thread timing).
+        use rayon::prelude::*;
+        searched
+            .par_iter()
+            .map(|sp| search.search(sp, opts).0)
+            .collect()
+    };
+    // A full search also starts from the best free run over each searched cell's outer
+    // bounds (the quick stand-in search) where that run beats the cell's certified member:
+    // the certified point nearest a good simulator, or the simulator itself when certified.
+    let found: Vec<Option<(f64, SimulationMember)>> = if opts.gives_up_early() {
+        found
+    } else {
+        use rayon::prelude::*;
+        searched
+            .par_iter()
+            .zip(found)
+            .map(|(sp, f)| {
+                let Some((e2u, u)) = search.best_uncertified(sp, opts, &centre_values, false)
+                else {
+                    return f;
+                };
+                if f.as_ref().is_some_and(|(e2, _)| *e2 <= e2u) {
+                    return f;
+                }
+                let (g, th) = split_values(&search, sp, &u.values);
+                let from = search.search_from(sp, opts, g, th);
+                log::debug!(target: "smid::members", "cell {}: from its best free run ({e2u:.3e}) a certified member at {:?}, from the centre at {:?}", sp.k, from.as_ref().map(|m| m.0), f.as_ref().map(|m| m.0));
+                match (f, from) {
+                    (Some(a), Some(b)) => Some(if b.0 < a.0 { b } else { a }),
+                    (a, b) => a.or(b),
+                }
+            })
+            .collect()
+    };
+    // The seeds, each in the first bounded cell that holds it.
+    let mut seeded_spaces: Vec<CellSpace> = Vec::new();
+    let mut seeded: Vec<(f64, SimulationMember)> = Vec::new();
+    for seed in seeds {
+        let get = |n: &str| seed.iter().find(|(k, _)| k == n).map(|v| v.1);
+        let get_last = |n: &str| seed.iter().rfind(|(k, _)| k == n).map(|v| v.1);
+        let holds = |c: &CellSet| {
+            let gamma: Option<Vec<f64>> = c
+                .nonlinearity
+                .parameters()
+                .iter()
+                .map(|b| get(&b.name))
+                .collect();
+            let psi = layout
+                .dims
+                .iter()
+                .zip(&c.cell)
+                .all(|(d, b)| get_last(&d.name).is_some_and(|v| b.contains(v)));
+            c.bounded() && psi && gamma.is_some_and(|g| c.nonlinearity.contains(&g))
+        };
+        let Some(k) = (0..set.cells.len()).find(|&k| holds(&set.cells[k])) else {
+            log::debug!(target: "smid::members", "a seed no cell holds: passed over");
+            continue;
+        };
+        let Some(sp) = search.space(k)? else {
+            continue;
+        };
+        let (g, th) = split_values(&search, &sp, seed);
+        let from = search.search_from(&sp, opts, g, th);
+        log::debug!(target: "smid::members", "cell {k}: from a seed, a certified member at {:?}", from.as_ref().map(|m| m.0));
+        if let Some(f) = from {
+            seeded.push(f);
+        }
+        seeded_spaces.push(sp);
+    }
+    let mut best: Option<(f64, SimulationMember)> = None;
+    for (e2, m) in seeded {
+        if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
+            best = Some((e2, m));
+        }
+    }
+    for (sp, f) in searched.iter().zip(found) {
+        log::debug!(target: "smid::members", "cell {}: {}", sp.k, if f.is_some() { "certified member" } else { "nothing certified" });
+        if let Some((e2, m)) = f {
+            if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
+                best = Some((e2, m));
+            }
+        }
+    }
+    if best.is_none() {
+        // Nothing certified: the best free run over the outer bounds of the probed cells
+        // stands in (marked not certified), so a candidate whose centre diverges is judged by
+        // a point that simulates, not by its centre. (The ranking above is by nearness to a
+        // certificate, not by simulation, and a saturation level's cells differ in how they
+        // simulate: every probed cell is tried; free runs only, one LP each for its report.)
+        //
+        // Every probed cell gets the quick search (one Nelder-Mead run per start); a full
+        // search then refines the best `opts.cells` of them with both local searches
+        // ([`Search::uncertified_from`]). Refining every probed cell (up to 64) made four
+        // any-record trials of `dead_zone_output` take 197 s instead of 52 s. A refined cell keeps the better of its two points, so the
+        // ranking only decides where the effort goes.
+        //
+        // The cells are independent, so both passes run side by side, each kept in the
+        // cells' order (the stand-in does not depend on the thread timing).
+        best = best_free_run_over(&search, &spaces, opts, &centre_values);
+    }
+    if let Some((_, m)) = best.as_mut().filter(|(_, m)| opts.spread && m.certified) {
+        let sp = spaces
+            .iter()
+            .map(|(_, sp)| sp)
+            .chain(&seeded_spaces)
+            .find(|sp| sp.k == m.cell);
+        if let Some(sp) = sp {
+            let (g, th) = split_values(&search, sp, &m.values);
+            m.envelope = search.spread_members(sp, &g, &th);
+        }
+    }
+    Ok(best.map(|(_, mut m)| {
+        m.centre_training_fit = centre_fit;
+        m.evaluations = search.evaluations.load(Relaxed);
+        m.within = super::training_within(set, &m.values).unwrap_or_else(|e| {
+            log::warn!(target: "smid::members", "the member's distance from the training records was not computed: {e}");
+            None
+        });
+        m
+    }))
+}
+
+/// What a member search shares: the [`Search`], the probed cells ranked by their phase-1
+/// measure at their centres (the nearest `opts.probe` to the central cell), the centre's
+/// values and its training fit.
+#[allow(clippy::type_complexity)]
+fn prepared<'s>(
+    set: &'s ModelSet,
+    opts: &Options,
+) -> Result<(
+    Search<'s>,
+    Vec<(f64, CellSpace<'s>)>,
+    Vec<(String, f64)>,
+    f64,
+)> {
     let layout = set.layout()?;
     let o = layout.orders;
     let warm = o.na + o.nb + o.nk;
@@ -976,115 +1201,76 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
     }
     spaces.sort_by(|a, b| a.0.total_cmp(&b.0));
     log::debug!(target: "smid::members", "probed {} cell(s): {} evaluations", spaces.len(), search.evaluations.load(Relaxed));
-    let searched: Vec<&CellSpace> = spaces
-        .iter()
-        .take(opts.cells.max(1))
-        .map(|(_, sp)| sp)
-        .collect();
-    let found: Vec<Option<(f64, SimulationMember)>> = if opts.gives_up_early() {
-        // A ranking search (no spread: the diagnosis's candidates) goes one cell at a time:
-        // when its best-ranked cell ended far from a certified point (measure above FAR) it
-        // does not search the lower-ranked ones (in the 12-bit diagnoses none of 9 such
-        // searches certified a later cell, and each cost as much as the first: 0.5-3.6 s).
-        let mut out = Vec::new();
-        for sp in &searched {
-            let (f, last) = search.search(sp, opts);
-            let stop = f.is_none() && out.iter().all(Option::is_none) && last > FAR;
-            out.push(f);
-            if stop {
-                break;
-            }
-        }
-        out
-    } else {
-        // A full search goes on (on examples/hammerstein-wiener.yaml the best-ranked cell's
-        // first run ends at 2.1 and never certifies, and the next cell does); its cells are
-        // independent, so searched side by side, kept in rank order (the member does not
-        // depend on the thread timing).
-        use rayon::prelude::*;
-        searched
-            .par_iter()
-            .map(|sp| search.search(sp, opts).0)
-            .collect()
-    };
+    Ok((search, spaces, centre_values, centre_fit))
+}
+
+/// The best training free run over the outer bounds of the probed cells of `set` (the search
+/// a member falls back to when none is certified; certified or not, as its flag says), from
+/// the centre and from the least-squares refit: a simulator of the model class near the set,
+/// whose free-run distance from the training records is an upper end of the model's smallest
+/// consistent bound (`noise.from: free_run`). `None` when no cell is bounded or no run is
+/// finite.
+pub fn best_free_run(set: &ModelSet, opts: &Options) -> Result<Option<SimulationMember>> {
+    if !set.cells.iter().any(|c| c.bounded()) {
+        return Ok(None);
+    }
+    let (search, spaces, centre_values, _) = prepared(set, opts)?;
+    Ok(
+        best_free_run_over(&search, &spaces, opts, &centre_values).map(|(_, mut m)| {
+            m.within = super::training_within(set, &m.values).ok().flatten();
+            m
+        }),
+    )
+}
+
+/// The best free run over the outer bounds of the probed cells `spaces` (not certified):
+/// every cell gets the quick search, a full search refines the best `opts.cells` of them.
+fn best_free_run_over(
+    search: &Search,
+    spaces: &[(f64, CellSpace)],
+    opts: &Options,
+    centre: &[(String, f64)],
+) -> Option<(f64, SimulationMember)> {
     let mut best: Option<(f64, SimulationMember)> = None;
-    for (sp, f) in searched.iter().zip(found) {
-        log::debug!(target: "smid::members", "cell {}: {}", sp.k, if f.is_some() { "certified member" } else { "nothing certified" });
-        if let Some((e2, m)) = f {
-            if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
-                best = Some((e2, m));
-            }
-        }
-    }
-    if best.is_none() {
-        // Nothing certified: the best free run over the outer bounds of the probed cells
-        // stands in (marked not certified), so a candidate whose centre diverges is judged by
-        // a point that simulates, not by its centre. (The ranking above is by nearness to a
-        // certificate, not by simulation, and a saturation level's cells differ in how they
-        // simulate: every probed cell is tried; free runs only, one LP each for its report.)
-        //
-        // Every probed cell gets the quick search (one Nelder-Mead run per start); a full
-        // search then refines the best `opts.cells` of them with both local searches
-        // ([`Search::uncertified_from`]). Refining every probed cell (up to 64) made four
-        // any-record trials of `dead_zone_output` take 197 s instead of 52 s. A refined cell keeps the better of its two points, so the
-        // ranking only decides where the effort goes.
-        //
-        // The cells are independent, so both passes run side by side, each kept in the
-        // cells' order (the stand-in does not depend on the thread timing).
-        use rayon::prelude::*;
-        let mut quick: Vec<(f64, &CellSpace, SimulationMember)> = spaces
-            .par_iter()
-            .filter_map(|(_, sp)| {
-                let found = search.best_uncertified(sp, opts, &centre_values, false);
-                log::debug!(target: "smid::members", "cell {}: best uncertified point {:?}", sp.k, found.as_ref().map(|f| f.0));
-                found.map(|(e2, m)| (e2, sp, m))
-            })
-            .collect();
-        quick.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let refine = if opts.gives_up_early() {
-            0
-        } else {
-            opts.cells.max(1).min(quick.len())
+    use rayon::prelude::*;
+    let mut quick: Vec<(f64, &CellSpace, SimulationMember)> = spaces
+        .par_iter()
+        .filter_map(|(_, sp)| {
+            let found = search.best_uncertified(sp, opts, centre, false);
+            log::debug!(target: "smid::members", "cell {}: best uncertified point {:?}", sp.k, found.as_ref().map(|f| f.0));
+            found.map(|(e2, m)| (e2, sp, m))
+        })
+        .collect();
+    quick.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let refine = if opts.gives_up_early() {
+        0
+    } else {
+        opts.cells.max(1).min(quick.len())
+    };
+    let refined: Vec<Option<(f64, SimulationMember)>> = quick[..refine]
+        .par_iter()
+        .map(|(_, sp, _)| search.best_uncertified(sp, opts, centre, true))
+        .collect();
+    let mut refined = refined.into_iter();
+    for (e2, _, m) in quick {
+        let (e2, m) = match refined.next().flatten() {
+            Some((er, mr)) if er < e2 => (er, mr),
+            _ => (e2, m),
         };
-        let refined: Vec<Option<(f64, SimulationMember)>> = quick[..refine]
-            .par_iter()
-            .map(|(_, sp, _)| search.best_uncertified(sp, opts, &centre_values, true))
-            .collect();
-        let mut refined = refined.into_iter();
-        for (e2, _, m) in quick {
-            let (e2, m) = match refined.next().flatten() {
-                Some((er, mr)) if er < e2 => (er, mr),
-                _ => (e2, m),
-            };
-            if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
-                best = Some((e2, m));
-            }
+        if best.as_ref().is_none_or(|(b, _)| e2 < *b) {
+            best = Some((e2, m));
         }
     }
-    if let Some((_, m)) = best.as_mut().filter(|(_, m)| opts.spread && m.certified) {
-        let sp = spaces
-            .iter()
-            .find(|(_, sp)| sp.k == m.cell)
-            .map(|(_, sp)| sp);
-        if let Some(sp) = sp {
-            let (g, th) = split_values(&search, sp, &m.values);
-            m.envelope = search.spread_members(sp, &g, &th);
-        }
-    }
-    Ok(best.map(|(_, mut m)| {
-        m.centre_training_fit = centre_fit;
-        m.evaluations = search.evaluations.load(Relaxed);
-        m.within = super::training_within(set, &m.values).unwrap_or_else(|e| {
-            log::warn!(target: "smid::members", "the member's distance from the training records was not computed: {e}");
-            None
-        });
-        m
-    }))
+    best
 }
 
 /// A member's values back as the cell's point (nonlinearity, then bisected) and `θ`.
 fn split_values(search: &Search, sp: &CellSpace, values: &[(String, f64)]) -> (Vec<f64>, Vec<f64>) {
+    // The nonlinearity's names come first in a member's values and the bisected ones last
+    // ([`Search::values_of`]); a bisected parameter may share its name with one of the
+    // nonlinearity's (an input backlash bisected in a Hammerstein chain).
     let get = |n: &str| values.iter().find(|(k, _)| k == n).map(|v| v.1);
+    let get_last = |n: &str| values.iter().rfind(|(k, _)| k == n).map(|v| v.1);
     let mut g: Vec<f64> = sp
         .names
         .iter()
@@ -1097,7 +1283,7 @@ fn split_values(search: &Search, sp: &CellSpace, values: &[(String, f64)]) -> (V
             .dims
             .iter()
             .zip(&sp.base[sp.ng..])
-            .map(|(d, b)| get(&d.name).unwrap_or(*b)),
+            .map(|(d, b)| get_last(&d.name).unwrap_or(*b)),
     );
     let th = search
         .layout

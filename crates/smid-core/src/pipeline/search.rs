@@ -524,12 +524,47 @@ pub fn identify_at_estimate(
     let t0 = std::time::Instant::now();
     let mut best = identify_with(&quiet, data_with_bound(data, d), truth, progress);
     log_step(&label, d, "an answer", &best, t0);
-    if let Ok(Outcome::Consistent(id)) = best.as_mut() {
+    // `noise.from: free_run`: the bound is raised to the margin times the free-run distance
+    // from the training records of the best simulator over the set's outer bounds, where that
+    // is larger, and the set taken there (the simulator seeds its member search: a point of
+    // the set at that bound).
+    let raised = match best.as_ref() {
+        Ok(Outcome::Consistent(id)) if spec.noise.from_free_run() => {
+            crate::members::best_free_run(&id.model, &spec.method.member)?
+                .and_then(|m| m.within.map(|w| (w, m.values)))
+                .filter(|(w, _)| w.is_finite() && margin * w > d)
+        }
+        _ => None,
+    };
+    if let (None, Ok(Outcome::Consistent(id))) = (&raised, best.as_mut()) {
         id.model.method.member = spec.method.member;
         id.model.simulation_member =
             crate::members::simulation_member(&id.model, &spec.method.member)?;
     }
+    let raised_to = raised.as_ref().map(|(w, _)| margin * w);
+    if let Some((within, seed)) = raised {
+        let d2 = margin * within;
+        log::info!(target: "smid::estimate", "{label}: the best simulator at {d:.4e} runs within {within:.4e} of the training records: the bound is raised to {d2:.4e} (noise.from: free_run)");
+        let mut quiet = with_bound(spec, d2);
+        quiet.method.member.search = false;
+        let t0 = std::time::Instant::now();
+        best = identify_with(&quiet, data_with_bound(data, d2), truth, progress);
+        log_step(&label, d2, "an answer", &best, t0);
+        if let Ok(Outcome::Consistent(id)) = best.as_mut() {
+            id.model.method.member = spec.method.member;
+            id.model.simulation_member =
+                crate::members::simulation_member_seeded(&id.model, &spec.method.member, &[seed])?;
+        }
+    }
     best.map_err(|e| match e {
+        SmidError::Unbounded { parameter, message } if raised_to.is_some() => SmidError::Unbounded {
+            parameter,
+            message: format!(
+                "{message}. The bound was raised from {d:.4e} (the smallest the method `{}` finds consistent, within the margin {margin}) to {:.4e}, the margin times the best training simulator's free-run distance (`noise.from: free_run`), and at that bound the data do not bound the set: estimate the bound from the relaxation instead (`noise.from: relaxation`, the default), or give it (`noise.delta`)",
+                spec.method.eiv.name(),
+                raised_to.unwrap_or(f64::NAN),
+            ),
+        },
         SmidError::Unbounded { parameter, message } if !spec.model.stable => SmidError::Unbounded {
             parameter,
             message: format!(
