@@ -821,9 +821,9 @@ impl ModelPoint {
 
     /// A trajectory of the model inside the loop (`model.feedback`) whose warm start the loop
     /// reaches: for the first `warm` samples the linear block's output (free there: no
-    /// equation reads it) is the data `w_data` (the measured true outputs) and the output is
-    /// that value through the output side, memory included; from `warm` on the loop runs on
-    /// the input. Every sample of it, the warm start included, is an output of the chain, so
+    /// equation reads it) is the data `w_data` (a preimage of the measured outputs) and the
+    /// output is that value through the output side, memory included; from `warm` on the loop
+    /// runs on the input. Every sample of it, the warm start included, is an output of the chain, so
     /// its distance from the records is a bound at which the model holds it
     /// ([`training_within`]). Without feedback, the free run as [`Self::predict`] gives it.
     pub fn reachable_run(&self, u: &[f64], w_data: &[f64], dt: f64, warm: usize) -> Simulation {
@@ -1019,9 +1019,11 @@ impl ModelPoint {
 /// rest is not checked here), where the run is not finite, or where the point lies outside
 /// the model class (see `in_model_class`: fixed entries, the prior boxes, unit gain,
 /// stability as declared). With `model.feedback` the run is [`ModelPoint::reachable_run`]:
-/// its warm start passes the measured outputs through the output side (a level above the rim
-/// by its noise is clipped there), so that every sample of it is an output of the loop and
-/// the warm start's own distance counts.
+/// its warm start takes a preimage of the measured outputs (the stage-2 centres at the first
+/// cell, the outputs themselves where a sample is not inverted) as the linear block's output
+/// and passes it through the output side (a level above the rim by its noise is clipped
+/// there), so that every sample of it is an output of the loop and the warm start's own
+/// distance counts.
 pub fn training_within(set: &ModelSet, values: &[(String, f64)]) -> Result<Option<f64>> {
     if set.training.steady.is_some() {
         return Ok(None);
@@ -1058,6 +1060,14 @@ pub fn training_within(set: &ModelSet, values: &[(String, f64)]) -> Result<Optio
     let mut worst = 0.0f64;
     for rec in &set.training.records {
         let xd = inner_estimate(set, &p, rec)?;
+        // Inside the loop the warm start is the linear block's output: a preimage of the
+        // measured outputs (the stage-2 centres), the outputs themselves where none is
+        // bounded (a clipped sample), so that the output side reproduces the warm start.
+        let xd = if set.model.feedback {
+            stage2_centres(set, rec, xd)?
+        } else {
+            xd
+        };
         let run = p.reachable_run(&rec.u, &xd, rec.dt, t0.min(rec.y.len())).y;
         for (y, yh) in rec.y.iter().zip(&run) {
             let e = (y - yh).abs();
@@ -1151,36 +1161,43 @@ pub fn inner_estimate(
             let s = point.sensor_terms(rec.y.len());
             Ok(rec.y.iter().zip(&s).map(|(y, s)| y - s).collect())
         }
-        _ => {
-            let layout = model.layout()?;
-            let c = &model.cells[0];
-            let sig = match crate::pipeline::stage2(
-                &model.model,
-                layout,
-                c.nonlinearity.as_ref(),
-                &c.cell,
-                std::slice::from_ref(rec),
-            ) {
-                Ok(sig) => sig,
-                // The record contradicts the first cell (an output beyond its saturation
-                // limits): nothing is inverted there, the free run stands in throughout.
-                Err(crate::error::SmidError::Inconsistent(_)) => return Ok(free.x),
-                Err(e) => return Err(e),
-            };
-            Ok(sig
-                .output
-                .iter()
-                .zip(&free.x)
-                .map(|(b, xf)| {
-                    if b.interval.is_finite() && b.kind == crate::inversion::InnerKind::Inverted {
-                        b.interval.center()
-                    } else {
-                        *xf
-                    }
-                })
-                .collect())
-        }
+        _ => stage2_centres(model, rec, free.x),
     }
+}
+
+/// The centres of the stage-2 bounds of the linear block's output on `rec` at the first cell
+/// where a sample is inverted, `fallback` elsewhere (and throughout when the record
+/// contradicts that cell: an output beyond its saturation limits).
+fn stage2_centres(
+    model: &ModelSet,
+    rec: &crate::pipeline::Record,
+    fallback: Vec<f64>,
+) -> Result<Vec<f64>> {
+    let layout = model.layout()?;
+    let c = &model.cells[0];
+    let sig = match crate::pipeline::stage2(
+        &model.model,
+        layout,
+        c.nonlinearity.as_ref(),
+        &c.cell,
+        std::slice::from_ref(rec),
+    ) {
+        Ok(sig) => sig,
+        Err(crate::error::SmidError::Inconsistent(_)) => return Ok(fallback),
+        Err(e) => return Err(e),
+    };
+    Ok(sig
+        .output
+        .iter()
+        .zip(fallback)
+        .map(|(b, xf)| {
+            if b.interval.is_finite() && b.kind == crate::inversion::InnerKind::Inverted {
+                b.interval.center()
+            } else {
+                xf
+            }
+        })
+        .collect())
 }
 
 #[cfg(test)]

@@ -1035,7 +1035,8 @@ pub fn simulation_member_seeded(
             .collect()
     };
     // A full search also starts from the best free run over each searched cell's outer
-    // bounds (the quick stand-in search) where that run beats the cell's certified member:
+    // bounds (the quick stand-in search) where that run clearly beats the cell's certified
+    // member:
     // the certified point nearest a good simulator, or the simulator itself when certified.
     let found: Vec<Option<(f64, SimulationMember)>> = if opts.gives_up_early() {
         found
@@ -1049,7 +1050,11 @@ pub fn simulation_member_seeded(
                 else {
                     return f;
                 };
-                if f.as_ref().is_some_and(|(e2, _)| *e2 <= e2u) {
+                // Only a run that beats the certified member clearly (a tenth less squared
+                // error) is searched from: near the member the search from it costs as much
+                // as the cell's first and finds the same point (the 12-bit diagnoses' full
+                // searches: 1.6 s to 2.7 s for the delay case, the same reports).
+                if f.as_ref().is_some_and(|(e2, _)| *e2 <= e2u / 0.9) {
                     return f;
                 }
                 let (g, th) = split_values(&search, sp, &u.values);
@@ -1082,13 +1087,18 @@ pub fn simulation_member_seeded(
                 .all(|(d, b)| get_last(&d.name).is_some_and(|v| b.contains(v)));
             c.bounded() && psi && gamma.is_some_and(|g| c.nonlinearity.contains(&g))
         };
-        let Some(k) = (0..set.cells.len()).find(|&k| holds(&set.cells[k])) else {
-            log::debug!(target: "smid::members", "a seed no cell holds: passed over");
+        let mut space = None;
+        for k in (0..set.cells.len()).filter(|&k| holds(&set.cells[k])) {
+            if let Some(sp) = search.space(k)? {
+                space = Some(sp);
+                break;
+            }
+        }
+        let Some(sp) = space else {
+            log::debug!(target: "smid::members", "a seed no searchable cell holds: passed over");
             continue;
         };
-        let Some(sp) = search.space(k)? else {
-            continue;
-        };
+        let k = sp.k;
         let (g, th) = split_values(&search, &sp, seed);
         let from = search.search_from(&sp, opts, g, th);
         log::debug!(target: "smid::members", "cell {k}: from a seed, a certified member at {:?}", from.as_ref().map(|m| m.0));

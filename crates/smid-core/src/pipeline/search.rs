@@ -130,7 +130,10 @@ pub fn identify(
 /// [`identify`]'s, to the digit as long as the method's verdict is monotone in the bound (the
 /// bar's verdict is one more, and a step of the bracket at or above a bar the method accepts,
 /// with the same cells, is answered by it). Without a bar (or a bar that is
-/// not a positive number), and for a spec with a declared bound, it is [`identify`].
+/// not a positive number), and for a spec with a declared bound, it is [`identify`]. With
+/// `noise.from: free_run` the bar is asked of the relaxation's bound, and the bound the model
+/// is then identified with may lie above it (the free run's raise, [`identify_at_estimate`]):
+/// a caller compares the identified set's own `delta`.
 pub fn identify_below(spec: &Spec, data: ExperimentData, bar: Option<f64>) -> Result<BelowBar> {
     match bar.filter(|b| b.is_finite() && *b > 0.0) {
         Some(b) if spec.noise.to_estimate() => {
@@ -530,9 +533,13 @@ pub fn identify_at_estimate(
     // the set at that bound).
     let raised = match best.as_ref() {
         Ok(Outcome::Consistent(id)) if spec.noise.from_free_run() => {
-            crate::members::best_free_run(&id.model, &spec.method.member)?
+            let found = crate::members::best_free_run(&id.model, &spec.method.member)?
                 .and_then(|m| m.within.map(|w| (w, m.values)))
-                .filter(|(w, _)| w.is_finite() && margin * w > d)
+                .filter(|(w, _)| w.is_finite());
+            if found.is_none() {
+                log::warn!(target: "smid::estimate", "{label}: noise.from: free_run found no simulator whose free-run distance bounds the model (steady-state points, no finite run, or none in the model class): the bound stays the relaxation's, {d:.4e}");
+            }
+            found.filter(|(w, _)| margin * w > d)
         }
         _ => None,
     };
@@ -550,6 +557,11 @@ pub fn identify_at_estimate(
         let t0 = std::time::Instant::now();
         best = identify_with(&quiet, data_with_bound(data, d2), truth, progress);
         log_step(&label, d2, "an answer", &best, t0);
+        if let Ok(Outcome::Falsified(f)) = &best {
+            // A relaxation that accepts a bound accepts every larger one: this is a finding
+            // about the method, reported as the outcome, and said here.
+            log::warn!(target: "smid::estimate", "{label}: the raised bound {d2:.4e} (noise.from: free_run) is falsified where {d:.4e} was not: {f}");
+        }
         if let Ok(Outcome::Consistent(id)) = best.as_mut() {
             id.model.method.member = spec.method.member;
             id.model.simulation_member =
