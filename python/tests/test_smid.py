@@ -439,3 +439,30 @@ def test_measured_tanks_identify_from_arrays_with_the_default_method():
     r = smid.identify_arrays(u, y, model={**model, "stable": True}, noise={"estimate": 1.1}, dt=4.0)
     assert r.consistent
     assert all(math.isfinite(p.lower) and math.isfinite(p.upper) for p in r.parameters)
+
+
+def test_a_bound_from_the_free_run_holds_a_certified_member():
+    """`noise: {estimate: 1.1, from: free_run}` through the arrays reader: a second-order plant
+    read by a first-order model, whose free run needs a larger bound than its equations. The
+    bound is raised above the relaxation's, and the set there holds a certified member whose
+    free run lies within it."""
+    rng = np.random.default_rng(70)
+    n = 120
+    u = np.repeat(rng.uniform(-1.0, 2.0, n // 8 + 1), 8)[:n]
+    x = np.zeros(n)
+    for t in range(n):
+        x[t] = (0.3 * u[t - 1] if t > 0 else 0.0) + (1.5 * x[t - 1] if t > 0 else 0.0) \
+            - (0.56 * x[t - 2] if t > 1 else 0.0)
+    y = x + rng.uniform(-0.01, 0.01, n)
+    model = {"structure": "wiener", "nonlinearity": {"type": "linear"}, "na": 1, "nb": 0,
+             "nk": 1, "unit_gain": False, "stable": True}
+    method = {"eiv": "classical"}
+    relaxed = smid.identify_arrays(u, y, model=model, noise={"estimate": 1.1}, method=method)
+    r = smid.identify_arrays(u, y, model=model, noise={"estimate": 1.1, "from": "free_run"},
+                             method=method)
+    assert relaxed.consistent and r.consistent
+    raised, lower = r.model.model["delta"], relaxed.model.model["delta"]
+    assert raised > lower, (raised, lower)
+    m = r.model.simulation_member
+    assert m is not None and m["certified"], m
+    assert r.model.spec["noise"]["from"] == "free_run"
