@@ -1236,16 +1236,17 @@ model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: {na}\n  n
 /// error than its equation error (random second-order plants, a first-order model, random
 /// inputs and sizes). The simulator the raise starts from (`members::best_free_run` over the
 /// set at the relaxation's bound) has its free-run distance recomputed here from its values
-/// alone; the bound is the larger of the relaxation's and 1.1 times that distance (so the set
-/// holds the simulator), and the member there is certified and fits the training records at
-/// least as well as the simulator (it starts from it: a point of the set, certified).
+/// alone; the bound is raised to the larger of the relaxation's and 1.1 times that distance (so
+/// the set holds the simulator), then brought down to 1.1 times the member's distance while
+/// that takes off a tenth; the member is certified and fits the training records at least as
+/// well as the simulator (it starts from it: a point of the set, certified).
 #[test]
 fn a_bound_from_the_free_run_holds_a_certified_simulator() {
     use smid::core::outcome::Outcome;
     use smid::core::rand::{Rng, SeedableRng};
     smid::link_plugins();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(70_001);
-    let mut raised = 0;
+    let (mut raised, mut tightened) = (0, 0);
     for case in 0..6 {
         let poles: Vec<f64> = (0..2).map(|_| rng.gen_range(0.5..0.9)).collect();
         let a = [-(poles[0] + poles[1]), poles[0] * poles[1]];
@@ -1323,10 +1324,12 @@ model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 1\n  nb: 
             "case {case}: the simulator's distance {:?}, recomputed {distance:e}",
             seed.within
         );
-        let expected = relaxed.model.delta.max(1.1 * distance);
+        // Raised to 1.1 times that distance, then brought down to 1.1 times the member's
+        // while that takes off a tenth: never above the first, never below the relaxation's.
+        let first = relaxed.model.delta.max(1.1 * distance);
         assert!(
-            (delta - expected).abs() <= 1e-9 * expected,
-            "case {case}: the bound {delta:e}, expected {expected:e} (relaxation {:e}, simulator at {distance:e})",
+            delta <= first * (1.0 + 1e-9),
+            "case {case}: the bound {delta:e} above {first:e} (relaxation {:e}, simulator at {distance:e})",
             relaxed.model.delta
         );
         assert!(
@@ -1338,6 +1341,9 @@ model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 1\n  nb: 
         if delta > relaxed.model.delta {
             raised += 1;
         }
+        if delta < first * (1.0 - 1e-9) {
+            tightened += 1;
+        }
         eprintln!(
             "case {case}: relaxation {:.3e}, from the free run {delta:.3e}, simulator at {distance:.3e} ({:.2} %), member {:.2} %",
             relaxed.model.delta, seed.training_fit, m.training_fit
@@ -1347,12 +1353,18 @@ model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 1\n  nb: 
         raised >= 4,
         "the free run raised the bound in {raised} of 6 cases"
     );
+    // The members, best free runs of the wider sets, run nearer than the simulators the raises
+    // started from in most cases (4 of 6 when written), and the bound comes down to them.
+    assert!(
+        tightened >= 2,
+        "the bound came down to the member's distance in {tightened} of 6"
+    );
 }
 
 /// `noise.from: free_run` for every registered plugin with a random trial (the registry's
 /// check cases, either side), each on its own random record (N = 400, noise inside the trial's
 /// bound) identified with an estimated bound: never a crash or a falsified model; the bound is
-/// at least the relaxation's; where it is raised, it is 1.1 times the distance of the
+/// at least the relaxation's; where it is raised, it is at most 1.1 times the distance of the
 /// simulator it starts from (`members::best_free_run` over the relaxation's set), and the
 /// member there fits the training records as well as that simulator (to 0.1 points: each set
 /// starts its runs from its own inner-signal estimate).
@@ -1429,8 +1441,8 @@ fn a_bound_from_the_free_run_for_every_registered_plugin() {
                 .unwrap_or_else(|| panic!("{}: raised without a simulator", case.name));
             let within = seed.within.unwrap();
             assert!(
-                (delta - 1.1 * within).abs() <= 1e-9 * delta,
-                "{}: the bound {delta:e}, the simulator's distance {within:e}",
+                delta <= 1.1 * within * (1.0 + 1e-9),
+                "{}: the bound {delta:e} above 1.1 x the simulator's distance {within:e}",
                 case.name
             );
             // Each set starts its runs from its own inner-signal estimate (its first cell's
