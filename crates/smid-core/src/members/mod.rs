@@ -855,11 +855,7 @@ impl ModelPoint {
         let na = self.linear.a.len();
         let side = self.output_side();
         // The output side stepped sample by sample (`model.feedback` reads its past).
-        let step_side = |mem: &mut [Vec<f64>], x: f64| -> f64 {
-            side.iter()
-                .zip(mem.iter_mut())
-                .fold(x, |w, (b, m)| b.step(m, w))
-        };
+        let step_side = |mem: &mut [Vec<f64>], x: f64| step_blocks(&side, mem, x);
         let batch = self.equation_terms(u, dt, None);
         let mut free = Vec::with_capacity(n);
         let mut free_w = Vec::with_capacity(n);
@@ -911,11 +907,7 @@ impl ModelPoint {
         let v = self.linear_input(u);
         let na = self.linear.a.len();
         let side = self.output_side();
-        let step_side = |mem: &mut [Vec<f64>], x: f64| -> f64 {
-            side.iter()
-                .zip(mem.iter_mut())
-                .fold(x, |w, (b, m)| b.step(m, w))
-        };
+        let step_side = |mem: &mut [Vec<f64>], x: f64| step_blocks(&side, mem, x);
         let rest: Vec<Vec<f64>> = side.iter().map(|b| b.initial_memory()).collect();
         // k-step prediction; regressors that read the output read the data.
         let data_iv: Vec<Interval> = measured_x.iter().map(|&v| Interval::new(v, v)).collect();
@@ -1005,6 +997,13 @@ impl ModelPoint {
         }
         x
     }
+}
+
+/// One sample `x` through the blocks `side` in turn, each with its memory in `mem`.
+fn step_blocks(side: &[&dyn Nonlinearity], mem: &mut [Vec<f64>], x: f64) -> f64 {
+    side.iter()
+        .zip(mem.iter_mut())
+        .fold(x, |w, (b, m)| b.step(m, w))
 }
 
 /// The largest distance `max_t |y_t - ŷ_t|` over every training sample between the records and

@@ -435,6 +435,22 @@ impl<'s> Search<'s> {
         crate::linear::spectral_radius(&a)
     }
 
+    /// Phase-1 coordinates of the point `(g, th)` of the cell: its moved coordinates in the
+    /// cell's radii, then its free `a`'s in their scales around `theta0`.
+    fn coordinates(&self, sp: &CellSpace, g: &[f64], th: &[f64]) -> Vec<f64> {
+        let mut z: Vec<f64> = sp
+            .moved
+            .iter()
+            .map(|&i| (g[i] - sp.base[i]) / sp.radius[i])
+            .collect();
+        z.extend(
+            self.a_free()
+                .iter()
+                .map(|&i| (th[i] - sp.theta0[i]) / sp.theta_scale(i, &sp.theta0)),
+        );
+        z
+    }
+
     fn a_free(&self) -> Vec<usize> {
         (0..self.layout.orders.na)
             .filter(|&i| self.layout.fixed[i].is_none())
@@ -533,16 +549,7 @@ impl<'s> Search<'s> {
         if self.certify(sp, &g, &th) <= CERTIFIED {
             return self.best_certified_run(sp, opts, g, th);
         }
-        let mut z: Vec<f64> = sp
-            .moved
-            .iter()
-            .map(|&i| (g[i] - sp.base[i]) / sp.radius[i])
-            .collect();
-        z.extend(
-            self.a_free()
-                .iter()
-                .map(|&i| (th[i] - sp.theta0[i]) / sp.theta_scale(i, &sp.theta0)),
-        );
+        let z = self.coordinates(sp, &g, &th);
         let last = Cell::new(f64::INFINITY);
         let (g1, th1) = self.certified_point(sp, opts, &last, z)?;
         self.best_certified_run(sp, opts, g1, th1)
@@ -904,16 +911,7 @@ impl<'s> Search<'s> {
     fn spread_members(&self, sp: &CellSpace, g: &[f64], th: &[f64]) -> Vec<Vec<(String, f64)>> {
         let split = sp.moved.len();
         let a_free = self.a_free();
-        let mut z: Vec<f64> = sp
-            .moved
-            .iter()
-            .map(|&i| (g[i] - sp.base[i]) / sp.radius[i])
-            .collect();
-        z.extend(
-            a_free
-                .iter()
-                .map(|&i| (th[i] - sp.theta0[i]) / sp.theta_scale(i, &sp.theta0)),
-        );
+        let z = self.coordinates(sp, g, th);
         let certified_at = |zz: &[f64]| -> Option<(Vec<f64>, Vec<f64>)> {
             let (m, t) = self.measure_at_a(sp, zz);
             if m > 2.0 * CERTIFIED {
