@@ -16,11 +16,7 @@ use smid::Outcome;
 #[test]
 fn every_output_side_plugin_inside_the_loop_is_bounded_with_the_truth_inside() {
     smid::link_plugins();
-    let cases: Vec<String> = registry::check_cases()
-        .into_iter()
-        .filter(|c| c.structure == Structure::Wiener)
-        .map(|c| c.name)
-        .collect();
+    let cases = output_side_cases();
     assert!(cases.len() >= 3, "output-side cases: {cases:?}");
     use rayon::prelude::*;
     let draws: Vec<(String, u64)> = cases
@@ -30,40 +26,35 @@ fn every_output_side_plugin_inside_the_loop_is_bounded_with_the_truth_inside() {
     let runs: Vec<(String, u64, Option<bool>, bool)> = draws
         .into_par_iter()
         .map(|(case, seed)| {
-            let trial = PluginTrial::random(&case, seed).unwrap();
-            let (mut spec, nl, linear) = trial.spec();
-            any_record(&mut spec, &nl.parameters(), seed);
-            spec.model.feedback = true;
-            spec.model.unit_gain = false;
-            let mut plant = simulator(linear, nl.as_ref(), Structure::Wiener);
-            plant.feedback = true;
-            match pipeline::run_with_plant(&spec, &mut plant) {
-                Ok(Outcome::Consistent(id)) => {
-                    let bounded = id
-                        .model
-                        .parameters
-                        .iter()
-                        .all(|p| p.lower.is_finite() && p.upper.is_finite());
-                    // The block changes what the loop reads on this record (else feedback
-                    // changes nothing).
-                    let u = &id.model.training.records[0].u;
-                    let (x, w) = (plant.inner(u).unwrap(), plant.run(u).unwrap());
-                    let acts = x
-                        .iter()
-                        .zip(&w)
-                        .any(|(x, w)| (x - w).abs() > 1e-9 * (1.0 + x.abs()));
-                    (case, seed, id.all_contain_truth(), bounded && acts)
+            in_the_loop(&case, seed, |spec, plant| {
+                match pipeline::run_with_plant(spec, plant) {
+                    Ok(Outcome::Consistent(id)) => {
+                        let bounded = id
+                            .model
+                            .parameters
+                            .iter()
+                            .all(|p| p.lower.is_finite() && p.upper.is_finite());
+                        // The block changes what the loop reads on this record (else feedback
+                        // changes nothing).
+                        let u = &id.model.training.records[0].u;
+                        let (x, w) = (plant.inner(u).unwrap(), plant.run(u).unwrap());
+                        let acts = x
+                            .iter()
+                            .zip(&w)
+                            .any(|(x, w)| (x - w).abs() > 1e-9 * (1.0 + x.abs()));
+                        (case.clone(), seed, id.all_contain_truth(), bounded && acts)
+                    }
+                    Ok(Outcome::Falsified(f)) => {
+                        panic!("{case} seed {seed}: the true loop's data falsified it: {f}")
+                    }
+                    // A loop that runs away (its inner signal never invertible) has no answer;
+                    // counted below, never a miss.
+                    Err(e) => {
+                        eprintln!("{case} seed {seed}: no answer: {e}");
+                        (case.clone(), seed, None, false)
+                    }
                 }
-                Ok(Outcome::Falsified(f)) => {
-                    panic!("{case} seed {seed}: the true loop's data falsified it: {f}")
-                }
-                // A loop that runs away (its inner signal never invertible) has no answer;
-                // counted below, never a miss.
-                Err(e) => {
-                    eprintln!("{case} seed {seed}: no answer: {e}");
-                    (case, seed, None, false)
-                }
-            }
+            })
         })
         .collect();
     for (case, seed, contained, _) in &runs {
@@ -93,24 +84,17 @@ fn every_output_side_plugin_inside_the_loop_is_bounded_with_the_truth_inside() {
 #[test]
 fn a_loop_members_free_run_distance_is_a_bound_at_which_the_loop_is_consistent() {
     smid::link_plugins();
-    let cases: Vec<String> = registry::check_cases()
-        .into_iter()
-        .filter(|c| c.structure == Structure::Wiener)
-        .map(|c| c.name)
-        .collect();
+    let cases = output_side_cases();
     use rayon::prelude::*;
     let checked: Vec<(String, Option<f64>)> = cases
         .into_par_iter()
         .map(|case| {
             let seed = 7100;
-            let trial = PluginTrial::random(&case, seed).unwrap();
-            let (mut spec, nl, linear) = trial.spec();
-            any_record(&mut spec, &nl.parameters(), seed);
-            spec.model.feedback = true;
-            spec.model.unit_gain = false;
-            let mut plant = simulator(linear, nl.as_ref(), Structure::Wiener);
-            plant.feedback = true;
-            let id = match pipeline::run_with_plant(&spec, &mut plant) {
+            let (spec, run) = in_the_loop(&case, seed, |spec, plant| {
+                // A copy of the spec (its bound is set again below).
+                (pipeline::with_bound(spec, 1.0), pipeline::run_with_plant(spec, plant))
+            });
+            let id = match run {
                 Ok(Outcome::Consistent(id)) => id,
                 Ok(Outcome::Falsified(f)) => panic!("{case}: the true loop's data falsified it: {f}"),
                 Err(e) => {
@@ -239,4 +223,30 @@ fn steady_state_points_inside_the_loop_are_refused() {
         Err(e) => assert!(e.to_string().contains("model.feedback"), "{e}"),
         Ok(_) => panic!("steady-state points inside the loop were read"),
     }
+}
+
+/// The registered plugins' cases with a random trial at the output side.
+fn output_side_cases() -> Vec<String> {
+    registry::check_cases()
+        .into_iter()
+        .filter(|c| c.structure == Structure::Wiener)
+        .map(|c| c.name)
+        .collect()
+}
+
+/// `f` on the random trial `seed` of `case` inside the loop: its spec (one PRBS record,
+/// `model.feedback`, no unit gain) and the built-in plant running the loop.
+fn in_the_loop<T>(
+    case: &str,
+    seed: u64,
+    f: impl FnOnce(&smid::core::spec::Spec, &mut smid::core::plant::SimulatedPlant) -> T,
+) -> T {
+    let trial = PluginTrial::random(case, seed).unwrap();
+    let (mut spec, nl, linear) = trial.spec();
+    any_record(&mut spec, &nl.parameters(), seed);
+    spec.model.feedback = true;
+    spec.model.unit_gain = false;
+    let mut plant = simulator(linear, nl.as_ref(), Structure::Wiener);
+    plant.feedback = true;
+    f(&spec, &mut plant)
 }
