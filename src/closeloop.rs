@@ -285,10 +285,7 @@ pub fn format_validation(v: &Validation, records: &[Record]) -> String {
             );
         }
     }
-    let src = match v.bound_source {
-        smid_core::model::BoundSource::Given => "declared",
-        smid_core::model::BoundSource::Estimated => "estimated from the training data",
-    };
+    let src = v.bound_source.describe();
     match v.smallest_bound {
         Some((_, 0.0)) => {
             let _ = writeln!(

@@ -1288,6 +1288,14 @@ model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 1\n  nb: 
         };
         let relaxed = identified("");
         let id = identified(", from: free_run");
+        // The reports say which estimate the bound is.
+        use smid::core::model::BoundSource;
+        assert_eq!(
+            relaxed.model.bound_source,
+            BoundSource::Estimated,
+            "case {case}"
+        );
+        assert_eq!(id.model.bound_source, BoundSource::FreeRun, "case {case}");
         let delta = id.model.delta;
         assert!(
             delta >= relaxed.model.delta,

@@ -496,8 +496,28 @@ impl CellSet {
 pub enum BoundSource {
     /// Declared in the spec (a prior guarantee).
     Given,
-    /// Estimated from the training data (not a prior guarantee; the report says so).
+    /// Estimated from the training data (not a prior guarantee; the report says so): the
+    /// margin times the smallest bound the stage-3 method accepts (`noise.estimate`).
     Estimated,
+    /// Estimated from the training free run (`noise.from: free_run`): the margin times the
+    /// training free-run distance of the best simulator over the set, a bound on the model's
+    /// simulation error (not a prior guarantee either).
+    FreeRun,
+}
+
+impl BoundSource {
+    /// Whether the bound was estimated from the data (either way), not declared.
+    pub fn estimated(self) -> bool {
+        self != BoundSource::Given
+    }
+    /// What the reports call it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            BoundSource::Given => "declared",
+            BoundSource::Estimated => "estimated from the training data",
+            BoundSource::FreeRun => "estimated from the training free run",
+        }
+    }
 }
 
 /// One parameter's guaranteed interval with its truth when known.

@@ -623,10 +623,11 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
         }
     }
     warnings.extend(model.unsettled_warning());
-    if model.bound_source == BoundSource::Estimated {
-        warnings.push(
-            "the noise bound was estimated from the training data, not given: the verdicts hold for that estimate, not as a prior guarantee".into(),
-        );
+    if model.bound_source.estimated() {
+        warnings.push(format!(
+            "the noise bound was {}, not given: the verdicts hold for that estimate, not as a prior guarantee",
+            model.bound_source.describe()
+        ));
     }
     if consistency.unchecked > 0 {
         warnings.push(format!(

@@ -798,7 +798,9 @@ pub fn identify_with(
         model: model.duplicate(),
         method: method.clone(),
         delta,
-        bound_source: if spec.noise.estimated() {
+        bound_source: if spec.noise.from_free_run() {
+            BoundSource::FreeRun
+        } else if spec.noise.estimated() {
             BoundSource::Estimated
         } else {
             BoundSource::Given
