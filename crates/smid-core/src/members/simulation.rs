@@ -1036,16 +1036,28 @@ pub fn simulation_member_seeded(
     // bounds (the quick stand-in search) where that run clearly beats the cell's certified
     // member:
     // the certified point nearest a good simulator, or the simulator itself when certified.
+    // The quick stand-in search of each searched cell, kept by cell for the stand-in below
+    // (the same deterministic search: not run twice when nothing is certified).
+    let mut quick_known: Vec<(usize, Option<(f64, SimulationMember)>)> = Vec::new();
     let found: Vec<Option<(f64, SimulationMember)>> = if opts.gives_up_early() {
         found
     } else {
         use rayon::prelude::*;
+        let quick: Vec<Option<(f64, SimulationMember)>> = searched
+            .par_iter()
+            .map(|sp| search.best_uncertified(sp, opts, &centre_values, false))
+            .collect();
+        quick_known = searched
+            .iter()
+            .map(|sp| sp.k)
+            .zip(quick.iter().cloned())
+            .collect();
         searched
             .par_iter()
             .zip(found)
-            .map(|(sp, f)| {
-                let Some((e2u, u)) = search.best_uncertified(sp, opts, &centre_values, false)
-                else {
+            .zip(quick)
+            .map(|((sp, f), quick)| {
+                let Some((e2u, u)) = quick else {
                     return f;
                 };
                 // Only a run that beats the certified member clearly (a tenth less squared
@@ -1134,7 +1146,7 @@ pub fn simulation_member_seeded(
         //
         // The cells are independent, so both passes run side by side, each kept in the
         // cells' order (the stand-in does not depend on the thread timing).
-        best = best_free_run_over(&search, &spaces, opts, &centre_values);
+        best = best_free_run_over(&search, &spaces, opts, &centre_values, &quick_known);
     }
     if let Some((_, m)) = best.as_mut().filter(|(_, m)| opts.spread && m.certified) {
         let sp = spaces
@@ -1224,7 +1236,7 @@ pub fn best_free_run(set: &ModelSet, opts: &Options) -> Result<Option<Simulation
     }
     let (search, spaces, centre_values, _) = prepared(set, opts)?;
     Ok(
-        best_free_run_over(&search, &spaces, opts, &centre_values).map(|(_, mut m)| {
+        best_free_run_over(&search, &spaces, opts, &centre_values, &[]).map(|(_, mut m)| {
             m.within = super::training_within(set, &m.values).ok().flatten();
             m
         }),
@@ -1232,19 +1244,24 @@ pub fn best_free_run(set: &ModelSet, opts: &Options) -> Result<Option<Simulation
 }
 
 /// The best free run over the outer bounds of the probed cells `spaces` (not certified):
-/// every cell gets the quick search, a full search refines the best `opts.cells` of them.
+/// every cell gets the quick search (taken from `known`, by cell, where it was run already),
+/// a full search refines the best `opts.cells` of them.
 fn best_free_run_over(
     search: &Search,
     spaces: &[(f64, CellSpace)],
     opts: &Options,
     centre: &[(String, f64)],
+    known: &[(usize, Option<(f64, SimulationMember)>)],
 ) -> Option<(f64, SimulationMember)> {
     let mut best: Option<(f64, SimulationMember)> = None;
     use rayon::prelude::*;
     let mut quick: Vec<(f64, &CellSpace, SimulationMember)> = spaces
         .par_iter()
         .filter_map(|(_, sp)| {
-            let found = search.best_uncertified(sp, opts, centre, false);
+            let found = match known.iter().find(|(k, _)| *k == sp.k) {
+                Some((_, f)) => f.clone(),
+                None => search.best_uncertified(sp, opts, centre, false),
+            };
             log::debug!(target: "smid::members", "cell {}: best uncertified point {:?}", sp.k, found.as_ref().map(|f| f.0));
             found.map(|(e2, m)| (e2, sp, m))
         })
