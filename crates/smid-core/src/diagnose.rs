@@ -1309,13 +1309,22 @@ fn try_candidates(
     let mut evidence: Vec<Evidence> = cands.iter().map(|(_, e)| e.clone()).collect();
     let labels: Vec<String> = evidence.iter().map(|e| e.label.clone()).collect();
     let models: Vec<&ModelSpec> = cands.iter().map(|(m, _)| m).collect();
-    let advance = |batch: &[(usize, Bracket)]| -> Vec<Bracket> {
+    let advance = |batch: &[(usize, Bracket, Option<f64>)]| -> Vec<Bracket> {
         batch
             .par_iter()
-            .map(|(i, b)| {
+            .map(|(i, b, probe)| {
                 let start = std::time::Instant::now();
-                let next = b.clone().advanced(&with_model(spec, models[*i]), training);
-                log::info!(target: "smid::diagnose", "{}: bracket {} in {:.2} s: {}", labels[*i], if matches!(b, Bracket::Started(_)) { "doubled" } else { "narrowed" }, start.elapsed().as_secs_f64(), describe(&Ok(next.clone())));
+                let cand = with_model(spec, models[*i]);
+                let (next, step) = match (b, probe) {
+                    (Bracket::Started(s), Some(at)) => {
+                        (s.probe(&cand, training, *at), format!("probed at {at:.4e}"))
+                    }
+                    (Bracket::Started(_), None) => {
+                        (b.clone().advanced(&cand, training), "doubled".to_string())
+                    }
+                    _ => (b.clone().advanced(&cand, training), "narrowed".to_string()),
+                };
+                log::info!(target: "smid::diagnose", "{}: bracket {step} in {:.2} s: {}", labels[*i], start.elapsed().as_secs_f64(), describe(&Ok(next.clone())));
                 next
             })
             .collect()
@@ -1348,7 +1357,12 @@ fn try_candidates(
 fn describe(b: &Result<Bracket>) -> String {
     match b {
         Ok(Bracket::At(d)) => format!("bound {d:.4e}"),
-        Ok(Bracket::Started(s)) => format!("bound at least {:.4e} (classical)", s.first),
+        Ok(Bracket::Started(s)) => match s.probed {
+            Some((_, true)) if s.floor() > s.first => {
+                format!("bound at least {:.4e} (falsified below it)", s.floor())
+            }
+            _ => format!("bound at least {:.4e} (classical)", s.first),
+        },
         Ok(Bracket::Coarse(c)) => format!("bound in ({:.4e}, {:.4e}]", c.floor(), c.ceiling()),
         Ok(Bracket::Above(_)) => "above its bar".into(),
         Ok(Bracket::Falsified(_)) => "falsified".into(),
@@ -1369,7 +1383,10 @@ fn describe(b: &Result<Bracket>) -> String {
 /// place in that order open: when its floor ([`Bracket::floor`]) is at or below the bound of
 /// the next candidate to identify or the lowest ceiling, or, with neither known, when it is
 /// the lowest floor; the doublings so reached go first, the narrowings (the costly verdicts
-/// near each threshold) only when no doubling is reached. One whose floor is already more than a rule step above the pick's bound
+/// near each threshold) only when no doubling is reached. A started bracket facing a known
+/// reach is probed before it is doubled (`advance` gets the bound to ask, `Some(at)`:
+/// [`crate::pipeline::Started::probe`]): one verdict that either lifts its floor past the
+/// reach or leaves the doubling to follow. One whose floor is already more than a rule step above the pick's bound
 /// is left [`TrainVerdict::Bracketed`] with `at_least` (taking it on could only move it further
 /// up). So the candidates identified, their order and the pick are the ones finishing every
 /// bracket first gives: on the tanks the input saturation's narrowing, where each falsified
@@ -1378,7 +1395,7 @@ fn identify_needed(
     evidence: &mut [Evidence],
     order: Vec<(usize, Bracket)>,
     base: &TrainVerdict,
-    advance: &dyn Fn(&[(usize, Bracket)]) -> Vec<Bracket>,
+    advance: &dyn Fn(&[(usize, Bracket, Option<f64>)]) -> Vec<Bracket>,
     identify: &mut dyn FnMut(usize, &Evidence, Bracket) -> TrainVerdict,
 ) {
     let mut left = order;
@@ -1426,23 +1443,37 @@ fn identify_needed(
             .filter_map(|(_, b)| b.ceiling())
             .chain(next.map(|(_, d)| d))
             .fold(f64::INFINITY, f64::min);
-        if reach == f64::INFINITY {
+        let known_reach = reach < f64::INFINITY;
+        if !known_reach {
             reach = open().map(|(_, b)| floor(b)).fold(f64::INFINITY, f64::min);
         }
         // The doublings first (their verdicts far below the threshold are cheap, and each
         // turns an open end into a ceiling), the narrowings (the costly verdicts near it) only
         // when no doubling reaches. (A floor that is not a number is taken on while there is
         // no pick; past one it is left bracketed, as a bound that is not a number was.)
+        // A started bracket facing a known reach is first asked at the one bound that decides
+        // whether it can keep a bound at or below the reach (`Started::probe`: falsified
+        // there, its floor rises past the reach); it is doubled when asked again.
         let reaching = |b: &Bracket| !(floor(b) > reach);
-        let mut batch: Vec<(usize, Bracket)> = open()
+        let probe_at = |b: &Bracket| match b {
+            Bracket::Started(s) if known_reach && s.probed.is_none() => {
+                let at = reach / s.margin * (1.0 + 1e-9);
+                (at >= s.first && at.is_finite()).then_some(at)
+            }
+            _ => None,
+        };
+        let mut batch: Vec<(usize, Bracket, Option<f64>)> = open()
             .filter(|(_, b)| matches!(b, Bracket::Started(_)) && reaching(b))
-            .cloned()
+            .map(|(i, b)| (*i, b.clone(), probe_at(b)))
             .collect();
         if batch.is_empty() {
-            batch = open().filter(|(_, b)| reaching(b)).cloned().collect();
+            batch = open()
+                .filter(|(_, b)| reaching(b))
+                .map(|(i, b)| (*i, b.clone(), None))
+                .collect();
         }
         if !batch.is_empty() {
-            for ((i, _), b) in batch.iter().zip(advance(&batch)) {
+            for ((i, _, _), b) in batch.iter().zip(advance(&batch)) {
                 if let Some(slot) = left.iter_mut().find(|(j, _)| j == i) {
                     slot.1 = b;
                 }
@@ -2686,8 +2717,9 @@ mod tests {
             .collect();
         let fits = [90.0, 70.0, 0.0, 85.0, 84.0, 90.0];
         let mut asked = Vec::new();
-        let nothing_to_advance =
-            |_: &[(usize, Bracket)]| -> Vec<Bracket> { panic!("every bound is narrowed") };
+        let nothing_to_advance = |_: &[(usize, Bracket, Option<f64>)]| -> Vec<Bracket> {
+            panic!("every bound is narrowed")
+        };
         identify_needed(
             &mut ev,
             order,
@@ -2749,17 +2781,20 @@ mod tests {
         let mut ev = vec![evidence("two", 2, None), evidence("one", 1, None)];
         let order = vec![
             (0, Bracket::At(0.5)),
-            (
-                1,
-                Bracket::Started(Started {
-                    first: 0.5,
-                    margin: 1.1,
-                    bar: None,
-                }),
-            ),
+            (1, Bracket::Started(Started::new(0.5, 1.1, None))),
         ];
-        let advance = |batch: &[(usize, Bracket)]| -> Vec<Bracket> {
-            batch.iter().map(|_| Bracket::At(0.5)).collect()
+        let advance = |batch: &[(usize, Bracket, Option<f64>)]| -> Vec<Bracket> {
+            batch
+                .iter()
+                .map(|(_, b, probe)| match (b, probe) {
+                    // Consistent at the probe (the bound is 0.5 / 1.1 · 1.1).
+                    (Bracket::Started(s), Some(at)) => Bracket::Started(Started {
+                        probed: Some((*at, false)),
+                        ..*s
+                    }),
+                    _ => Bracket::At(0.5),
+                })
+                .collect()
         };
         let mut asked = Vec::new();
         identify_needed(&mut ev, order, &base, &advance, &mut |i, _, b| {
@@ -2786,6 +2821,7 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(28_065);
         let margin = 1.1;
         let (mut left_started, mut left_coarse) = (0, 0);
+        let (probes, falsified_probes) = (std::cell::Cell::new(0), std::cell::Cell::new(0));
         for case in 0..600 {
             let n = rng.gen_range(1..12);
             let base = TrainVerdict::Consistent {
@@ -2814,13 +2850,7 @@ mod tests {
                     consistent_from: f64::INFINITY,
                 };
                 let first = lo / 2f64.powi(rng.gen_range(0..4));
-                let started = |first| {
-                    Bracket::Started(Started {
-                        first,
-                        margin,
-                        bar: None,
-                    })
-                };
+                let started = |first| Bracket::Started(Started::new(first, margin, None));
                 let (fin, st, dbl) = match rng.gen_range(0..7) {
                     0 => (
                         Bracket::Falsified(Falsification::new(Stage::Linear, 0, "none")),
@@ -2860,13 +2890,33 @@ mod tests {
             };
             // The round as the code runs it.
             let mut lazy = fresh();
-            let advance = |batch: &[(usize, Bracket)]| -> Vec<Bracket> {
+            // A probe at `at` answers as the method would, with its threshold at the upper end
+            // the narrowing keeps (`d / margin`; `d` itself when the doubling accepts its
+            // first bound): falsified below it, consistent at or above it, falsified
+            // everywhere when the bracket finds no bound or ends above the bar.
+            let probed = |k: usize, s: &Started, at: f64| -> Bracket {
+                let falsified = match (&finished[k], &doubled[k]) {
+                    (Bracket::At(d), Bracket::Coarse(_)) => at < d / margin,
+                    (Bracket::At(d), _) => at < *d,
+                    _ => true,
+                };
+                probes.set(probes.get() + 1);
+                if falsified {
+                    falsified_probes.set(falsified_probes.get() + 1);
+                }
+                Bracket::Started(Started {
+                    probed: Some((at, falsified)),
+                    ..*s
+                })
+            };
+            let advance = |batch: &[(usize, Bracket, Option<f64>)]| -> Vec<Bracket> {
                 batch
                     .iter()
-                    .map(|(k, b)| match b {
-                        Bracket::Started(_) => doubled[*k].clone(),
-                        Bracket::Coarse(_) => finished[*k].clone(),
-                        b => panic!("case {case}: c{k} advanced from {b:?}"),
+                    .map(|(k, b, probe)| match (b, probe) {
+                        (Bracket::Started(s), Some(at)) => probed(*k, s, *at),
+                        (Bracket::Started(_), None) => doubled[*k].clone(),
+                        (Bracket::Coarse(_), None) => finished[*k].clone(),
+                        (b, p) => panic!("case {case}: c{k} advanced from {b:?}, probe {p:?}"),
                     })
                     .collect()
             };
@@ -2956,6 +3006,13 @@ mod tests {
         assert!(
             left_started > 0 && left_coarse > 0,
             "{left_started} started, {left_coarse} coarse left"
+        );
+        // Probes were asked, and some settled a bracket's place on their own.
+        assert!(
+            falsified_probes.get() > 0 && falsified_probes.get() < probes.get(),
+            "{} of {} probes falsified",
+            falsified_probes.get(),
+            probes.get()
         );
     }
 

@@ -197,9 +197,82 @@ pub struct Started {
     /// (falsified there: [`Bracket::Above`]; consistent: a step at or above it is answered
     /// without asking where the cells are the same, [`Coarse::consistent_from`]).
     pub bar: Option<f64>,
+    /// A bound already asked by [`Started::probe`], and whether the method falsified the
+    /// data there (`None`: not probed; a bracket is probed once).
+    pub probed: Option<(f64, bool)>,
 }
 
 impl Started {
+    /// Started at `first` with the `margin` and `bar`, not probed.
+    pub fn new(first: f64, margin: f64, bar: Option<f64>) -> Started {
+        Started {
+            first,
+            margin,
+            bar,
+            probed: None,
+        }
+    }
+
+    /// No bound the bracket can keep is below this one: `first`, or, when a probe proved the
+    /// data inconsistent at a bound `p >= first`, `margin · p` (the doubling then starts from
+    /// a bound the method rejects, so it keeps the margin times a bound above `p`).
+    pub fn floor(&self) -> f64 {
+        match self.probed {
+            Some((p, true)) if p >= self.first => self.margin * p,
+            _ => self.first,
+        }
+    }
+
+    /// Ask the method at the one bound `at` that decides whether the bracket can keep a bound
+    /// at or below `margin · at` (a diagnosis's reach), instead of doubling from `first`: the
+    /// answer only raises [`Started::floor`] (falsified at `at >= first`) or is recorded, and
+    /// [`Started::double`] later asks what it would have asked, so a bracket finished after a
+    /// probe keeps the bound it keeps without one. At or above the bar the bar itself is asked
+    /// (falsified there: [`Bracket::Above`], as the doubling would find). Not asked, and
+    /// recorded as not falsified, where `at` lies below `first` or the search's cells differ
+    /// between `first` and `at` (a bisected parameter whose resolution follows the bound:
+    /// there a relaxation that rejects `at` need not reject every smaller bound).
+    pub fn probe(&self, spec: &Spec, data: &ExperimentData, at: f64) -> Bracket {
+        let unasked = Bracket::Started(Started {
+            probed: Some((at, false)),
+            ..*self
+        });
+        if self.probed.is_some() || at < self.first || !at.is_finite() {
+            return unasked;
+        }
+        let asked = method_verdict(spec, data);
+        if let Some(b) = self.bar.filter(|b| at >= *b) {
+            return match asked(b) {
+                Ok(Outcome::Falsified(f)) => Bracket::Above(AboveBar {
+                    bar: b,
+                    test: format!("the stage-3 method `{}`", spec.method.eiv.name()),
+                    detail: f.to_string(),
+                }),
+                _ => unasked,
+            };
+        }
+        let cells = |d: f64| {
+            spec.model.layout().ok().map(|l| {
+                resolution(
+                    &spec.model,
+                    &l,
+                    spec.method.cells.nonlinearity_halvings,
+                    d,
+                    &data_scale(data),
+                )
+            })
+        };
+        let same = cells(self.first);
+        if same.is_none() || cells(at) != same {
+            return unasked;
+        }
+        let falsified = matches!(asked(at), Ok(Outcome::Falsified(_)));
+        Bracket::Started(Started {
+            probed: Some((at, falsified)),
+            ..*self
+        })
+    }
+
     /// Double from `first` until the method finds the data consistent: [`Bracket::At`] when it
     /// does at `first`, else [`Bracket::Coarse`] (inconsistent at the last bound doubled,
     /// consistent at twice it); [`Bracket::Falsified`] when no bound up to 2^40 `first` is.
@@ -334,7 +407,7 @@ impl Bracket {
     pub fn floor(&self) -> Option<f64> {
         match self {
             Bracket::At(d) => Some(*d),
-            Bracket::Started(s) => Some(s.first),
+            Bracket::Started(s) => Some(s.floor()),
             Bracket::Coarse(c) => Some(c.floor()),
             Bracket::Above(_) | Bracket::Falsified(_) => None,
         }
@@ -506,7 +579,7 @@ pub fn bracket_start(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Re
     // puts it out of the rule's reach, is not asked it (tens of seconds for a bisected
     // input-side block on the tanks).
     Ok(match estimate_bound(spec, data)? {
-        Outcome::Consistent(first) => Bracket::Started(Started { first, margin, bar }),
+        Outcome::Consistent(first) => Bracket::Started(Started::new(first, margin, bar)),
         Outcome::Falsified(f) => Bracket::Falsified(f),
     })
 }
