@@ -3,7 +3,11 @@
 //! designed steady-state points; every generated candidate identified on the training
 //! records), and one any-record containment trial per registered plugin (seed 1: branch and
 //! bound over the nonlinearity's prior box, N = 400, classical stage 3).
-//! `cargo bench --bench loop_times`.
+//! `cargo bench --bench loop_times`. The choice on the cascaded tanks (`examples/tanks-linear.yaml`,
+//! 683 measured training rows, estimated bound, the default method) takes minutes per
+//! iteration, so its group runs only with `SMID_BENCH_TANKS=1` and `../shared/data` beside the
+//! project (`SMID_BENCH_TANKS=1 cargo bench --bench loop_times -- tanks`, about half an hour
+//! for criterion's ten samples); otherwise it says why it is skipped.
 use criterion::{criterion_group, criterion_main, Criterion};
 use smid::closeloop;
 use smid::core::diagnose::{self, Options};
@@ -26,6 +30,8 @@ fn bench(c: &mut Criterion) {
     }
     group.finish();
 
+    tanks(c);
+
     let mut group = c.benchmark_group("any-record trial (seed 1)");
     group.sample_size(10);
     for plugin in plugins() {
@@ -34,6 +40,34 @@ fn bench(c: &mut Criterion) {
             b.iter(|| smid::plugin_check::trial(plugin, 1, None, true).expect("the trial runs"))
         });
     }
+    group.finish();
+}
+
+/// The diagnosis's choice on the cascaded tanks' training rows (opt-in: see the module doc).
+fn tanks(c: &mut Criterion) {
+    let spec = Path::new("examples/tanks-linear.yaml");
+    let data = Path::new("../shared/data/cascaded-tanks/tanks_estimation.csv");
+    if std::env::var("SMID_BENCH_TANKS").as_deref() != Ok("1") {
+        eprintln!("diagnosis choice, cascaded tanks: skipped (minutes per iteration; set SMID_BENCH_TANKS=1 to run it)");
+        return;
+    }
+    if !data.exists() {
+        eprintln!(
+            "diagnosis choice, cascaded tanks: skipped ({} is absent)",
+            data.display()
+        );
+        return;
+    }
+    let mut src = closeloop::load_source(spec).expect("the tanks spec loads");
+    let training = closeloop::training_data(&mut src).expect("training data");
+    let mut group = c.benchmark_group("diagnosis choice, cascaded tanks");
+    group.sample_size(10);
+    group.bench_function("tanks-linear", |b| {
+        b.iter(|| {
+            diagnose::choose(&src.spec, &training, &Options::default(), &|_, _| {})
+                .expect("the diagnosis chooses")
+        })
+    });
     group.finish();
 }
 

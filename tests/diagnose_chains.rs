@@ -884,6 +884,118 @@ fn the_diagnosis_does_not_identify_the_candidates_its_base_reproduces() {
     assert!(choice.added.is_empty(), "{}", choice.summary());
 }
 
+/// A probe (`Started::probe`, the diagnosis's one verdict at the bound that decides a bracket's
+/// place) only raises the bracket's floor, and the floor it raises holds: on records of random
+/// linear plants behind a random output saturation or input dead zone, every generated
+/// candidate's bracket is started (with a bar, every other case), finished as the doubling and
+/// narrowing find it, and probed at several bounds from its first up past its bar. A probe
+/// that answers `Above` belongs to a bracket that finishes above the same bar; a floor a probe
+/// raised lies at or below the bound the finished bracket keeps. Some probes must be
+/// falsified and raise a floor, some consistent, or the test does not exercise the probe.
+#[test]
+fn a_probe_raises_only_a_floor_the_finished_bracket_keeps() {
+    use rand::{Rng, SeedableRng};
+    use smid::core::pipeline::{Bracket, Started};
+    let mut rng = rand::rngs::StdRng::seed_from_u64(71_001);
+    let (mut raised, mut consistent, mut above) = (0, 0, 0);
+    for case in 0..3 {
+        let n = rng.gen_range(150..220);
+        let (a, b) = (rng.gen_range(0.3..0.8), rng.gen_range(0.5..1.5));
+        let noise = rng.gen_range(0.005..0.02);
+        let saturate = rng.gen_bool(0.5);
+        let hold = rng.gen_range(12..25);
+        let u: Vec<f64> = (0..n)
+            .scan(0.0, |level, t| {
+                if t % hold == 0 {
+                    *level = rng.gen_range(-2.0..2.0);
+                }
+                Some(*level)
+            })
+            .collect();
+        let zone = rng.gen_range(0.3..0.6);
+        let mut x = vec![0.0f64; n];
+        for t in 1..n {
+            let v = if saturate {
+                u[t - 1]
+            } else {
+                u[t - 1].signum() * (u[t - 1].abs() - zone).max(0.0)
+            };
+            x[t] = a * x[t - 1] + b * v;
+        }
+        let span = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let limit = rng.gen_range(0.5..0.8) * span;
+        let y: Vec<f64> = x
+            .iter()
+            .map(|v| if saturate { v.clamp(-limit, limit) } else { *v })
+            .map(|v| v + rng.gen_range(-noise..noise))
+            .collect();
+        let rest = "noise: { estimate: 1.1 }\nmodel:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 1\n  nb: 0\n  nk: 1\n  unit_gain: false\n  stable: true\n";
+        let (spec, data) = common::measured("probe", &u, &y, rest);
+        let opts = Options {
+            max_effects: 1,
+            only: vec![
+                "saturation".into(),
+                "dead_zone".into(),
+                "actuator_lag".into(),
+                "extra_zero".into(),
+            ],
+            ..Options::default()
+        };
+        let dspec = diagnose::candidate_spec(&spec);
+        for (m, ev) in diagnose::candidates(&spec.model, &pipeline::data_scale(&data), &opts, None)
+        {
+            let s = diagnose::with_model(&dspec, &m);
+            // A bar every other case: a random multiple of the classical estimate.
+            let Ok(Bracket::Started(plain)) = pipeline::bracket_start(&s, &data, None) else {
+                continue;
+            };
+            let bar = (case % 2 == 0).then(|| plain.first * rng.gen_range(1.5..6.0));
+            let Ok(Bracket::Started(st)) = pipeline::bracket_start(&s, &data, bar) else {
+                continue;
+            };
+            let finished = Bracket::Started(st).narrowed(&s, &data);
+            for k in [1.0, 1.3, 2.2, 4.0, 9.0] {
+                let at = st.first * k;
+                match st.probe(&s, &data, at) {
+                    Bracket::Above(b) => {
+                        above += 1;
+                        assert!(
+                            matches!(&finished, Bracket::Above(f) if f.bar == b.bar),
+                            "case {case}: {}: the probe at {at:e} answers above the bar {:e}, the finished bracket {finished:?}",
+                            ev.label, b.bar
+                        );
+                    }
+                    Bracket::Started(p) => {
+                        match p.probed {
+                            Some((_, Some(true))) => {
+                                if p.floor() > st.floor() {
+                                    raised += 1;
+                                }
+                            }
+                            Some((_, Some(false))) => consistent += 1,
+                            _ => {}
+                        }
+                        if let Some(d) = finished.bound() {
+                            assert!(
+                                p.floor() <= d,
+                                "case {case}: {}: the probe at {at:e} raised the floor to {:e}, above the bound {d:e} the finished bracket keeps",
+                                ev.label,
+                                p.floor()
+                            );
+                        }
+                    }
+                    other => panic!("case {case}: {}: a probe gave {other:?}", ev.label),
+                }
+            }
+        }
+    }
+    eprintln!("{raised} floors raised, {consistent} probes consistent, {above} above the bar");
+    assert!(
+        raised > 0 && consistent > 0,
+        "{raised} raised, {consistent} consistent"
+    );
+}
+
 /// With an estimated bound a round brackets every candidate's bound and identifies whole only
 /// the candidates the rule needs. On records of random linear plants with a random output
 /// saturation or input dead zone, and random sizes: every candidate is also identified whole

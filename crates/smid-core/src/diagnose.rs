@@ -1317,7 +1317,17 @@ fn try_candidates(
                 let cand = with_model(spec, models[*i]);
                 let (next, step) = match (b, probe) {
                     (Bracket::Started(s), Some(at)) => {
-                        (s.probe(&cand, training, *at), format!("probed at {at:.4e}"))
+                        let next = s.probe(&cand, training, *at);
+                        let asked = match &next {
+                            Bracket::Started(n) => n.probed.is_some_and(|(_, a)| a.is_some()),
+                            _ => true,
+                        };
+                        let step = if asked {
+                            format!("probed at {at:.4e}")
+                        } else {
+                            format!("not probed at {at:.4e} (cells differ, or no answer)")
+                        };
+                        (next, step)
                     }
                     (Bracket::Started(_), None) => {
                         (b.clone().advanced(&cand, training), "doubled".to_string())
@@ -1358,7 +1368,7 @@ fn describe(b: &Result<Bracket>) -> String {
     match b {
         Ok(Bracket::At(d)) => format!("bound {d:.4e}"),
         Ok(Bracket::Started(s)) => match s.probed {
-            Some((_, true)) if s.floor() > s.first => {
+            Some((_, Some(true))) if s.floor() > s.first => {
                 format!("bound at least {:.4e} (falsified below it)", s.floor())
             }
             _ => format!("bound at least {:.4e} (classical)", s.first),
@@ -2789,7 +2799,7 @@ mod tests {
                 .map(|(_, b, probe)| match (b, probe) {
                     // Consistent at the probe (the bound is 0.5 / 1.1 · 1.1).
                     (Bracket::Started(s), Some(at)) => Bracket::Started(Started {
-                        probed: Some((*at, false)),
+                        probed: Some((*at, Some(false))),
                         ..*s
                     }),
                     _ => Bracket::At(0.5),
@@ -2905,7 +2915,7 @@ mod tests {
                     falsified_probes.set(falsified_probes.get() + 1);
                 }
                 Bracket::Started(Started {
-                    probed: Some((at, falsified)),
+                    probed: Some((at, Some(falsified))),
                     ..*s
                 })
             };

@@ -197,9 +197,10 @@ pub struct Started {
     /// (falsified there: [`Bracket::Above`]; consistent: a step at or above it is answered
     /// without asking where the cells are the same, [`Coarse::consistent_from`]).
     pub bar: Option<f64>,
-    /// A bound already asked by [`Started::probe`], and whether the method falsified the
-    /// data there (`None`: not probed; a bracket is probed once).
-    pub probed: Option<(f64, bool)>,
+    /// The bound [`Started::probe`] was given, and the method's answer there: `Some(true)`
+    /// falsified, `Some(false)` consistent, `None` not asked (or no answer). `None`: not
+    /// probed; a bracket is probed once.
+    pub probed: Option<(f64, Option<bool>)>,
 }
 
 impl Started {
@@ -218,7 +219,7 @@ impl Started {
     /// a bound the method rejects, so it keeps the margin times a bound above `p`).
     pub fn floor(&self) -> f64 {
         match self.probed {
-            Some((p, true)) if p >= self.first => self.margin * p,
+            Some((p, Some(true))) if p >= self.first => self.margin * p,
             _ => self.first,
         }
     }
@@ -231,10 +232,14 @@ impl Started {
     /// (falsified there: [`Bracket::Above`], as the doubling would find). Not asked, and
     /// recorded as not falsified, where `at` lies below `first` or the search's cells differ
     /// between `first` and `at` (a bisected parameter whose resolution follows the bound:
-    /// there a relaxation that rejects `at` need not reject every smaller bound).
+    /// there a relaxation that rejects `at` need not reject every smaller bound). The floor
+    /// rests on the verdicts being monotone in the bound, the premise of the bar and of
+    /// `known_or_asked` too; a verdict between `first` and `at` that fails (solver trouble,
+    /// which the doubling and the narrowing read as consistent) could let the finished bracket
+    /// keep less than the floor.
     pub fn probe(&self, spec: &Spec, data: &ExperimentData, at: f64) -> Bracket {
         let unasked = Bracket::Started(Started {
-            probed: Some((at, false)),
+            probed: Some((at, None)),
             ..*self
         });
         if self.probed.is_some() || at < self.first || !at.is_finite() {
@@ -266,9 +271,14 @@ impl Started {
         if same.is_none() || cells(at) != same {
             return unasked;
         }
-        let falsified = matches!(asked(at), Ok(Outcome::Falsified(_)));
+        let answer = match asked(at) {
+            Ok(Outcome::Falsified(_)) => Some(true),
+            Ok(Outcome::Consistent(())) => Some(false),
+            // Solver trouble proves nothing: as if not asked.
+            Err(_) => None,
+        };
         Bracket::Started(Started {
-            probed: Some((at, falsified)),
+            probed: Some((at, answer)),
             ..*self
         })
     }
@@ -690,6 +700,13 @@ pub fn identify_at_estimate(
                     break;
                 }
             }
+        }
+    }
+    if let Ok(Outcome::Consistent(id)) = best.as_mut() {
+        if id.model.bound_source == BoundSource::FreeRun && !(id.model.delta > d) {
+            // Not raised (no simulator, or one within the relaxation's bound): the bound is the
+            // relaxation's estimate, and the reports say so.
+            id.model.bound_source = BoundSource::Estimated;
         }
     }
     best.map_err(|e| match e {
