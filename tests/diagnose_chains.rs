@@ -895,7 +895,7 @@ fn the_diagnosis_does_not_identify_the_candidates_its_base_reproduces() {
 #[test]
 fn a_probe_raises_only_a_floor_the_finished_bracket_keeps() {
     use rand::{Rng, SeedableRng};
-    use smid::core::pipeline::{Bracket, Started};
+    use smid::core::pipeline::Bracket;
     let mut rng = rand::rngs::StdRng::seed_from_u64(71_001);
     let (mut raised, mut consistent, mut above) = (0, 0, 0);
     for case in 0..3 {
@@ -967,11 +967,7 @@ fn a_probe_raises_only_a_floor_the_finished_bracket_keeps() {
                     }
                     Bracket::Started(p) => {
                         match p.probed {
-                            Some((_, Some(true))) => {
-                                if p.floor() > st.floor() {
-                                    raised += 1;
-                                }
-                            }
+                            Some((_, Some(true))) if p.floor() > st.floor() => raised += 1,
                             Some((_, Some(false))) => consistent += 1,
                             _ => {}
                         }
