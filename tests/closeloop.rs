@@ -1296,17 +1296,7 @@ model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 1\n  nb: 
             "case {case}"
         );
         let delta = id.model.delta;
-        // The free run's label only where it raised the bound; else it is the relaxation's.
-        assert_eq!(
-            id.model.bound_source,
-            if delta > relaxed.model.delta {
-                BoundSource::FreeRun
-            } else {
-                BoundSource::Estimated
-            },
-            "case {case}: {delta:e} against the relaxation's {:e}",
-            relaxed.model.delta
-        );
+        assert_labelled(&id.model, &relaxed.model, &format!("case {case}"));
         assert!(
             delta >= relaxed.model.delta,
             "case {case}: {delta:e} below the relaxation's {:e}",
@@ -1376,6 +1366,28 @@ model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 1\n  nb: 
     assert!(
         tightened >= 2,
         "the bound came down to the member's distance in {tightened} of 6"
+    );
+}
+
+/// A set identified with `noise.from: free_run` carries the free run's label exactly where its
+/// bound lies above `relaxed`'s (the relaxation's estimate on the same data), the
+/// relaxation's label where it does not.
+fn assert_labelled(
+    set: &smid::core::model::ModelSet,
+    relaxed: &smid::core::model::ModelSet,
+    what: &str,
+) {
+    use smid::core::model::BoundSource;
+    assert_eq!(
+        set.bound_source,
+        if set.delta > relaxed.delta {
+            BoundSource::FreeRun
+        } else {
+            BoundSource::Estimated
+        },
+        "{what}: {:e} against the relaxation's {:e}",
+        set.delta,
+        relaxed.delta
     );
 }
 
@@ -1478,18 +1490,7 @@ fn a_bound_from_the_free_run_for_every_registered_plugin() {
                 case.name,
                 relaxed.model.delta
             );
-            // The free run's label where it raised the bound, the relaxation's where not.
-            use smid::core::model::BoundSource;
-            assert_eq!(
-                id.model.bound_source,
-                if delta > relaxed.model.delta {
-                    BoundSource::FreeRun
-                } else {
-                    BoundSource::Estimated
-                },
-                "{}",
-                case.name
-            );
+            assert_labelled(&id.model, &relaxed.model, &case.name);
             if delta == relaxed.model.delta {
                 let certified = id.model.simulation_member.as_ref().is_some_and(|m| m.certified);
                 return (case.name.clone(), true, certified, false);

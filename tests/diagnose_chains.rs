@@ -884,6 +884,61 @@ fn the_diagnosis_does_not_identify_the_candidates_its_base_reproduces() {
     assert!(choice.added.is_empty(), "{}", choice.summary());
 }
 
+/// A round's records as the two bracket tests draw them: a random first-order linear plant
+/// behind a random output saturation or input dead zone (one of the two, at random), a held
+/// multi-level input, bounded noise; the declared model linear with an estimated bound, and
+/// the candidates limited to the blocks and terms that can explain the clipping.
+fn clipped_round(
+    rng: &mut rand::rngs::StdRng,
+    name: &str,
+) -> (smid_core::spec::Spec, pipeline::ExperimentData, Options) {
+    use rand::Rng;
+    let n = rng.gen_range(150..220);
+    let a = rng.gen_range(0.3..0.8);
+    let b = rng.gen_range(0.5..1.5);
+    let noise = rng.gen_range(0.005..0.02);
+    let saturate = rng.gen_bool(0.5);
+    let hold = rng.gen_range(12..25);
+    let mut u = vec![0.0f64; n];
+    let mut level = 0.0;
+    for (t, v) in u.iter_mut().enumerate() {
+        if t % hold == 0 {
+            level = rng.gen_range(-2.0..2.0);
+        }
+        *v = level;
+    }
+    let zone = rng.gen_range(0.3..0.6);
+    let mut x = vec![0.0f64; n];
+    for t in 1..n {
+        let v = if saturate {
+            u[t - 1]
+        } else {
+            u[t - 1].signum() * (u[t - 1].abs() - zone).max(0.0)
+        };
+        x[t] = a * x[t - 1] + b * v;
+    }
+    let span = x.iter().cloned().fold(0.0f64, |m, v| m.max(v.abs()));
+    let limit = rng.gen_range(0.5..0.8) * span;
+    let y: Vec<f64> = x
+        .iter()
+        .map(|v| if saturate { v.clamp(-limit, limit) } else { *v })
+        .map(|v| v + rng.gen_range(-noise..noise))
+        .collect();
+    let rest = "noise: { estimate: 1.1 }\nmodel:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 1\n  nb: 0\n  nk: 1\n  unit_gain: false\n  stable: true\n";
+    let (spec, data) = common::measured(name, &u, &y, rest);
+    let opts = Options {
+        max_effects: 1,
+        only: vec![
+            "saturation".into(),
+            "dead_zone".into(),
+            "actuator_lag".into(),
+            "extra_zero".into(),
+        ],
+        ..Options::default()
+    };
+    (spec, data, opts)
+}
+
 /// A probe (`Started::probe`, the diagnosis's one verdict at the bound that decides a bracket's
 /// place) only raises the bracket's floor, and the floor it raises holds: on records of random
 /// linear plants behind a random output saturation or input dead zone, every generated
@@ -899,48 +954,7 @@ fn a_probe_raises_only_a_floor_the_finished_bracket_keeps() {
     let mut rng = rand::rngs::StdRng::seed_from_u64(71_001);
     let (mut raised, mut consistent, mut above) = (0, 0, 0);
     for case in 0..3 {
-        let n = rng.gen_range(150..220);
-        let (a, b) = (rng.gen_range(0.3..0.8), rng.gen_range(0.5..1.5));
-        let noise = rng.gen_range(0.005..0.02);
-        let saturate = rng.gen_bool(0.5);
-        let hold = rng.gen_range(12..25);
-        let u: Vec<f64> = (0..n)
-            .scan(0.0, |level, t| {
-                if t % hold == 0 {
-                    *level = rng.gen_range(-2.0..2.0);
-                }
-                Some(*level)
-            })
-            .collect();
-        let zone = rng.gen_range(0.3..0.6);
-        let mut x = vec![0.0f64; n];
-        for t in 1..n {
-            let v = if saturate {
-                u[t - 1]
-            } else {
-                u[t - 1].signum() * (u[t - 1].abs() - zone).max(0.0)
-            };
-            x[t] = a * x[t - 1] + b * v;
-        }
-        let span = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let limit = rng.gen_range(0.5..0.8) * span;
-        let y: Vec<f64> = x
-            .iter()
-            .map(|v| if saturate { v.clamp(-limit, limit) } else { *v })
-            .map(|v| v + rng.gen_range(-noise..noise))
-            .collect();
-        let rest = "noise: { estimate: 1.1 }\nmodel:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 1\n  nb: 0\n  nk: 1\n  unit_gain: false\n  stable: true\n";
-        let (spec, data) = common::measured("probe", &u, &y, rest);
-        let opts = Options {
-            max_effects: 1,
-            only: vec![
-                "saturation".into(),
-                "dead_zone".into(),
-                "actuator_lag".into(),
-                "extra_zero".into(),
-            ],
-            ..Options::default()
-        };
+        let (spec, data, opts) = clipped_round(&mut rng, "probe");
         let dspec = diagnose::candidate_spec(&spec);
         for (m, ev) in diagnose::candidates(&spec.model, &pipeline::data_scale(&data), &opts, None)
         {
@@ -1003,53 +1017,11 @@ fn a_probe_raises_only_a_floor_the_finished_bracket_keeps() {
 /// bound at all), more than one rule step above the pick's.
 #[test]
 fn a_round_that_identifies_only_the_needed_candidates_picks_what_identifying_all_picks() {
-    use rand::{Rng, SeedableRng};
+    use rand::SeedableRng;
     let mut rng = rand::rngs::StdRng::seed_from_u64(28_061);
     let (mut bracketed, mut passed_over, mut coarse) = (0, 0, 0);
     for case in 0..3 {
-        let n = rng.gen_range(150..220);
-        let a = rng.gen_range(0.3..0.8);
-        let b = rng.gen_range(0.5..1.5);
-        let noise = rng.gen_range(0.005..0.02);
-        let saturate = rng.gen_bool(0.5);
-        let hold = rng.gen_range(12..25);
-        let mut u = vec![0.0f64; n];
-        let mut level = 0.0;
-        for (t, v) in u.iter_mut().enumerate() {
-            if t % hold == 0 {
-                level = rng.gen_range(-2.0..2.0);
-            }
-            *v = level;
-        }
-        let zone = rng.gen_range(0.3..0.6);
-        let mut x = vec![0.0f64; n];
-        for t in 1..n {
-            let v = if saturate {
-                u[t - 1]
-            } else {
-                u[t - 1].signum() * (u[t - 1].abs() - zone).max(0.0)
-            };
-            x[t] = a * x[t - 1] + b * v;
-        }
-        let span = x.iter().cloned().fold(0.0f64, |m, v| m.max(v.abs()));
-        let limit = rng.gen_range(0.5..0.8) * span;
-        let y: Vec<f64> = x
-            .iter()
-            .map(|v| if saturate { v.clamp(-limit, limit) } else { *v })
-            .map(|v| v + rng.gen_range(-noise..noise))
-            .collect();
-        let rest = "noise: { estimate: 1.1 }\nmodel:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 1\n  nb: 0\n  nk: 1\n  unit_gain: false\n  stable: true\n";
-        let (spec, data) = common::measured("lazy-round", &u, &y, rest);
-        let opts = Options {
-            max_effects: 1,
-            only: vec![
-                "saturation".into(),
-                "dead_zone".into(),
-                "actuator_lag".into(),
-                "extra_zero".into(),
-            ],
-            ..Options::default()
-        };
+        let (spec, data, opts) = clipped_round(&mut rng, "lazy-round");
         let choice = diagnose::choose(&spec, &data, &opts, &|_, _| {}).unwrap();
         let round = &choice.rounds[0];
         let diagnose::TrainVerdict::Consistent {
