@@ -256,17 +256,7 @@ impl Started {
                 _ => unasked,
             };
         }
-        let cells = |d: f64| {
-            spec.model.layout().ok().map(|l| {
-                resolution(
-                    &spec.model,
-                    &l,
-                    spec.method.cells.nonlinearity_halvings,
-                    d,
-                    &data_scale(data),
-                )
-            })
-        };
+        let cells = cells_at(spec, data);
         let same = cells(self.first);
         if same.is_none() || cells(at) != same {
             return unasked;
@@ -507,6 +497,25 @@ fn method_verdict<'a>(
     }
 }
 
+/// The resolution of the search's cells at a noise bound `d` on `spec` and `data` (`None`
+/// without a layout): two bounds with the same resolution search the same cells, where a
+/// verdict at one implies the other's ([`known_or_asked`], [`Started::probe`]).
+fn cells_at<'a>(spec: &'a Spec, data: &ExperimentData) -> impl Fn(f64) -> Option<Vec<f64>> + 'a {
+    let scale = data_scale(data);
+    let layout = spec.model.layout().ok();
+    move |d: f64| {
+        layout.as_ref().map(|l| {
+            resolution(
+                &spec.model,
+                l,
+                spec.method.cells.nonlinearity_halvings,
+                d,
+                &scale,
+            )
+        })
+    }
+}
+
 /// `verdict` on `spec` and `data`, answered "consistent" without asking at a bound at or above
 /// `consistent_from`, where the method already found the data consistent: a relaxation that
 /// rejects a bound rejects every smaller one (the premise of the bar, [`bracket_below`]), so it
@@ -522,19 +531,7 @@ fn known_or_asked<'a>(
     verdict: impl Fn(f64) -> Result<Outcome<()>> + 'a,
 ) -> impl Fn(f64) -> Result<Outcome<()>> + 'a {
     let label = spec.model.label();
-    let scale = data_scale(data);
-    let layout = spec.model.layout().ok();
-    let cells_at = move |d: f64| {
-        layout.as_ref().map(|l| {
-            resolution(
-                &spec.model,
-                l,
-                spec.method.cells.nonlinearity_halvings,
-                d,
-                &scale,
-            )
-        })
-    };
+    let cells_at = cells_at(spec, data);
     let from = cells_at(consistent_from);
     move |d: f64| {
         if consistent_from.is_finite()
@@ -702,11 +699,11 @@ pub fn identify_at_estimate(
             }
         }
     }
+    // The free run's label where it raised the bound; else the bound is the relaxation's
+    // estimate (no simulator, or one within it), labelled so by `identify_with`.
     if let Ok(Outcome::Consistent(id)) = best.as_mut() {
-        if id.model.bound_source == BoundSource::FreeRun && !(id.model.delta > d) {
-            // Not raised (no simulator, or one within the relaxation's bound): the bound is the
-            // relaxation's estimate, and the reports say so.
-            id.model.bound_source = BoundSource::Estimated;
+        if raised_to.is_some() && id.model.delta > d {
+            id.model.bound_source = BoundSource::FreeRun;
         }
     }
     best.map_err(|e| match e {
@@ -888,9 +885,7 @@ pub fn identify_with(
         model: model.duplicate(),
         method: method.clone(),
         delta,
-        bound_source: if spec.noise.from_free_run() {
-            BoundSource::FreeRun
-        } else if spec.noise.estimated() {
+        bound_source: if spec.noise.estimated() {
             BoundSource::Estimated
         } else {
             BoundSource::Given
