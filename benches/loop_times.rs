@@ -1,13 +1,14 @@
-//! Criterion benchmarks of the loop's slow paths (issue 28): the choice of the diagnosis on the
+//! Criterion benchmarks of the loop's slow paths: the choice of the diagnosis on the
 //! paper's plant at 12 bits with one undeclared effect (`examples/diagnose/12bit/`, N = 400,
 //! designed steady-state points; every generated candidate identified on the training
 //! records), and one any-record containment trial per registered plugin (seed 1: branch and
 //! bound over the nonlinearity's prior box, N = 400, classical stage 3).
 //! `cargo bench --bench loop_times`. The choice on the cascaded tanks (`examples/tanks-linear.yaml`,
-//! 683 measured training rows, estimated bound, the default method) takes minutes per
-//! iteration, so its group runs only with `SMID_BENCH_TANKS=1` and `../shared/data` beside the
-//! project (`SMID_BENCH_TANKS=1 cargo bench --bench loop_times -- tanks`, about half an hour
-//! for criterion's ten samples); otherwise it says why it is skipped.
+//! 683 measured training rows, estimated bound, the default method) identifies every candidate
+//! on the measured rows in each iteration, far more work than the other groups, so its group
+//! runs only with `SMID_BENCH_TANKS=1` and `../shared/data` beside the project
+//! (`SMID_BENCH_TANKS=1 cargo bench --bench loop_times -- tanks`); otherwise it says why it is
+//! skipped.
 use criterion::{criterion_group, criterion_main, Criterion};
 use smid::closeloop;
 use smid::core::diagnose::{self, Options};

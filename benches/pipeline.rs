@@ -1,6 +1,6 @@
 //! Criterion benchmark of the whole pipeline on `examples/paper.yaml` (Appendix filter search,
 //! steady-state and PRBS experiments, stages 1-3), with the spec's own stage-3 method and with
-//! the classical one; and the branch and bound from one record (issue 13 item 6: the paper's
+//! the classical one; and the branch and bound from one record (the paper's
 //! Section 6 plant at 12 bits, no steady-state experiment, N = 400 and N = 2000,
 //! `examples/tightness/any-*.yaml`; target under 30 s at N = 2000 on 2 cores).
 //! `cargo bench --bench pipeline`.

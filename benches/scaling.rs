@@ -1,12 +1,13 @@
-//! Stage 3 (paper Section 5) per method against the record length N (issue 14): the inner-signal
+//! Stage 3 (paper Section 5) per method against the record length N: the inner-signal
 //! bounds of `examples/paper.yaml` (na = nb = 2, unit gain) with `experiment.dynamic.length = N`
 //! are computed once per N (stages 1-2), then each method bounds θ from them.
 //! `cargo bench --bench scaling [--features sdp]`.
 //!
 //! The suite is sampled to stay short: N = 1e3 and 1e4 for every method, N = 1e5 only for the
-//! classical method unless `SMID_BENCH_LARGE=1` is set (the shared relaxation takes tens of
-//! seconds there, times criterion's ten samples). The whole-process table, with peak memory and
-//! the growth exponent, is `cargo run --release --example scaling` (README, "Scaling").
+//! classical method unless `SMID_BENCH_LARGE=1` is set (at that length the relaxations take
+//! far longer than the classical LP, and criterion repeats each run ten times). The
+//! whole-process table, with peak memory and the growth exponent, is
+//! `cargo run --release --example scaling` (docs/performance.md).
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode};
 use smid::core::interval::Interval;
 use smid::core::pipeline;

@@ -1,4 +1,4 @@
-//! The stage-3 scaling table of the README: for each method and record length `N`, the whole
+//! The stage-3 scaling table (docs/performance.md): for each method and record length `N`, the whole
 //! identification of `examples/paper.yaml` (na = nb = 2) or `examples/order4.yaml`
 //! (na = nb = 4) with `experiment.dynamic.length = N`, run as `smid run` does it (experiments,
 //! stages 1-3, `result.json`, `data.csv`, plots) in a **child process**; the table gives its

@@ -1,4 +1,4 @@
-//! The guaranteed one-step band (issue 27, [`smid_core::band`]) on random problems drawn from
+//! The guaranteed one-step band ([`smid_core::band`]) on random problems drawn from
 //! the plugin registry of the containment check: for every plugin, random linear blocks and
 //! parameters (`PluginTrial`), identified from their designed experiment, then a fresh record
 //! of the same plant with a random input (binary or multilevel PRBS, random length, amplitude

@@ -43,11 +43,11 @@ mod common;
 
 /// An output block whose wide cells leave the steady-state points without a bound on the
 /// nonlinearity: a play after a gain written without [`NonlinearityModel::keeps_steps_monotone`]
-/// (the worked example of CONTRIBUTING), so the play is read back with any history, its whole
-/// dead band, and where the play passes 0.75 the points no longer bound the gain away from 0.
-/// The run still answers: those cells are listed with stage 1's cause and hold the gain and θ
-/// unbounded; the block's own plays stay bounded, and every bound holds the truth. Before, the
-/// run failed with stage 1's error once such a cell was left when the budget ran out.
+/// (the worked example of docs/extending.md), so the play is read back with any history, its
+/// whole dead band, and where the play passes 0.75 the points do not bound the gain away from
+/// 0. The run still answers, also when such a cell is left as the budget runs out: those cells
+/// are listed with stage 1's cause and hold the gain and θ unbounded; the block's own plays
+/// stay bounded, and every bound holds the truth.
 ///
 /// [`NonlinearityModel::keeps_steps_monotone`]: smid_core::nonlinearity::NonlinearityModel::keeps_steps_monotone
 #[test]

@@ -1,4 +1,4 @@
-//! `smid check --shard K/M --json` and `smid check-merge` (issue 15 item 2): the shards of a run
+//! `smid check --shard K/M --json` and `smid check-merge`: the shards of a run
 //! are disjoint, cover it, and merge into exactly the table of one machine's run of all the
 //! seeds; a shard of another check is refused, and a malformed `--shard` is a clear error.
 use std::path::Path;

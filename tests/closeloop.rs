@@ -136,11 +136,16 @@ fn result_json_carries_the_whole_model_set() {
     let b = validate_on(&back, &fresh);
     assert_eq!(a.smallest_bound, b.smallest_bound);
     assert_eq!(a.free_run.rms, b.free_run.rms);
-    // A file of another result format (or none) is refused by its `format` field, with the
-    // version that wrote it, instead of being misread.
+    // A file of another kind, of a format version this smid does not read, or without the
+    // stamp is refused by the field at fault, naming the file, the versions read and the
+    // version of smid that wrote it, instead of being misread (tests/output_reference.rs
+    // checks the same through the CLI).
     let text = std::fs::read_to_string(dir.path().join("result.json")).unwrap();
     let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
-    let current = v["format"].as_u64().expect("result.json states its format");
+    assert_eq!(v["format"], "smid.result");
+    let current = v["format_version"]
+        .as_u64()
+        .expect("result.json states its format version");
     assert!(
         v["smid_version"].is_string(),
         "result.json states the version that wrote it"
@@ -148,29 +153,38 @@ fn result_json_carries_the_whole_model_set() {
     // The version named is the file's, not the reader's.
     let written = "0.0.0-old";
     v["smid_version"] = serde_json::json!(written);
-    let refused = |v: &serde_json::Value| -> String {
+    let refused = |v: &serde_json::Value| -> smid::SmidError {
         match closeloop::source_from_json(&v.to_string(), Path::new("old/result.json")) {
-            Ok(_) => panic!("a result of another format was read: {}", v["format"]),
-            Err(e) => e.to_string(),
+            Ok(_) => panic!("a result of another format was read: {}", v["format_version"]),
+            Err(e) => e,
         }
     };
-    v["format"] = serde_json::json!(current + 1);
+    v["format_version"] = serde_json::json!(current + 1);
     let e = refused(&v);
+    assert!(matches!(&e, smid::SmidError::Format { field, .. } if field == "format_version"));
+    let e = e.to_string();
     assert!(
         e.contains("old/result.json")
-            && e.contains(&format!("result format {}", current + 1))
+            && e.contains(&format!("found {}", current + 1))
+            && e.contains(&format!("format_version {current}"))
             && e.contains(written)
-            && e.contains("rerun `smid run`"),
+            && e.contains("`smid run`"),
         "{e}"
     );
-    v["format"] = serde_json::json!("1");
-    let e = refused(&v);
+    v["format_version"] = serde_json::json!("1");
+    let e = refused(&v).to_string();
+    assert!(e.contains("field `format_version`: found \"1\""), "{e}");
+    v["format_version"] = serde_json::json!(current);
+    v["format"] = serde_json::json!("smid.validation");
+    let e = refused(&v).to_string();
     assert!(
-        e.contains("whole number") && e.contains("rerun `smid run`"),
+        e.contains("field `format`: found \"smid.validation\"") && e.contains("`smid.result`"),
         "{e}"
     );
-    v.as_object_mut().unwrap().remove("format");
-    assert!(refused(&v).contains("no result format"));
+    v["format"] = serde_json::json!("smid.result");
+    v.as_object_mut().unwrap().remove("format_version");
+    let e = refused(&v).to_string();
+    assert!(e.contains("field `format_version`: missing"), "{e}");
 }
 
 fn training_of(spec_path: &Path) -> (smid::core::spec::Spec, pipeline::ExperimentData) {
@@ -282,8 +296,9 @@ fn corrupting_the_held_out_records_does_not_change_the_chosen_model() {
             .output()
             .unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let json: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(dir.path().join(out).join("diagnosis.json")).unwrap(),
+        let json = smid::core::output::read(
+            smid::core::output::OutputKind::Diagnosis,
+            &dir.path().join(out).join("diagnosis.json"),
         )
         .unwrap();
         let aug = std::fs::read_to_string(dir.path().join(out).join("augmented.yaml")).unwrap();
@@ -464,8 +479,8 @@ fn every_run_example_validates_on_a_fresh_record_of_its_plant() {
 /// bound from their training rows, validate on their held-out rows (read once, here):
 /// CONSISTENT, PASS, and a guaranteed one-step band that no measurement contradicts. Their
 /// free run is compared with the least-squares ARX of the same orders plus a constant.
-/// - The tanks (the overflow inside the loop, the bound from the free run: README, *Measured
-///   data*): a certified member, at or above issue 27's target of 72 % held out, and above the
+/// - The tanks (the overflow inside the loop, the bound from the free run: docs/case-studies.md):
+///   a certified member, with a fit of at least 72 % on the held-out rows, and above the
 ///   baseline. Its set is wide (the bound is the model's free-run error), so its band is not
 ///   asked to be finite.
 /// - EMPS (the Coulomb friction the baseline lacks, the bound from the relaxation): more than
@@ -553,7 +568,7 @@ fn measured_examples_validate_on_their_held_out_rows() {
 /// stand-in is the best training free run over the probed cells' outer bounds: labelled not
 /// certified, every value inside the reported bounds, and simulating the training records no
 /// worse than the set's centre. The bound is the one `noise.estimate: 1.1` gives on these rows
-/// (1.155e-1), declared so that the test does not spend minutes estimating it (the estimate
+/// (1.155e-1), declared so that the test does not pay for the bound search (the estimate
 /// is tested with the measured examples). Skips when `../shared/data/` is absent.
 #[test]
 fn an_uncertified_stand_in_lies_in_the_bounds_and_is_labelled() {
@@ -622,7 +637,7 @@ method:
         m.centre_training_fit
     );
     // The label `validate` and the reports print for the member (a whole validation on the
-    // training records would only repeat it, at minutes of LPs).
+    // training records would only repeat it, at the cost of many LPs).
     let label = smid::core::members::representative_label(set);
     assert!(
         label.contains("NOT certified") || label.contains("not certified"),
@@ -699,8 +714,8 @@ model:\n  structure: wiener\n  nonlinearity: { type: linear }\n  na: 2\n  nb: 2\
 /// second-order plants with a pole drawn near the unit circle (some just outside it, where the
 /// declared class is wrong but the data leave room), with bounded noise of random size, the
 /// simulation member, whenever it is reported certified, has every root of `A` strictly inside
-/// the unit circle. (Before, a certified point whose free run ran away was kept, and its
-/// training fit reported at -2e114 % on the tanks with an output backlash.)
+/// the unit circle. (Without that, a certified point whose free run runs away could be kept:
+/// on the tanks with an output backlash, a training fit of -2e114 %.)
 #[test]
 fn a_certified_member_of_a_model_declared_stable_is_stable() {
     use smid::core::outcome::Outcome;

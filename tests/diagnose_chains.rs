@@ -316,8 +316,8 @@ fn a_saturation_that_clips_the_training_records_is_named_and_passes_held_out() {
 /// `smid diagnose-check`, passes on held-out records and holds the truth. A second play is
 /// among them: stage 1 reads it back along the branch each designed step moved it
 /// ([`smid_core::nonlinearity::NonlinearitySet::invert_steady_step`]); read with any history,
-/// its whole dead band left the backlash's slope unbounded in the cells with wide plays, and
-/// the play was never chosen (2 of 10 seeds of the matrix). Its prior reads the play's output
+/// its whole dead band would leave the backlash's slope unbounded in the cells with wide plays,
+/// and the play would never be chosen. Its prior reads the play's output
 /// range, which the play narrows: a half-play up to half that range.
 #[test]
 fn every_block_after_the_backlash_is_named_with_the_truth_inside() {
@@ -342,8 +342,8 @@ fn every_block_after_the_backlash_is_named_with_the_truth_inside() {
 /// truth inside and the held-out records passed. Its steady-state points lie off the polygons'
 /// branches even as if the design held, so the model's own nonlinearity gets a box from the
 /// points' scale (`NonlinearityModel::scale_prior`, reported), which the points then prune
-/// with any history. Before, such a candidate was not tried, and a parallel linear path was
-/// named instead.
+/// with any history. (Without that box such a candidate could not be tried, and a parallel
+/// linear path would be named instead.)
 #[test]
 fn effects_that_break_the_design_are_named_with_the_truth_inside() {
     use smid::diagnose_check::{cases, CaseKind};
@@ -386,8 +386,8 @@ fn named_trial(name: &str, seed: u64) -> smid::diagnose_check::TrialOutcome {
 /// An output quantiser coarser than the declared noise is named, with its step identified: a
 /// sensor map whose cells of steps are ruled out where their lattice misses a measurement's
 /// noise interval, so the after-model's step (and every other bound) holds the truth and the
-/// after-model passes on held-out records. Before, the step could only be declared, and the
-/// diagnosis explained the rounding with a dead zone before the linear block. On seed 2 of
+/// after-model passes on held-out records. (A diagnosis that could not bound the step would
+/// explain the rounding with a dead zone before the linear block.) On seed 2 of
 /// `smid diagnose-check`.
 #[test]
 fn an_undeclared_quantiser_is_named_with_its_step_bounded_around_the_truth() {
@@ -418,8 +418,8 @@ fn an_undeclared_output_bias_is_named_or_its_equal_the_sensor_offset() {
 /// `Transplant::output_error`), simulates as it does once both runs have left their different
 /// states of rest (`warm_up`: the runs had differed only in samples 20-27 of a record). Seed
 /// 2: the model as declared is consistent (its plays shifted are the same class) and its
-/// member, put into the input bias's class, simulates as it does; before, only the members'
-/// own runs were compared with it, and the truth was outside the declared model's plays.
+/// member, put into the input bias's class, simulates as it does (comparing the members' own
+/// runs alone would miss it: the truth lies outside the declared model's plays).
 /// Seeds of `smid diagnose-check`.
 #[test]
 fn an_undeclared_input_bias_is_named_or_reported_equal_to_the_choice() {
@@ -430,9 +430,9 @@ fn an_undeclared_input_bias_is_named_or_reported_equal_to_the_choice() {
 
 /// A second backlash after the first (`output_backlash` on the output side) is chosen when its
 /// member, searched again on the spec's own member budget, simulates the training records as
-/// well as the best candidate's: on the diagnosis's light budget its member simulated at
-/// 89.63 %, on the spec's at 98.17 %, and the rule had chosen an input saturation
-/// (`refine_contenders`). Seed 2 of `smid diagnose-check`.
+/// well as the best candidate's: on the diagnosis's light budget its member simulates several
+/// points worse than on the spec's, and ranked by that the rule would choose an input
+/// saturation (`refine_contenders`). Seed 2 of `smid diagnose-check`.
 #[test]
 fn a_second_backlash_is_not_ranked_by_a_member_search_cut_short() {
     named_trial("output_backlash@output", 2);
@@ -440,8 +440,8 @@ fn a_second_backlash_is_not_ranked_by_a_member_search_cut_short() {
 
 /// A dead zone after the backlash whose break point swallows more than a third of its input's
 /// range is named with its truth inside: the diagnosis's prior for a zone on the output side
-/// reaches the whole output's range (the zone swallowing at most half of its input's), where
-/// half the output's range had left the true break point (0.401, output up to 0.69) outside the
+/// reaches the whole output's range (the zone swallowing at most half of its input's), while
+/// half the output's range would leave the true break point (0.401, output up to 0.69) outside the
 /// prior and so outside every bound. Seed 9 of `smid diagnose-check`.
 #[test]
 fn a_sensor_dead_zone_wider_than_half_its_output_range_is_inside_its_prior() {
@@ -450,8 +450,8 @@ fn a_sensor_dead_zone_wider_than_half_its_output_range_is_inside_its_prior() {
 
 /// A second play after the backlash whose half-play passes a quarter of its output's range is
 /// named with its truth inside: the diagnosis's prior for a play on the output side reaches half
-/// the output's range (the play narrows its input's range by `c_l + c_r`), where a quarter had
-/// left the true half-play (0.446, output spanning 1.66) outside the prior and so outside every
+/// the output's range (the play narrows its input's range by `c_l + c_r`), while a quarter
+/// would leave the true half-play (0.446, output spanning 1.66) outside the prior and so outside every
 /// bound. Seed 8 of `smid diagnose-check`.
 #[test]
 fn a_second_play_wider_than_a_quarter_of_its_output_range_is_inside_its_prior() {
@@ -462,9 +462,7 @@ fn a_second_play_wider_than_a_quarter_of_its_output_range_is_inside_its_prior() 
 /// steady-state experiment: at rest it only shifts the linear block's output (`x̄ = v̄ + c/A(1)`
 /// under unit gain), so the diagnosis offers it with the shift bisected
 /// (`EquationTerm::rest_parameter`) and it is named, or reported indistinguishable from the
-/// choice (the declared model with its plays shifted is the same class). Before, a term that
-/// does not vanish at rest was not offered with steady-state data, and the row was 0/10.
-/// Seeds of `smid diagnose-check`.
+/// choice (the declared model with its plays shifted is the same class). Seeds of `smid diagnose-check`.
 #[test]
 fn an_undeclared_constant_is_offered_with_steady_state_data_and_named() {
     for seed in [1, 4] {
@@ -477,9 +475,7 @@ fn an_undeclared_constant_is_offered_with_steady_state_data_and_named() {
 /// `c·u_t`, `x̄ = v̄ + ū·c/A(1)` under unit gain) and that the diagnosis offers with the designed
 /// steady-state experiment (`diagnose::offered_with_steady_points`: not the polynomial path,
 /// which breaks the design): the diagnosis offers it
-/// with its gain at rest bisected and it is named with the truth inside every bound. Before,
-/// a term whose shift at rest grows with the input was not offered with steady-state data, and
-/// the parallel path's row was 0/10. Seed 1 of `smid diagnose-check`.
+/// with its gain at rest bisected and it is named with the truth inside every bound. Seed 1 of `smid diagnose-check`.
 #[test]
 fn every_term_whose_shift_at_rest_grows_with_the_input_is_offered_and_named() {
     use smid_core::interval::Interval;
@@ -511,9 +507,9 @@ fn every_term_whose_shift_at_rest_grows_with_the_input_is_offered_and_named() {
 /// signal: the parallel path's linear block is `k = 1 + c/A(1)` times the friction's and its
 /// backlash sits behind that gain (`Nonlinearity::behind_gain`: slopes `/k`, plays `·k`). The
 /// equivalence test searches that trade, so the parallel path is reported indistinguishable
-/// from the choice, and its set holds the truth and passes on held-out records. Before, the
-/// friction's backlash lay outside the parallel path's bounds, no equivalence was found and
-/// 4 of 10 seeds named nothing (6/10). Seed 5 of `smid diagnose-check`.
+/// from the choice, and its set holds the truth and passes on held-out records. (Without that
+/// trade the friction's backlash lies outside the parallel path's bounds and no equivalence is
+/// found.) Seed 5 of `smid diagnose-check`.
 #[test]
 fn a_parallel_path_is_reported_equal_to_friction_with_the_inner_signal_scaled() {
     let t = named_trial("parallel_input", 5);
@@ -529,7 +525,7 @@ fn a_parallel_path_is_reported_equal_to_friction_with_the_inner_signal_scaled() 
 /// the design held (`pipeline::design_prior`, listed with the candidate's priors) and the
 /// points prune its cells with any history. The points are read as stage 1 reads them, with
 /// the overshoot allowance α of `method.alpha: bias` (at 12 bits the polygons without it are
-/// empty, and every such candidate was refused). On the paper's plant at 12 bits with an
+/// empty, and every such candidate would be refused). On the paper's plant at 12 bits with an
 /// undeclared sensor offset (a shift of the backlash's plays), each such candidate is
 /// consistent with the training data; with an undeclared drift, where even that box is empty,
 /// it is tried in a box from the points' scale (`NonlinearityModel::scale_prior`).
@@ -603,7 +599,7 @@ fn a_term_that_breaks_the_design_is_tried_in_a_box_from_the_steady_state_points(
     }
     // With an undeclared drift the points leave no polygon consistent even as if the design
     // held: such a candidate gets a box from the points' scale (`pipeline::scale_prior`),
-    // listed with its priors, and is tried in it. Before, it was not tried.
+    // listed with its priors, and is tried in it.
     let choice = choose("paper-drift.yaml");
     for e in &boxed(&choice) {
         if let diagnose::TrainVerdict::Failed { message } = &e.train {
@@ -618,8 +614,8 @@ fn a_term_that_breaks_the_design_is_tried_in_a_box_from_the_steady_state_points(
 /// the backlash's slope. The search takes the first bound at which they no longer bound it as a
 /// ceiling (a larger bound only widens the exact set), bisects below it for a window where
 /// the model is consistent and bounded, doubles on past it, and reports both ends with the
-/// real proof (its stage and sample). Before, it doubled the bound 30 times up to 4e5 and reported
-/// "stage 3, first offending sample 0", which was not a proof.
+/// real proof (its stage and sample). (Doubling alone would run the bound up by orders of
+/// magnitude and report a stage and sample that prove nothing.)
 #[test]
 fn the_bound_search_says_where_the_data_stop_bounding_the_set() {
     let text = std::fs::read_to_string(

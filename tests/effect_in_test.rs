@@ -1,5 +1,5 @@
 //! An effect registered only in this test, with one capability (a sensor term) and no plant
-//! side (issue 26, item 5): identification uses it through `SensorTerm` alone, the simulator
+//! side: identification uses it through `SensorTerm` alone, the simulator
 //! refuses it by name, and the registry offers it to the diagnosis with no edit elsewhere.
 use serde::{Deserialize, Serialize};
 use smid::core::effect::{self, Effect, SensorTerm};

@@ -249,7 +249,7 @@ fn an_outlier_is_reported_as_inconsistent_with_its_sample() {
 }
 
 /// A falsification is an outcome, not an error, and it names the record: an outlier in the
-/// second of two training records is found there, at its own sample index (issue 26, item 4).
+/// second of two training records is found there, at its own sample index.
 #[test]
 fn a_falsified_identification_is_an_outcome_naming_record_and_sample() {
     let (steady, dynamic) = paper_csv();

@@ -1,4 +1,4 @@
-//! Plants exported from Python load as they are (issue 15 item 3): `fmus/python/PaperPlant.py`
+//! Plants exported from Python load as they are: `fmus/python/PaperPlant.py`
 //! (the paper's Section 6 plant in PythonFMU's API) is built with `pythonfmu build`, identified by
 //! `smid run` with no environment tricks (smid loads the Python runtime itself,
 //! `smid-fmu/src/python.rs`) and gives the bounds of `examples/paper.yaml` (built-in simulator);

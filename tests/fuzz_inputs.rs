@@ -169,8 +169,8 @@ fn apply(text: &str, e: &Edit) -> String {
     }
 }
 
-/// Whether a parsed spec is small enough to run in a test (the validated caps allow runs of
-/// minutes; those are bounded, just not for a test).
+/// Whether a parsed spec is small enough to run in a test (the validated caps allow long
+/// runs; those are bounded, just not for a test).
 fn cheap(spec: &Spec) -> bool {
     let e = &spec.experiment;
     e.dynamic.length <= 3000
@@ -302,8 +302,9 @@ proptest! {
     }
 }
 
-/// The case that used to spin: `experiment.filter.tol: 1.0e-300` in the input-backlash example
-/// is now an error naming the field, and the smallest accepted tolerance runs to the end.
+/// A tolerance whose bisection would never end (`experiment.filter.tol: 1.0e-300` in the
+/// input-backlash example) is an error naming the field, and the smallest accepted tolerance
+/// runs to the end.
 #[test]
 fn a_tolerance_below_float_resolution_is_refused() {
     let text = SEEDS[1].replace("tol: 0.1", "tol: 1.0e-300");

@@ -1,4 +1,4 @@
-//! Stage-3 methods form an open registry (issue 26, item 2): a method registered only in this
+//! Stage-3 methods form an open registry: a method registered only in this
 //! test is offered by the spec, the schema and the name parser, and the pipeline runs it;
 //! `method.options` reach the chosen method and are checked by it, with errors naming the
 //! field.

@@ -1,5 +1,5 @@
 //! A plugin registered only in this test, with no edit anywhere else, shows up wherever the
-//! registry reaches (issue 26, item 1): in the spec's JSON Schema, as two cases of the
+//! registry reaches: in the spec's JSON Schema, as two cases of the
 //! containment check (`smid check --plugin test_only_gain_input` / `_output`, whose trials then
 //! hold the truth), and as a diagnosis candidate on each side it supports.
 use serde::{Deserialize, Serialize};

@@ -120,7 +120,7 @@ proptest! {
 proptest! {
     // Half as many seeds as the designed trials: an any-record trial costs about ten times as
     // much (the bisection of the nonlinearity's box), and `smid check --any-record --trials
-    // 1000` is where this path is counted (README).
+    // 1000` runs this path at full count.
     #![proptest_config(ProptestConfig::with_cases(cases().div_ceil(2)))]
     /// The same cases from one dynamic record.
     #[test]

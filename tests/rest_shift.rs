@@ -192,7 +192,7 @@ fn a_term_that_shifts_the_rest_keeps_every_bound_around_the_truth_with_steady_st
                 // Hammerstein's polygons under a shift that grows with the input: every steady
                 // point's output is blurred by `|ū|` times a cell of gains, and the play's
                 // slope may stay unbounded down to the resolution. A refusal, never a bound
-                // that misses (README, *Chains*).
+                // that misses (docs/models.md, chains).
                 Err(SmidError::Unbounded { parameter, message }) if trial == 1 => {
                     eprintln!("{tag} seed {seed} (trial {trial}): refused: `{parameter}` unbounded: {message}");
                     continue;

@@ -7,8 +7,8 @@
 //! - A term that says it keeps the design: the filter is designed by the Appendix search on the
 //!   plant with the term, and the polygons' bounds (no prior box) hold the truth.
 //! - A term that says it breaks it: with the filter designed for the plant without it (the
-//!   paper's pole), the polygons are refused with an error that names `model.prior` (before,
-//!   they falsified the true model: dry friction turns off while the wave settles, and the
+//!   paper's pole), the polygons are refused with an error that names `model.prior` (read
+//!   as polygons they would falsify the true model: dry friction turns off while the wave settles, and the
 //!   backlash holds the overshoot); with a prior box on the backlash the steady-state points
 //!   prune its cells with any history, and every bound holds the truth.
 mod common;

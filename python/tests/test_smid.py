@@ -1,4 +1,4 @@
-"""Tests of the Python package (issue 15): the same results as the CLI to the last bit,
+"""Tests of the Python package: the same results as the CLI to the last bit,
 specs as path / YAML string / dict, arrays in and out, falsification as a result, located
 errors as exceptions, validation, simulation, diagnosis, and sharded sweeps that merge into
 the one-machine table (also on a local Dask cluster)."""
@@ -373,7 +373,7 @@ def test_diagnose_from_a_spec(tmp_path):
     d = smid.diagnose(PAPER, {"held": (u, y)}, only=["offset"], max_effects=1)
     assert d.added == [] and "no missing effect" in d.summary
     assert d.after["validation"]["consistency"]["consistent"]
-    # A tag that names nothing registered is refused (it used to leave no candidate, silently).
+    # A tag that names nothing registered is refused, rather than leaving no candidate silently.
     with pytest.raises(smid.InvalidError, match="`sensor_offset`"):
         smid.diagnose(PAPER, {"held": (u, y)}, only=["sensor_offset"], max_effects=1)
 

@@ -3,7 +3,8 @@
 //!
 //! The moment relaxation factors thousands of tiny (6x6) blocks. A threaded OpenBLAS (Debian's
 //! default `openblas-pthread`) hands each to its thread pool, whose threads spin for work: on a
-//! loaded 2-core machine one relaxation took 375 s instead of 1.6 s. [`single_threaded`] sets the
+//! loaded machine with few cores the spinning threads starve each other and a relaxation runs
+//! hundreds of times slower than on one thread. [`single_threaded`] sets the
 //! pool to one thread, whatever the environment says (`OPENBLAS_NUM_THREADS` is read only when
 //! the library loads, before `main`). Calling into OpenBLAS is the point of this crate, so it is
 //! the one crate of smid with `unsafe` code: one call of a C function without arguments that

@@ -202,8 +202,8 @@ impl NonlinearityModel for DeadZoneModel {
     /// that side (0 when that side is never seen). Before the linear block (Hammerstein) the
     /// range seen is the zone's input: `c <= |u|max / 2`. After it (Wiener) the range seen is
     /// the zone's output `y = w - c`, whose input reaches `|y|max + c`: `c <= (|y|max + c)/2`,
-    /// that is `c <= |y|max`. (Half the output's range, as before, left out zones of 0.40 and
-    /// 0.47 whose outputs reached 0.69 and 0.81.)
+    /// that is `c <= |y|max`. (Half the output's range would leave out zones of 0.40 and
+    /// 0.47 whose outputs reach 0.69 and 0.81.)
     fn default_prior(&self, s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
         let share = match s {
             Structure::Hammerstein => 0.5,

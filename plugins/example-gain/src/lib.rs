@@ -1,7 +1,7 @@
 //! # smid-example-gain
 //!
-//! The smallest complete smid plugin, written as the worked example of `CONTRIBUTING.md`: a
-//! pure gain `w = k x` (`type: example_gain`, `k > 0`), on either side of the linear block.
+//! The smallest complete smid plugin, the worked example of the guide's `docs/extending.md`:
+//! a pure gain `w = k x` (`type: example_gain`, `k > 0`), on either side of the linear block.
 //! It adds a nonlinearity to smid without touching `smid-core`:
 //!
 //! * simulation ([`Gain`], a [`Nonlinearity`]);
@@ -171,8 +171,8 @@ impl NonlinearitySet for GainSet {
 smid_core::register_nonlinearity!("example_gain", Gain, Gain { k: 2.0 });
 smid_core::register_model!("example_gain", GainModel, GainModel {});
 
-/// Step 7 of CONTRIBUTING, for the worked example: the truth lies in the stage-1 set and in
-/// every inner-signal bound, for random gains, amplitudes and noise inside its bound.
+/// The tests every plugin carries (docs/extending.md), for the worked example: the truth lies
+/// in the stage-1 set and in every inner-signal bound, for random gains, amplitudes and noise inside its bound.
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -18,13 +18,19 @@
 use serde::{Deserialize, Serialize};
 use smid_core::prelude::*;
 
-/// Backlash with known parameters (simulation).
+/// Backlash (a play) with known parameters (simulation), eq (2): the output follows the left
+/// branch `m_l (x + c_l)` or the right branch `m_r (x - c_r)` while the input drives it, and
+/// holds its last value while the input moves inside the play.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Backlash {
+    /// Slope of the left branch (`m_l > 0`).
     pub m_l: f64,
+    /// Left half-play `c_l > 0`, in input units: the left branch crosses 0 at `x = -c_l`.
     pub c_l: f64,
+    /// Slope of the right branch (`m_r > 0`).
     pub m_r: f64,
+    /// Right half-play `c_r > 0`, in input units: the right branch crosses 0 at `x = c_r`.
     pub c_r: f64,
 }
 
@@ -215,8 +221,8 @@ impl NonlinearityModel for OutputBacklashModel {
     /// Unit slopes; each half-play up to a quarter of the range its input spans. Before the
     /// linear block (Hammerstein) the range seen is the play's input: `c <= range / 4`. After
     /// it (Wiener) the range seen is the play's output, narrower by `c_l + c_r <= range_in / 2`,
-    /// so `range_in <= 2 range` and `c <= range / 2`. (A quarter of the output's range, as
-    /// before, left out a half-play of 0.446 whose output spanned 1.66.)
+    /// so `range_in <= 2 range` and `c <= range / 2`. (A quarter of the output's range would
+    /// leave out a half-play of 0.446 whose output spans 1.66.)
     fn default_prior(&self, s: Structure, seen: (f64, f64)) -> Option<Vec<Interval>> {
         let share = match s {
             Structure::Hammerstein => 0.25,
