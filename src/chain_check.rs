@@ -1,7 +1,8 @@
 //! Containment check of block chains generated from the registry: each trial draws a random
 //! stable unit-gain linear block and a random chain around it — a model nonlinearity on the
-//! output side (any registered plugin that supports it, or none), one block on the input side
-//! and one after the nonlinearity, each any registered plugin that supports its side, or none —
+//! output side (any registered plugin that supports it, or none), up to two blocks on the input
+//! side and up to two after the nonlinearity (the second one a quarter of the time), each any
+//! registered plugin that supports its side —
 //! with true parameters drawn around each plugin's registered example (×[0.8, 1.25]) and a
 //! random prior box around them, then identifies the chain from one multilevel record with
 //! every block's parameters bisected (`smid_core::chain`). A plugin registered anywhere in the

@@ -18,7 +18,9 @@
 //! | `parallel_input` | equation | `c · u_t` | the same term with `value` |
 //! | `input_power` | equation | `Σ_j c_j · u_{t-d-j}^p` (`degree` p, `delay` d, `lags`) | the same terms with `values` |
 //!
-//! Equation terms use the input velocity: they vanish at steady state, so stage 1 holds.
+//! The friction terms read the input velocity: they vanish at steady state, so stage 1 holds.
+//! `constant`, `parallel_input` and `input_power` do not vanish at rest; each names its shift
+//! there (`EquationTerm::rest_parameter`), which stage 1 carries as a further parameter.
 #![forbid(unsafe_code)]
 
 use schemars::JsonSchema;
@@ -110,7 +112,8 @@ register_effect!(
 #[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ActuatorLag {
-    /// The lag's pole `p` (`0 <= p < 1`; true value, simulator only).
+    /// The lag's pole `p` (`0 <= p < 1`): its true value in a simulator; left out in a model,
+    /// where it is identified.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pole: Option<f64>,
 }
@@ -165,7 +168,8 @@ register_effect!(
 #[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ExtraZero {
-    /// The zero's coefficient `z` (`|z| < 1`; true value, simulator only).
+    /// The zero's coefficient `z` (`|z| < 1`): its true value in a simulator; left out in a
+    /// model, where it is identified.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub zero: Option<f64>,
 }
@@ -217,7 +221,8 @@ register_effect!(
 #[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Offset {
-    /// True offset (simulator only).
+    /// The true offset, in output units, in a simulator; left out in a model, where it is
+    /// identified (bisected over its `model.prior` box, named `offset`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<f64>,
 }
@@ -268,10 +273,12 @@ register_effect!(
 #[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Drift {
-    /// True offset at `t = 0` (simulator only).
+    /// The true offset at `t = 0`, in output units, in a simulator; left out in a model, where
+    /// it is identified.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub offset: Option<f64>,
-    /// True drift per sample (simulator only).
+    /// The true drift per sample, in output units, in a simulator; left out in a model, where
+    /// it is identified.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rate: Option<f64>,
 }
@@ -571,9 +578,11 @@ fn largest_move(u: &[f64]) -> f64 {
 #[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CoulombFriction {
+    /// Which velocity's sign the term reads: `input` or `output`.
     #[serde(default, skip_serializing_if = "is_input")]
+    #[schemars(extend("default" = "input"))]
     pub velocity: Velocity,
-    /// True coefficient (simulator only).
+    /// The true coefficient `c` in a simulator; left out in a model, where it is identified.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<f64>,
 }
@@ -683,9 +692,11 @@ register_effect!(
 #[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ViscousFriction {
+    /// Which velocity the term reads: `input` or `output`.
     #[serde(default, skip_serializing_if = "is_input")]
+    #[schemars(extend("default" = "input"))]
     pub velocity: Velocity,
-    /// True coefficient (simulator only).
+    /// The true coefficient `c` in a simulator; left out in a model, where it is identified.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<f64>,
 }
@@ -778,7 +789,7 @@ register_effect!(
 #[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Constant {
-    /// True value (simulator only).
+    /// The true constant `c` in a simulator; left out in a model, where it is identified.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<f64>,
 }
@@ -837,7 +848,7 @@ register_effect!(
 #[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ParallelInput {
-    /// True coefficient (simulator only).
+    /// The true coefficient `c` in a simulator; left out in a model, where it is identified.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<f64>,
 }
@@ -960,7 +971,8 @@ pub struct InputPower {
     #[serde(default = "one", deserialize_with = "lags_1_to_8")]
     #[schemars(range(min = 1, max = 8))]
     pub lags: usize,
-    /// True coefficients `c_0..c_{lags-1}` (simulator only).
+    /// The true coefficients `[c_0, .., c_{lags-1}]` in a simulator; left out in a model,
+    /// where they are identified.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub values: Option<Vec<f64>>,
 }

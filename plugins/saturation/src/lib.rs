@@ -110,7 +110,7 @@ impl Nonlinearity for Saturation {
     }
 }
 
-/// Saturation as a model structure to identify (no options; Wiener only).
+/// Saturation as a model structure to identify (no options; either side of the linear block).
 #[derive(Debug, Clone, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SaturationModel {}
