@@ -1,6 +1,6 @@
 """The paper's Section 6 plant as a PythonFMU co-simulation slave (one step = one sample):
 x_t = -a1 x_{t-1} - a2 x_{t-2} + b0 u_t + b1 u_{t-1} + b2 u_{t-2}, then the output backlash of
-eq (2), with the operations in the order of fmus/include/paper_core.h (bit-identical results).
+eq (2), with the operations in the order of fmus/common/paper_core.h (bit-identical results).
 Build: `pythonfmu build -f fmus/python/PaperPlant.py -d <dir>` (tests/fmu_python.rs does)."""
 from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Real
 
