@@ -53,7 +53,7 @@ pub fn source_from_json(text: &str, path: &Path) -> Result<Source> {
     };
     let v: serde_json::Value =
         serde_json::from_str(text).map_err(|e| bad("", format!("not JSON: {e}")))?;
-    check_format(&v).map_err(|m| bad("format", m))?;
+    smid_core::output::check(smid_core::output::OutputKind::Result, &v, path)?;
     let model: ModelSet = serde_json::from_value(v.get("model").cloned().ok_or_else(|| {
         bad(
             "model",
@@ -77,30 +77,6 @@ pub fn source_from_json(text: &str, path: &Path) -> Result<Source> {
         base,
         model: Some(model),
     })
-}
-
-/// `Err(what is wrong)` unless `result.json`'s `format` is [`smid_core::report::RESULT_FORMAT`]
-/// (a file of another layout is refused by name, never misread).
-fn check_format(v: &serde_json::Value) -> std::result::Result<(), String> {
-    let expected = smid_core::report::RESULT_FORMAT;
-    let rerun = "rerun `smid run` on the spec with this version";
-    let written_by = v
-        .get("smid_version")
-        .and_then(|s| s.as_str())
-        .map(|s| format!(" (written by smid {s})"))
-        .unwrap_or_default();
-    match v.get("format").map(|f| (f, f.as_u64())) {
-        Some((_, Some(f))) if f == expected => Ok(()),
-        Some((_, Some(f))) => Err(format!(
-            "result format {f}{written_by}, this smid reads format {expected}: {rerun}"
-        )),
-        Some((f, None)) => Err(format!(
-            "expected the result format as a whole number ({expected}), found {f}{written_by}: {rerun}"
-        )),
-        None => Err(format!(
-            "no result format: not a `result.json` of this smid (format {expected}); {rerun}"
-        )),
-    }
 }
 
 /// The training data of a source: the spec's experiments (run on its plant, or its measured
@@ -386,14 +362,19 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> SmidError + '_ {
     }
 }
 
-/// Write `validation.json` and the SVG plots (measured against free run with the envelope
-/// and the baseline, per record; residual correlations).
+/// Write `validation.json` (the validation stamped with its format,
+/// [`smid_core::output::OutputKind::Validation`]) and the SVG plots (measured against free run
+/// with the envelope and the baseline, per record; residual correlations).
 pub fn write_validation(v: &Validation, dir: &Path, prefix: &str) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let mut out = Vec::new();
     let json = dir.join(format!("{prefix}validation.json"));
-    std::fs::write(&json, serde_json::to_string_pretty(v).unwrap_or_default())
-        .map_err(io(&json))?;
+    let stamped = smid_core::output::OutputKind::Validation.stamp(v);
+    std::fs::write(
+        &json,
+        serde_json::to_string_pretty(&stamped).unwrap_or_default(),
+    )
+    .map_err(io(&json))?;
     out.push(json);
     for (k, s) in v.series.iter().enumerate() {
         let path = dir.join(format!("{prefix}free_run_{k}.svg"));
@@ -680,6 +661,18 @@ fn bound_text(c: &Column) -> String {
     }
 }
 
+/// The content of `diagnosis.json`: the choice and the before/after columns, stamped with the
+/// file's format ([`smid_core::output::OutputKind::Diagnosis`]).
+pub fn diagnosis_value(choice: &Choice, before: &Column, after: &Column) -> serde_json::Value {
+    let content = serde_json::json!({
+        "choice": choice,
+        "before": before,
+        "after": after,
+    });
+    serde_json::to_value(smid_core::output::OutputKind::Diagnosis.stamp(&content))
+        .unwrap_or(content)
+}
+
 /// Write `diagnosis.json`, the augmented spec, and the before/after plots.
 pub fn write_diagnosis(
     spec: &Spec,
@@ -691,11 +684,7 @@ pub fn write_diagnosis(
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let mut out = Vec::new();
     let json = dir.join("diagnosis.json");
-    let v = serde_json::json!({
-        "choice": choice,
-        "before": before,
-        "after": after,
-    });
+    let v = diagnosis_value(choice, before, after);
     std::fs::write(&json, serde_json::to_string_pretty(&v).unwrap_or_default())
         .map_err(io(&json))?;
     out.push(json);

@@ -15,6 +15,7 @@ Errors are :class:`SmidError` subclasses whose messages name the file, field or 
 """
 from ._native import (
     DataError,
+    FormatError,
     InconsistentError,
     InvalidError,
     PlantError,
@@ -48,7 +49,7 @@ from ._api import (
 from .sweeps import CheckResult, check, check_merge, check_shard, reproduce_merge, reproduce_shard
 
 __all__ = [
-    "CheckResult", "DataError", "Diagnosis", "Identification", "InconsistentError", "InnerBounds",
+    "CheckResult", "DataError", "Diagnosis", "FormatError", "Identification", "InconsistentError", "InnerBounds",
     "InvalidError", "ModelSet", "Parameter", "PlantRecord", "PlantError", "Simulation", "SmidError", "SolverError",
     "SpecError", "UnboundedError", "UnsupportedError", "Validation", "Verdict", "__version__",
     "check", "check_cases", "check_merge", "check_shard", "diagnose", "identify", "identify_arrays", "methods",

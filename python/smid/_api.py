@@ -180,6 +180,7 @@ class ModelSet:
     diagnose it, simulate it, save it. Built by :func:`identify` or :meth:`load`."""
 
     def __init__(self, result: Mapping[str, Any]):
+        _check_format(result, "result", "<result>")
         if "model" not in result or "spec" not in result:
             raise InvalidError("invalid `result`: not a result.json of smid run (no `model` or `spec`)")
         self._result = dict(result)
@@ -193,9 +194,11 @@ class ModelSet:
         except OSError as e:
             raise DataError(f"{p}: {e.strerror or e}") from None
         try:
-            return cls(json.loads(text))
+            result = json.loads(text)
         except json.JSONDecodeError as e:
             raise DataError(f"{p}: not a result.json ({e})") from None
+        _check_format(result, "result", str(p))
+        return cls(result)
 
     def save(self, path: Union[str, "os.PathLike[str]"]) -> None:
         """Write the model set as a ``result.json`` (readable by ``smid validate``)."""
@@ -263,6 +266,17 @@ class ModelSet:
 
     def __repr__(self) -> str:
         return f"ModelSet({self.name!r}, {len(self.parameters)} parameters, {len(self.model.get('cells', []))} cells)"
+
+
+def _check_format(content: Any, kind: str, label: str) -> int:
+    """The ``format_version`` of a ``kind`` file of smid (``result``, ``validation``,
+    ``diagnosis``); :class:`smid.FormatError` naming ``label``, the field and the versions this
+    smid reads when it is another kind of file, of a version this smid does not read, or
+    unstamped. The check is the CLI's (the native module's)."""
+    if not isinstance(content, Mapping):
+        raise InvalidError(f"invalid `{label}`: expected a JSON object, got {type(content).__name__}")
+    stamp = {k: content[k] for k in ("format", "format_version", "smid_version") if k in content}
+    return int(_native.check_format(json.dumps(stamp), kind, label))
 
 
 def _num(v: Any, null: float) -> float:

@@ -9,6 +9,7 @@
 //! Equation numbers refer to Cerone, Piga & Regruto, "Parameter bounds evaluation for linear
 //! system with output backlash" (`../shared/paper/output-backlash-paper.md`).
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod band;
 pub mod baseline;
@@ -30,6 +31,7 @@ pub mod model;
 pub mod noise;
 pub mod nonlinearity;
 pub mod outcome;
+pub mod output;
 pub mod pipeline;
 pub mod plant;
 pub mod plot;

@@ -146,18 +146,13 @@ pub fn table(id: &Identification) -> String {
     s
 }
 
-/// The layout of `result.json`'s model set (`model`, `spec`), written as its `format` field
-/// and checked by every reader (`smid::closeloop::source_from_json`: `smid validate` and
-/// `smid diagnose` of a `result.json`, and the Python package's `validate`, `diagnose` and
-/// `simulate` of a model set). Raise
-/// it whenever a change to [`crate::model::ModelSet`] or [`crate::spec::Spec`] would make an
-/// older file read differently, so such a file is refused by name instead of misread.
-pub const RESULT_FORMAT: u64 = 1;
-
-/// `result.json` content.
+/// `result.json` content, stamped with its format ([`crate::output::OutputKind::Result`]); every
+/// field is described in `docs/reference/outputs.md`.
 pub fn result_json(id: &Identification) -> serde_json::Value {
+    let kind = crate::output::OutputKind::Result;
     serde_json::json!({
-        "format": RESULT_FORMAT,
+        "format": kind.tag(),
+        "format_version": kind.version(),
         "smid_version": env!("CARGO_PKG_VERSION"),
         "name": id.name,
         "consistent": true,

@@ -9,6 +9,7 @@
 //! Errors become Python exceptions carrying the same located messages; an empty feasible set
 //! in an identification is a result (`"status": "falsified"`), not an exception.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
@@ -71,6 +72,12 @@ create_exception!(
     SmidError,
     "A capability that this build or plugin does not provide."
 );
+create_exception!(
+    smid,
+    FormatError,
+    SmidError,
+    "A JSON file of smid (result.json, validation.json, diagnosis.json) of another kind, of a format version this smid does not read, or without its format stamp."
+);
 
 /// The Python exception of an error, with the error's own message.
 fn to_py(e: Error) -> PyErr {
@@ -84,6 +91,7 @@ fn to_py(e: Error) -> PyErr {
         Error::Solver(_) => SolverError::new_err(msg),
         Error::Plant { .. } => PlantError::new_err(msg),
         Error::Unsupported { .. } => UnsupportedError::new_err(msg),
+        Error::Format { .. } => FormatError::new_err(msg),
     }
 }
 
@@ -147,9 +155,31 @@ fn source(result_text: &str) -> PyResult<smid::closeloop::Source> {
     smid::closeloop::source_from_json(result_text, Path::new("<result>")).map_err(to_py)
 }
 
+/// Check the format stamp of a JSON file of smid (`kind`: `result`, `validation` or
+/// `diagnosis`) given as text; `label` names it in the error. Returns its `format_version`,
+/// or raises `FormatError` naming the file, the field, what it holds and the versions this
+/// smid reads.
+#[pyfunction]
+fn check_format(text: &str, kind: &str, label: &str) -> PyResult<u64> {
+    use smid::core::output::{self, OutputKind};
+    let kind = match kind {
+        "result" => OutputKind::Result,
+        "validation" => OutputKind::Validation,
+        "diagnosis" => OutputKind::Diagnosis,
+        other => {
+            return Err(InvalidError::new_err(format!(
+                "invalid `kind`: `{other}`, expected `result`, `validation` or `diagnosis`"
+            )))
+        }
+    };
+    output::parse(kind, text, Path::new(label))
+        .map(|v| v[output::VERSION_FIELD].as_u64().unwrap_or_default())
+        .map_err(to_py)
+}
+
 /// Validate the model set of a `result.json` text on fresh records `(name, u, y)`; `k` is the
-/// prediction horizon. Returns JSON `{"validation": {...}, "series": [...], "text": <the CLI's
-/// report>}`.
+/// prediction horizon. Returns JSON `{"validation": <the content of validation.json>, "series":
+/// [...], "text": <the CLI's report>}`.
 #[pyfunction]
 #[pyo3(signature = (result_text, records, k=5))]
 fn validate(
@@ -177,7 +207,7 @@ fn validate(
         })
         .map_err(to_py)?;
     to_text(&json!({
-        "validation": v,
+        "validation": smid::core::output::OutputKind::Validation.stamp(&v),
         "series": v.series,
         "text": smid::closeloop::format_validation(&v, &fresh),
     }))
@@ -186,7 +216,8 @@ fn validate(
 /// Diagnose: choose the effect (or plugin) the model lacks from its training data, then the
 /// before/after table on the held-out records `(name, u, y)`. The source is a `result.json`
 /// text (`kind = "result"`) or a spec text (`kind = "spec"`, `label` and `base` as in
-/// [`identify`]). Returns JSON `{"choice", "summary", "before", "after", "text"}`.
+/// [`identify`]). Returns the content of `diagnosis.json` (its format stamp, `choice`,
+/// `before`, `after`) with `summary` and `text` added.
 #[pyfunction]
 #[pyo3(signature = (source_text, kind, label, base, holdout, max_effects=2, only=Vec::new(), k=5))]
 #[allow(clippy::too_many_arguments)]
@@ -235,17 +266,14 @@ fn diagnose(
             Ok((choice, before, after))
         })
         .map_err(to_py)?;
-    to_text(&json!({
-        "choice": choice,
-        "summary": choice.summary(),
-        "before": before,
-        "after": after,
-        "text": format!(
-            "{}{}",
-            smid::closeloop::format_choice(&choice),
-            smid::closeloop::format_table(&before, &after)
-        ),
-    }))
+    let mut out = smid::closeloop::diagnosis_value(&choice, &before, &after);
+    out["summary"] = json!(choice.summary());
+    out["text"] = json!(format!(
+        "{}{}",
+        smid::closeloop::format_choice(&choice),
+        smid::closeloop::format_table(&before, &after)
+    ));
+    to_text(&out)
 }
 
 /// Free run from rest of the model set of a `result.json` text on the input `u`: the central
@@ -423,6 +451,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SolverError", py.get_type::<SolverError>())?;
     m.add("PlantError", py.get_type::<PlantError>())?;
     m.add("UnsupportedError", py.get_type::<UnsupportedError>())?;
+    m.add("FormatError", py.get_type::<FormatError>())?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
     m.add_function(wrap_pyfunction!(validate, m)?)?;
     m.add_function(wrap_pyfunction!(diagnose, m)?)?;
@@ -436,6 +465,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(schema, m)?)?;
     m.add_function(wrap_pyfunction!(methods, m)?)?;
     m.add_function(wrap_pyfunction!(check_cases, m)?)?;
+    m.add_function(wrap_pyfunction!(check_format, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
