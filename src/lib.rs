@@ -1,10 +1,98 @@
 //! # smid
 //!
-//! Set-membership identification of block-oriented nonlinear systems: the facade crate. It
-//! re-exports the core, links every bundled plugin (so their `type` tags are registered), builds
-//! plants from specs, and holds the paper reproduction and Monte Carlo containment checks used
-//! by the `smid` CLI.
+//! Set-membership identification of block-oriented nonlinear systems. smid fits a model made
+//! of a linear block `G(q⁻¹) = B(q⁻¹) / A(q⁻¹)` and a hard nonlinearity (backlash, dead zone,
+//! saturation, ...) to input/output data and returns a **guaranteed bound** on every
+//! parameter: an interval that holds the true value whenever the measurement noise stays
+//! within the declared bound, `|η_t| <= Δη`. Set-membership (or bounded-error) identification
+//! keeps every parameter value that explains the data within that bound, instead of one
+//! least-squares estimate; it proceeds in three stages: the nonlinearity's parameters from
+//! steady-state data, bounds on the unmeasured inner signal between the two blocks, then the
+//! linear block's parameters.
+//!
+//! This is the facade crate. It re-exports the core ([`core`], the crate `smid_core`) and
+//! every bundled plugin, links the plugins so a spec's `type` tags resolve, and holds the entry
+//! points of the `smid` command-line tool: [`parse_spec`] and [`load_spec`] read a *spec* (the
+//! YAML document that names the plant, the noise bound, the experiments, the model and the
+//! method), [`run_spec`] and [`run_spec_file`] acquire the data and identify, and
+//! [`write_run`] writes `result.json` and the plots, as `smid run` does.
+//!
+//! ## Example
+//!
+//! The example of the founding paper: a second-order linear block followed by an asymmetric
+//! output backlash, read through a 15-bit encoder (the spec `examples/paper.yaml`). The
+//! built-in simulator plays the true plant, so every bound can be checked against the truth.
+//!
+//! ```
+//! use smid::Outcome;
+//! use std::path::Path;
+//!
+//! let yaml = r#"
+//! name: paper-section-6
+//! plant:
+//!   simulator:
+//!     structure: wiener
+//!     a: [0.5, 0.7]
+//!     b: [0.0, 1.4, 0.8]
+//!     nonlinearity: { type: output_backlash, m_l: 0.248, c_l: 0.0698, m_r: 0.252, c_r: 0.0349 }
+//! noise:
+//!   encoder_bits: 15
+//! experiment:
+//!   seed: 1
+//!   filter: { a_bar: 1.0, tol: 0.1, epsilon: 1.0e-5, step: 3.0 }
+//!   steady_state: { amplitudes: 50, min: 0.6, max: 3.0 }
+//!   dynamic: { length: 100, amplitude: 1.0 }
+//! model:
+//!   structure: wiener
+//!   nonlinearity: { type: output_backlash }
+//!   na: 2
+//!   nb: 2
+//!   fixed: { b0: 0.0 }
+//!   unit_gain: true
+//! method:
+//!   alpha: design
+//!   eiv: classical
+//! "#;
+//! let spec = smid::parse_spec(yaml, Path::new("<string>"))?;
+//! // Relative paths in the spec (a CSV, an FMU) would resolve against the second argument.
+//! let id = match smid::run_spec(&spec, Path::new("."), &|_| {})? {
+//!     Outcome::Consistent(id) => id,
+//!     // No model of the declared class fits the data within Δη: a finding, not an error.
+//!     Outcome::Falsified(f) => panic!("{}", f.message()),
+//! };
+//! println!("Δη = {:.3e}", id.delta_eta);
+//! for p in id.parameters() {
+//!     println!("{:<4} in [{:+.5}, {:+.5}], true {:?}", p.name, p.lower, p.upper, p.truth);
+//!     // Each parameter's truth lies inside its guaranteed bound.
+//!     assert_eq!(p.contains, Some(true), "{}", p.name);
+//! }
+//! assert_eq!(id.all_contain_truth(), Some(true));
+//! # Ok::<(), smid::SmidError>(())
+//! ```
+//!
+//! [`core::report::table`] formats the same bounds as `smid run` prints them.
+//!
+//! ## The guide
+//!
+//! The user guide is the mdBook in the repository's `docs/` folder (`mdbook build docs`).
+//! Start with `docs/getting-started.md` (installation and a first run), then
+//! `docs/concepts.md` (the model class, the three stages, a glossary) and
+//! `docs/guarantees.md` (what is guaranteed, under which assumptions). `docs/extending.md`
+//! shows how to write a nonlinearity plugin, an effect or a stage-3 method against
+//! [`core::nonlinearity`], and `docs/reference/` lists every spec field, output file and
+//! command.
+//!
+//! ## Crate map
+//!
+//! Besides the entry points above, the modules hold what the CLI's other commands run:
+//! validation and diagnosis of an identified model against fresh records ([`closeloop`], for
+//! `smid validate` and `smid diagnose`; the computing is in [`core::validate`] and
+//! [`core::diagnose`]), experiment data from a plant without identifying ([`simulate`]), the
+//! paper's Section 6 tables ([`reproduce`], [`compare`]) and the Monte Carlo containment
+//! checks ([`montecarlo`], [`plugin_check`], [`chain_check`], [`diagnose_check`]); [`sweep`]
+//! splits the seeds of `smid check` and `smid reproduce paper` into shards. FMU plants ([`with_fmu_plant`]) need the cargo feature `fmu`.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 pub use smid_bias as bias;
 pub use smid_core as core;
@@ -28,6 +116,7 @@ pub mod montecarlo;
 pub mod plugin_check;
 pub mod reproduce;
 pub mod simulate;
+pub mod spec_reference;
 pub mod sweep;
 
 use smid_core::pipeline::{self, Identification};
@@ -126,7 +215,7 @@ pub fn run_spec(
     })
 }
 
-/// Parse a spec from text (`label` names it in errors: a file, or "<string>") with every
+/// Parse a spec from text (`label` names it in errors: a file, or `"<string>"`) with every
 /// bundled plugin registered.
 pub fn parse_spec(text: &str, label: &Path) -> Result<Spec> {
     link_plugins();

@@ -79,7 +79,13 @@ enum Command {
     },
     /// Print the JSON Schema of the spec (every registered plugin and effect `type`); the
     /// committed copy is `schemas/smid-spec.schema.json`.
-    Schema,
+    Schema {
+        /// Print the spec reference instead: every field with its type, default, description
+        /// and an example from the bundled specs, in Markdown (the committed copy is
+        /// `docs/reference/spec.md`).
+        #[arg(long)]
+        markdown: bool,
+    },
     /// Monte Carlo containment check: random systems, backlash and noise; every bound must hold.
     Check {
         #[arg(long, default_value_t = 1000)]
@@ -351,9 +357,13 @@ fn main() {
 fn real_main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
-        Command::Schema => {
+        Command::Schema { markdown } => {
             smid::link_plugins();
-            print!("{}", smid::core::registry::spec_schema())
+            if markdown {
+                print!("{}", smid::spec_reference::reference()?)
+            } else {
+                print!("{}", smid::core::registry::spec_schema())
+            }
         }
         Command::Check {
             trials,
@@ -531,8 +541,8 @@ fn real_main() -> Result<()> {
                 only,
                 ..Default::default()
             };
-            // The held-out files are parsed and checked now (a bad path or row fails in
-            // seconds, not after the search); their values reach only the table below.
+            // The held-out files are parsed and checked now (a bad path or row fails at
+            // once, not after the search); their values reach only the table below.
             let seed = src.spec.experiment.seed + 1000;
             let length = src.spec.experiment.dynamic.length;
             let held =

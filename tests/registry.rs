@@ -1,7 +1,9 @@
 //! The plugin registry and the spec's JSON Schema: every registered `type` round-trips through
 //! YAML, the committed schema (`schemas/smid-spec.schema.json`) is the one the Rust types
-//! generate, every example names it and validates its `type`s, and the core names no plugin
-//! (a plugin, such as `plugins/example-gain`, is added without editing `smid-core`).
+//! generate and its defaults are the spec's, the committed spec reference
+//! (`docs/reference/spec.md`) is the one `smid schema --markdown` prints, every example names
+//! the schema and validates its `type`s, and the core names no plugin (a plugin, such as
+//! `plugins/example-gain`, is added without editing `smid-core`).
 use smid::core::nonlinearity::{Nonlinearity, NonlinearityModel};
 use smid::core::registry;
 use smid::core::spec::Spec;
@@ -106,6 +108,106 @@ fn committed_schema_is_up_to_date() {
         "{} is stale: regenerate it with `cargo run -- schema > schemas/smid-spec.schema.json`",
         path.display()
     );
+}
+
+#[test]
+fn committed_spec_reference_is_up_to_date() {
+    let path = root().join("docs/reference/spec.md");
+    let committed = std::fs::read_to_string(&path).unwrap_or_default();
+    let generated = smid::spec_reference::reference().unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        committed == generated,
+        "{} is stale: regenerate it with `{}`",
+        path.display(),
+        smid::spec_reference::REGENERATE
+    );
+}
+
+/// The fields of mappings (through `$ref`s and optional values, not into lists, unions or
+/// plugin blocks) whose schema states a default, by path.
+fn schema_defaults(
+    defs: &serde_json::Value,
+    node: &serde_json::Value,
+    path: &mut Vec<String>,
+    out: &mut Vec<(Vec<String>, serde_json::Value)>,
+) {
+    let mut n = node;
+    for _ in 0..8 {
+        if let Some(r) = n["$ref"].as_str().and_then(|r| r.strip_prefix("#/$defs/")) {
+            n = &defs[r];
+        } else if let Some(alts) = n["anyOf"].as_array() {
+            let real: Vec<&serde_json::Value> =
+                alts.iter().filter(|a| a["type"] != "null").collect();
+            if real.len() != 1 || real.len() == alts.len() {
+                return;
+            }
+            n = real[0];
+        } else {
+            break;
+        }
+    }
+    let Some(props) = n["properties"].as_object() else {
+        return;
+    };
+    for (name, prop) in props {
+        path.push(name.clone());
+        if let Some(d) = prop.get("default") {
+            out.push((path.clone(), d.clone()));
+        }
+        schema_defaults(defs, prop, path, out);
+        path.pop();
+    }
+}
+
+/// Every default the schema states for a field of a mapping is the one the spec takes when the
+/// field is left out: `examples/paper.yaml` with the field set to the schema's default parses to
+/// the same spec as with the field removed.
+#[test]
+fn schema_defaults_are_the_spec_defaults() {
+    use serde_norway::Value as Yaml;
+    smid::link_plugins();
+    let schema: serde_json::Value = serde_json::from_str(&registry::spec_schema()).unwrap();
+    let mut fields = Vec::new();
+    schema_defaults(&schema["$defs"], &schema, &mut Vec::new(), &mut fields);
+    assert!(fields.len() >= 30, "too few defaults found: {fields:?}");
+    let text = std::fs::read_to_string(root().join("examples/paper.yaml")).unwrap();
+    let base: Yaml = serde_norway::from_str(&text).unwrap();
+    let parsed = |v: &Yaml| {
+        let yaml = serde_norway::to_string(v).unwrap();
+        let spec = Spec::parse(&yaml, Path::new("defaults.yaml"))
+            .unwrap_or_else(|e| panic!("{e}\n{yaml}"));
+        format!("{spec:?}")
+    };
+    for (path, default) in fields {
+        let (last, parents) = path.split_last().unwrap();
+        let mut with = base.clone();
+        let mut at = &mut with;
+        for p in parents {
+            let m = at.as_mapping_mut().unwrap();
+            if !m.contains_key(p.as_str()) {
+                m.insert(p.as_str().into(), Yaml::Mapping(Default::default()));
+            }
+            at = m.get_mut(p.as_str()).unwrap();
+        }
+        at.as_mapping_mut().unwrap().insert(
+            last.as_str().into(),
+            serde_norway::to_value(&default).unwrap(),
+        );
+        let mut without = base.clone();
+        let mut at = Some(&mut without);
+        for p in parents {
+            at = at.and_then(|v| v.get_mut(p.as_str()));
+        }
+        if let Some(m) = at.and_then(|v| v.as_mapping_mut()) {
+            m.remove(last.as_str());
+        }
+        assert_eq!(
+            parsed(&with),
+            parsed(&without),
+            "{}: the schema's default {default} is not the one the spec takes",
+            path.join(".")
+        );
+    }
 }
 
 #[test]

@@ -15,23 +15,37 @@ use std::path::{Path, PathBuf};
 /// The stage-3 method names (defined with the methods, in [`crate::stage3`]).
 pub use crate::stage3::EivMethod;
 
-/// A whole spec.
+/// A whole spec: the plant, the noise bound, the experiment, the model structure to identify
+/// and the method's options.
 #[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Spec {
-    /// Free-form name shown in reports.
+    /// Free-form name shown in reports (not set: none is shown).
     #[serde(default)]
     pub name: Option<String>,
+    /// Where the data come from: give exactly one of `simulator` (the built-in simulator with
+    /// true parameters), `data` (measured CSV files) or `fmu` (an FMI 2.0 unit).
     pub plant: PlantSpec,
+    /// The bound `Δη` on the output's measurement error, `|η_t| <= Δη` for every sample (eqs
+    /// 4-5): given (`delta`, `encoder_bits`) or estimated from measured data (`estimate`).
     pub noise: NoiseSpec,
+    /// The designed experiments run on a simulator or FMU plant: the low-pass filter, the
+    /// steady-state square wave (stage 1) and the dynamic PRBS (stages 2-3). With measured data
+    /// (`plant.data`) none is run, and of these fields only `filter.step` is read (by
+    /// `method.alpha: bias`).
     #[serde(default)]
     pub experiment: ExperimentSpec,
+    /// The model structure to identify: the linear block's orders, the nonlinearity and where it
+    /// sits, further blocks and effects, and what is known in advance.
     pub model: ModelSpec,
+    /// How the identification runs: the overshoot allowance α, the stage-3 method and the
+    /// budgets of the searches.
     #[serde(default)]
     pub method: MethodSpec,
 }
 
-/// Exactly one plant kind.
+/// The plant: exactly one of `simulator`, `data` or `fmu`; the other fields belong to `fmu`,
+/// except `truth`.
 #[derive(Debug, Default, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PlantSpec {
@@ -41,52 +55,69 @@ pub struct PlantSpec {
     /// Measured data from CSV files.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub data: Option<DataSpec>,
-    /// An FMI 2.0 co-simulation unit (path to the .fmu), with the fields below.
+    /// An FMI 2.0 co-simulation unit: the path of the `.fmu` file, relative to the spec's
+    /// directory (or a bundled plant's source directory, such as `../fmus/paper`, whose built
+    /// unit is used). It needs the `fmu` cargo feature.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fmu: Option<PathBuf>,
-    /// FMU input variable name.
+    /// The FMU's input variable (not set: its only real input).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub input: Option<String>,
-    /// FMU output variable name.
+    /// The FMU's output variable (not set: its only real output).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output: Option<String>,
-    /// FMU communication step (one sample).
+    /// The FMU's communication step in seconds, one sample (not set: the step size of the
+    /// unit's default experiment).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub step: Option<f64>,
-    /// FMU parameter values by name.
+    /// Values of the FMU's parameters, by variable name, set before each run.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    #[schemars(extend("default" = {}))]
     pub parameters: BTreeMap<String, f64>,
-    /// True parameter values (for reports), by parameter name (`m_l`, `a1`, ...).
+    /// True parameter values by name (`m_l`, `a1`, `offset`, ...), for any plant kind: reports
+    /// say whether each bound contains its true value. They replace the values a simulator
+    /// knows of itself.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    #[schemars(extend("default" = {}))]
     pub truth: BTreeMap<String, f64>,
 }
 
-/// The built-in simulator.
+/// The built-in simulator: the true linear block `B(q^-1)/A(q^-1)` (eq 1), the true
+/// nonlinearity and, optionally, further blocks and effects, with sample time 1.
 #[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SimulatorSpec {
+    /// Where the nonlinearity sits: `wiener` (the linear block, then the nonlinearity) or
+    /// `hammerstein` (the nonlinearity, then the linear block).
     #[serde(default)]
     pub structure: Structure,
-    /// `[a_1..a_na]`.
+    /// The true coefficients `[a_1, .., a_na]` of `A(q^-1) = 1 + a_1 q^-1 + .. + a_na q^-na`.
     pub a: Vec<f64>,
-    /// `[b_0..b_nb]`.
+    /// The true coefficients `[b_0, .., b_nb]` of `B(q^-1) = b_0 + b_1 q^-1 + .. + b_nb q^-nb`.
     pub b: Vec<f64>,
+    /// The true nonlinearity: a block `type` with its parameters.
     pub nonlinearity: Box<dyn Nonlinearity>,
     /// Blocks before the linear block (and before `nonlinearity` when Hammerstein), in signal
-    /// order, with their true parameters (a chain: see [`crate::chain`]).
+    /// order, with their true parameters (a chain of blocks: an input bias, a first
+    /// nonlinearity...).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[schemars(extend("default" = []))]
     pub input: Vec<Box<dyn Nonlinearity>>,
     /// Blocks after the nonlinearity (Wiener) or the linear block (Hammerstein), in signal
     /// order, with their true parameters: a sensor lag, a second nonlinearity...
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[schemars(extend("default" = []))]
     pub output: Vec<Box<dyn Nonlinearity>>,
     /// Effects the plant has, with their true values (an offset, a delay, an actuator lag...):
     /// data with an effect a model may lack, without an FMU.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[schemars(extend("default" = []))]
     pub effects: Vec<Box<dyn Effect>>,
-    /// The linear block's autoregressive part reads the chain's output, the output side inside
-    /// the loop (as `model.feedback`). Default `false`.
+    /// The linear block's autoregressive part reads the chain's output, so the output side's
+    /// blocks act inside the loop (as `model.feedback` describes). `false`: the linear block
+    /// reads its own past outputs (eq 1).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    #[schemars(extend("default" = false))]
     pub feedback: bool,
 }
 
@@ -113,15 +144,16 @@ impl SimulatorSpec {
     }
 }
 
-/// Columns of a CSV file (optionally only the rows whose `part` column equals a value, a row
-/// range, and block means of `decimate` samples).
+/// Columns of a CSV file with a header row, named by their headers (optionally only the rows
+/// whose `part` column equals a value, a row range, and block means of `decimate` samples).
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CsvColumns {
+    /// The CSV file, relative to the spec's directory.
     pub file: PathBuf,
-    /// Input column.
+    /// The input column's header.
     pub u: String,
-    /// Output column.
+    /// The output column's header.
     pub y: String,
     /// Time column in seconds (optional): steady-state points take their sample time from it
     /// (`t / dt`, which a sensor drift needs); a dynamic record's times must be evenly spaced
@@ -167,7 +199,9 @@ impl CsvColumns {
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(untagged)]
 pub enum OneOrMany<T> {
+    /// A single item, written without a list.
     One(T),
+    /// A list of items.
     Many(Vec<T>),
 }
 
@@ -181,13 +215,19 @@ impl<T> OneOrMany<T> {
     }
 }
 
-/// Measured data: optional steady-state samples (`u` = steady input `ū`, signed; `y` = `ȳ`) and
-/// one or more dynamic records (the training records).
+/// Measured data: optional steady-state points and one or more dynamic records (the training
+/// records).
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DataSpec {
+    /// The steady-state points for stage 1, one row each: column `u` the steady input `ū`
+    /// (signed), column `y` the steady output `ȳ` (at least 4 points, two per branch). Not
+    /// set: identification from the dynamic records alone, the nonlinearity's parameters
+    /// bisected over `model.prior`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub steady_state: Option<CsvColumns>,
+    /// The training records: one record, or a list of records identified together (each a
+    /// dynamic experiment with its own start).
     pub dynamic: OneOrMany<CsvColumns>,
     /// Sample time of the raw data in seconds (default 1); decimation multiplies it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -234,17 +274,21 @@ fn d_true() -> bool {
     true
 }
 
-/// Experiment design.
+/// Experiment design: the filter, the steady-state experiment and the dynamic one.
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ExperimentSpec {
-    /// Seed of the noise and of the PRBS.
+    /// Seed of the random draws: the PRBS, the noise added to the output, the shuffled order
+    /// of `steady_state.shuffle`. The same seed gives the same data.
     #[serde(default = "d_seed")]
     pub seed: u64,
+    /// The first-order filter that shapes the steady-state square wave (paper Appendix).
     #[serde(default)]
     pub filter: FilterSpec,
+    /// The steady-state experiment of stage 1 (paper Section 3.2).
     #[serde(default)]
     pub steady_state: SteadySpec,
+    /// The dynamic experiment (PRBS) of stages 2 and 3.
     #[serde(default)]
     pub dynamic: DynamicSpec,
 }
@@ -259,21 +303,35 @@ impl Default for ExperimentSpec {
     }
 }
 
-/// The low-pass filter: a given `pole`, or the Appendix search with these options.
+/// The first-order low-pass filter `(1 - a)/(z - a)` that shapes the steady-state square wave
+/// so that the inner signal does not overshoot (Section 3.1): a given `pole`, or the Appendix
+/// search for the fastest pole that passes, with the other fields as its options.
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FilterSpec {
+    /// The filter's pole `a` (`0 <= a < 1`; closer to 1 is slower). Not set: the Appendix
+    /// search designs it on the plant, noise-free.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pole: Option<f64>,
+    /// `ā`, the slowest pole of the search (`0 < ā <= 1`; 1 is the quasi-static limit, run as
+    /// `1 - 1e-4`): the output reached through it is the reference, and poles are searched in
+    /// `[0, ā]`.
     #[serde(default = "d_abar")]
     pub a_bar: f64,
+    /// The search stops when its bracket of poles is narrower than `tol` (`1e-12 <= tol < 1`).
     #[serde(default = "d_tol")]
     pub tol: f64,
+    /// `ε`: a pole passes when its steady-state output and its overshoot differ from the
+    /// reference's by at most `ε` (output units, `> 0`).
     #[serde(default = "d_eps")]
     pub epsilon: f64,
-    /// `r̄_F`.
+    /// `r̄_F`: the amplitude of the search's test step (input units, non-zero). It also scales
+    /// the overshoot allowance α of `method.alpha`.
     #[serde(default = "d_step")]
     pub step: f64,
+    /// Samples the plant is given to settle after the filter has settled, in each test step
+    /// (at most 1000000); also added to each steady-state half-wave when
+    /// `steady_state.half_period` is not set.
     #[serde(default = "d_settle")]
     pub settle: usize,
 }
@@ -302,25 +360,33 @@ impl FilterSpec {
     }
 }
 
-/// Steady-state experiment: `M` amplitudes equally spaced in `[min, max]`.
+/// Steady-state experiment (Section 3.2, stage 1): a square wave of `M` amplitudes equally
+/// spaced in `[min, max]`, through the filter; each amplitude is held for a positive and then a
+/// negative half-wave, and the output is sampled at the end of each (`2M` points).
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SteadySpec {
+    /// `M`, the number of amplitudes (2 to 100000).
     #[serde(default = "d_m")]
     pub amplitudes: usize,
+    /// The smallest amplitude (input units, `0 < min < max`).
     #[serde(default = "d_min")]
     pub min: f64,
+    /// The largest amplitude (input units).
     #[serde(default = "d_max")]
     pub max: f64,
+    /// Samples per half-wave. Not set: the filter's settling time plus `filter.settle`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub half_period: Option<usize>,
     /// Play the amplitudes in a random order (drawn from the experiment's seed) instead of
     /// ascending: time and amplitude decorrelate, so a sensor drift cannot pass for a slope.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    #[schemars(extend("default" = false))]
     pub shuffle: bool,
     /// No steady-state experiment (nor filter design): identification from the dynamic record
     /// alone, the nonlinearity's parameters bisected over `model.prior`.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    #[schemars(extend("default" = false))]
     pub skip: bool,
 }
 impl Default for SteadySpec {
@@ -336,20 +402,25 @@ impl Default for SteadySpec {
     }
 }
 
-/// Dynamic experiment: a PRBS of `length` samples, `±amplitude`, each bit held `hold` samples.
+/// Dynamic experiment (Section 4, stages 2-3): a pseudo-random binary sequence (PRBS) of
+/// `length` samples switching between `±amplitude`, each bit held `hold` samples.
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DynamicSpec {
+    /// `N`, the number of samples (10 to 20000000).
     #[serde(default = "d_n")]
     pub length: usize,
+    /// The input's amplitude (input units, `> 0`).
     #[serde(default = "d_one")]
     pub amplitude: f64,
+    /// Samples each bit is held (1: a new bit every sample).
     #[serde(default = "d_hold")]
     pub hold: usize,
-    /// Number of input levels: 2 (default) is the binary PRBS `±amplitude`; more draws each
-    /// held value's magnitude from `levels/2` equally spaced values in `(0, amplitude]`, with
-    /// the PRBS's sign.
+    /// Number of input levels: 2 is the binary PRBS `±amplitude`; more draws each held value's
+    /// magnitude from `levels/2` equally spaced values in `(0, amplitude]`, with the PRBS's
+    /// sign.
     #[serde(default = "d_levels", skip_serializing_if = "is_two")]
+    #[schemars(extend("default" = 2))]
     pub levels: usize,
 }
 fn d_levels() -> usize {
@@ -370,6 +441,8 @@ impl Default for DynamicSpec {
 }
 
 impl ExperimentSpec {
+    /// The steady-state experiment's options as [`crate::experiment`] takes them (the
+    /// shuffle seed derived from `seed`).
     pub fn steady_options(&self) -> SteadyStateOptions {
         SteadyStateOptions {
             amplitudes: self.steady_state.amplitudes,
@@ -383,6 +456,7 @@ impl ExperimentSpec {
                 .then_some(self.seed ^ 0x5eed_5eed_5eed_5eed),
         }
     }
+    /// The dynamic experiment's options as [`crate::experiment`] takes them.
     pub fn dynamic_options(&self) -> DynamicOptions {
         DynamicOptions {
             length: self.dynamic.length,
@@ -393,36 +467,48 @@ impl ExperimentSpec {
     }
 }
 
-/// The model structure to identify.
+/// The model structure to identify: a linear block `B(q^-1)/A(q^-1)` with a nonlinearity
+/// before or after it, further blocks and effects. Parameter names: `a1`.., `b0`.. for the
+/// linear block, the nonlinearity's own (`m_l`, `c_l`, ...), `in1.<name>`, `out1.<name>`, ...
+/// for the chain's blocks, the effects' own (`offset`, ...).
 #[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ModelSpec {
+    /// Where the nonlinearity sits: `wiener` (the linear block, then the nonlinearity) or
+    /// `hammerstein` (the nonlinearity, then the linear block).
     #[serde(default)]
     pub structure: Structure,
+    /// The nonlinearity to identify: a block `type` (its parameters are identified; some
+    /// `type`s take options).
     pub nonlinearity: Box<dyn NonlinearityModel>,
     /// Blocks before the linear block (and before `nonlinearity` when Hammerstein), in signal
     /// order: any registered plugin that supports the input side. Each is bisected over its
-    /// prior box, its parameters named `in1.<name>`, `in2.<name>`, ... in `prior` (see
-    /// [`crate::chain`]).
+    /// prior box, its parameters named `in1.<name>`, `in2.<name>`, ... in `prior`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[schemars(extend("default" = []))]
     pub input: Vec<Box<dyn NonlinearityModel>>,
     /// Blocks after the nonlinearity (Wiener) or the linear block (Hammerstein), in signal
     /// order: any registered plugin that supports the output side (a sensor lag, a second
     /// nonlinearity). Parameters `out1.<name>`, ... in `prior`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[schemars(extend("default" = []))]
     pub output: Vec<Box<dyn NonlinearityModel>>,
-    /// Order of `A(q^-1)`.
+    /// `na`, the order of `A(q^-1) = 1 + a_1 q^-1 + .. + a_na q^-na` (coefficients `a1`..;
+    /// at most 8, effects included).
     pub na: usize,
-    /// Order of `B(q^-1)` (coefficients `b_0..b_nb`).
+    /// `nb`, the order of `B(q^-1) = b_0 + b_1 q^-1 + .. + b_nb q^-nb` (coefficients `b0`..;
+    /// at most 8, effects included).
     pub nb: usize,
-    /// Input delay in samples: the equation reads `v_{t-nk-j}` (default 0).
+    /// Input delay in samples: the equation reads `v_{t-nk-j}` (at most 1000).
     #[serde(default, skip_serializing_if = "is_zero")]
+    #[schemars(extend("default" = 0))]
     pub nk: usize,
     /// Coefficients known in advance, by name (`a1`.., `b0`.., effect coefficients), e.g.
     /// `{b0: 0}`.
     #[serde(default)]
     pub fixed: BTreeMap<String, f64>,
-    /// Impose the unit steady-state gain of eq (8).
+    /// Impose the unit steady-state gain of eq (8), `Σ b_j = 1 + Σ a_i`: the nonlinearity then
+    /// carries the gain, which makes the parameters unique.
     #[serde(default = "d_true")]
     pub unit_gain: bool,
     /// The linear block is declared **stable** (every root of `A(q)` inside the closed unit
@@ -430,6 +516,7 @@ pub struct ModelSpec {
     /// It cuts off the unstable explanations a poorly exciting record leaves open (an
     /// otherwise unbounded `θ`). An assumption: the bounds are guaranteed for stable plants.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    #[schemars(extend("default" = false))]
     pub stable: bool,
     /// The linear block's autoregressive part reads the chain's **output** (after the output
     /// side's blocks, before the sensor terms): `x_t = -Σ a_i w_{t-i} + Σ b_j v_{t-nk-j} + …`,
@@ -437,16 +524,21 @@ pub struct ModelSpec {
     /// its rim goes on from the clipped level, where a Wiener block would clip only what is
     /// measured. Stage 3 reads the past outputs at the measurements (`w ∈ y ± Δ` through the
     /// sensor terms), so an equation is usable wherever the inner sample `x_t` is bounded, a
-    /// clipped sample giving a half-space. Default `false` (eq 1: the block's own past).
+    /// clipped sample giving a half-space. `false`: the linear block reads its own past
+    /// outputs (eq 1).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    #[schemars(extend("default" = false))]
     pub feedback: bool,
     /// Effects: further terms of the model (delay, actuator lag, sensor offset or drift,
     /// friction...), each a registered `type`; their values are identified, not given.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[schemars(extend("default" = []))]
     pub effects: Vec<Box<dyn Effect>>,
-    /// Prior box `[lo, hi]` of every parameter the branch and bound bisects (sensor
-    /// parameters of effects), by name, e.g. `{offset: [-0.1, 0.1]}`.
+    /// Prior box `[lo, hi]` of every parameter the branch and bound bisects, by name, e.g.
+    /// `{offset: [-0.1, 0.1]}`: the sensor parameters of effects, the chain's blocks, and the
+    /// nonlinearity's parameters when there are no steady-state data.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    #[schemars(extend("default" = {}))]
     pub prior: BTreeMap<String, [f64; 2]>,
 }
 
@@ -454,7 +546,8 @@ fn is_zero(n: &usize) -> bool {
     *n == 0
 }
 
-/// The α allowance of eqs (14)-(15).
+/// The overshoot allowance α of stage 1 (eqs 14-15): how far below its branch a steady-state
+/// point may lie because the filtered square wave made the inner signal overshoot.
 #[derive(
     Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema, Default,
 )]
@@ -470,47 +563,62 @@ pub enum AlphaSpec {
     Zero,
 }
 
-/// Method options.
+/// Method options: the overshoot allowance, the stage-3 method and the budgets of the searches.
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema, Default)]
 #[serde(deny_unknown_fields)]
 pub struct MethodSpec {
+    /// The overshoot allowance α of stage 1 (eqs 14-15).
     #[serde(default)]
     pub alpha: AlphaSpec,
+    /// The stage-3 method: how the linear block's parameters are bounded from the inner
+    /// signal's bounds (an errors-in-variables problem).
     #[serde(default)]
     pub eiv: EivMethod,
     /// Options of the chosen stage-3 method (its own names, e.g. `max_rounds` for `shared`;
     /// unknown ones are an error naming them). Empty: the method's defaults.
     #[serde(default, skip_serializing_if = "serde_json::Map::is_empty")]
+    #[schemars(extend("default" = {}))]
     pub options: serde_json::Map<String, serde_json::Value>,
     /// Also use equations whose inner samples are only known to lie in the dead band
-    /// (default: yes for every method but `classical`, which keeps the paper's choice).
+    /// (not set: yes for every method but `classical`, which keeps the paper's choice).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub band_samples: Option<bool>,
-    /// Budget of the branch and bound over the bisected parameters (see [`CellSpec`]).
+    /// Budget of the branch and bound over the bisected parameters (the parameters of
+    /// effects, of the chain's blocks, and of the nonlinearity without steady-state data).
     #[serde(default)]
     pub cells: CellSpec,
-    /// The search for the simulation member (see [`MemberSpec`]).
+    /// The search for the simulation member: the member of the identified set whose free run
+    /// fits the training records best.
     #[serde(default)]
     pub member: MemberSpec,
 }
 
-/// Budget of the search for the simulation member ([`crate::members::simulation`]): the
-/// cells probed (nearest the central cell), the best ones searched, Nelder-Mead iterations per
-/// run and runs for a certified point, and whether certified members are spread over the set
-/// for the envelope. `search: false` skips it (the centre, not certified, stands in).
+/// Budget of the search for the simulation member ([`crate::members::simulation`]), a point
+/// of the identified set certified consistent whose free run fits the training records best:
+/// the cells probed (nearest the central cell), the best ones searched, Nelder-Mead iterations
+/// per run and runs for a certified point, and whether certified members are spread over the
+/// set for the envelope. `search: false` skips it (the centre, not certified, stands in).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MemberSpec {
+    /// Search for the member. `false`: the centre of the bounds stands in, not certified.
     #[serde(default = "d_true")]
     pub search: bool,
+    /// Cells probed: the `probe` bounded cells nearest the central one are ranked by how close
+    /// their centres come to consistent (`>= 1`).
     #[serde(default = "d_probe")]
     pub probe: usize,
+    /// How many of the best-ranked probed cells are searched (`>= 1`).
     #[serde(default = "d_member_cells")]
     pub cells: usize,
+    /// Nelder-Mead iterations per run (1 to 100000).
     #[serde(default = "d_iterations")]
     pub iterations: u64,
+    /// Runs per cell towards a certified point, each from the best point so far (1 to 100).
     #[serde(default = "d_restarts")]
     pub restarts: usize,
+    /// Spread further certified members over the set around the member, for the envelope of
+    /// free runs the reports draw.
     #[serde(default = "d_true")]
     pub spread: bool,
 }
@@ -575,8 +683,10 @@ fn d_max_cells() -> usize {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CellSpec {
+    /// Most halvings of each bisected parameter (at most 60).
     #[serde(default = "d_depth")]
     pub depth: u32,
+    /// Most cells evaluated, each one run of stages 1-2 and a stage-3 test (1 to 1000000).
     #[serde(default = "d_max_cells")]
     pub max_cells: usize,
     /// The nonlinearity's bisected parameters (a prior box without steady-state data) are
@@ -584,7 +694,7 @@ pub struct CellSpec {
     #[serde(default = "d_nl_halvings")]
     pub nonlinearity_halvings: u32,
     /// Surviving cells bounded at most (each is one stage-3 bound by the spec's method: cheap
-    /// with `classical`, about 0.1-0.3 s with `shared`); more are merged back into the cells they
+    /// with `classical`, much dearer with `shared`); more are merged back into the cells they
     /// were cut from (looser, still guaranteed, and the report says so).
     #[serde(default = "d_max_leaves")]
     pub max_leaves: usize,

@@ -22,6 +22,7 @@
 //! `constant`, `parallel_input` and `input_power` do not vanish at rest; each names its shift
 //! there (`EquationTerm::rest_parameter`), which stage 1 carries as a further parameter.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};

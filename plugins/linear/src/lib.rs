@@ -8,12 +8,13 @@
 //! records (the EMPS axis, the cascaded tanks) starts from it, and `smid diagnose` adds what the
 //! data show.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use smid_core::prelude::*;
 
-/// `w = x` (simulation).
+/// No nonlinearity, `w = x` (simulation): a purely linear plant.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Identity {}
@@ -25,7 +26,7 @@ impl Nonlinearity for Identity {
     }
 }
 
-/// The model structure (no options).
+/// No nonlinearity, `w = x`, as the model structure: a purely linear model (no options).
 #[derive(Debug, Clone, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LinearModel {}

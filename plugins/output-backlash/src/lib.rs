@@ -14,6 +14,7 @@
 //!   `+γ2`); a sample whose output may not have moved still bounds `x_t` to the dead band
 //!   `[w/m_l - c_l, w/m_r + c_r]`.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use serde::{Deserialize, Serialize};
 use smid_core::prelude::*;
