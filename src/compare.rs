@@ -17,22 +17,30 @@ use std::path::Path;
 /// Medians over seeds of one parameter, one method, one bit count.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct MethodRow {
+    /// Encoder resolution `n_bit` of the run (sets the noise bound).
     pub bits: u32,
+    /// The stage-3 method's name (`classical`, `shared`, `sdp`, `exact-grid`).
     pub method: String,
+    /// The parameter's name (`a1`, `b1`, ...).
     pub name: String,
+    /// Median over seeds of the radius of the parameter's bound.
     pub median_radius: f64,
     /// For `exact-grid`: median radius of the inner hull (consistent points of the exact set).
     pub median_inner_radius: Option<f64>,
     /// Runs whose bound on this parameter contains the truth.
     pub contained: usize,
+    /// Runs (seeds) behind the medians.
     pub runs: usize,
 }
 
 /// The whole comparison.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Comparison {
+    /// Seeds run per bit count.
     pub seeds: usize,
+    /// The compared methods, in column order.
     pub methods: Vec<String>,
+    /// One row per bit count, method and parameter.
     pub rows: Vec<MethodRow>,
     /// Runs that ended in an error: (bits, seed, method, message).
     pub errors: Vec<(u32, u64, String, String)>,

@@ -36,6 +36,7 @@ use std::fmt::Write as _;
 /// What a case injects.
 #[derive(Debug, Clone, PartialEq)]
 pub enum CaseKind {
+    /// Nothing: the plant is the model as declared (the diagnosis should add nothing).
     None,
     /// A registered effect, by tag.
     Effect(&'static str),
@@ -48,6 +49,7 @@ pub enum CaseKind {
 pub struct Case {
     /// `none`, the effect's tag, or `<plugin>@input` / `<plugin>@output`.
     pub name: String,
+    /// What the case puts into the plant.
     pub kind: CaseKind,
 }
 
@@ -185,21 +187,32 @@ method:
 /// The outcome of one trial.
 #[derive(Debug, Clone)]
 pub struct TrialOutcome {
+    /// The case's name ([`Case::name`]).
     pub case: String,
     /// Consistency checks of the after-model the LP solver could not complete.
     pub unchecked: usize,
+    /// The trial's seed.
     pub seed: u64,
+    /// The diagnosis named what the case put in (nothing added for the `none` case), or an
+    /// explanation it reports as indistinguishable from its choice.
     pub named: bool,
     /// Named through an equivalence the diagnosis reported (not the case's own label).
     pub equivalent: bool,
+    /// Labels of the effects the diagnosis added.
     pub chosen: Vec<String>,
+    /// The after-model passes validation on the held-out records.
     pub heldout_pass: bool,
+    /// Every true value lies inside the after-model's bounds.
     pub truth_inside: bool,
     /// The true values outside the after-model's bounds: `name = value ∉ [lower, upper]`.
     pub truth_outside: Vec<String>,
+    /// Held-out free-run fit % of the model as declared (minus infinity: not validated).
     pub fit_before: f64,
+    /// Held-out free-run fit % of the after-model (minus infinity: not validated).
     pub fit_after: f64,
+    /// Held-out fit % of the ARX baseline (NaN: none).
     pub fit_baseline: f64,
+    /// The message of a trial that ended in an error.
     pub error: Option<String>,
     /// Draws of an injected block's values until it showed in the training data (0: not a
     /// drawn block).
@@ -299,7 +312,9 @@ fn largest_change(a: &ExperimentData, b: &ExperimentData) -> f64 {
 /// `keep`, a directory that keeps each trial's records and spec as measured data.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct TrialIo<'a> {
+    /// Pass every record through CSV files first (as measured data would come).
     pub csv: bool,
+    /// A directory that keeps each trial's records and spec.
     pub keep: Option<&'a std::path::Path>,
 }
 

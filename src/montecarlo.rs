@@ -17,9 +17,13 @@ use smid_output_backlash::{Backlash, OutputBacklashModel};
 /// One random problem.
 #[derive(Debug, Clone)]
 pub struct Trial {
+    /// The true linear block: stable, second order, `b0 = 0`, unit gain.
     pub linear: LinearModel,
+    /// The true output backlash.
     pub backlash: Backlash,
+    /// Encoder resolution `n_bit` (sets the noise bound).
     pub bits: u32,
+    /// The seed everything was drawn from.
     pub seed: u64,
 }
 
@@ -193,7 +197,9 @@ impl Cause {
 /// [`Summary::merge`] joins shards into the summary of the whole run).
 #[derive(Debug, Default, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Summary {
+    /// Trials run.
     pub trials: usize,
+    /// Trials whose every bound is finite and contains the truth.
     pub contained: usize,
     /// Trials whose bounds missed the truth (a bug): seeds.
     pub missed: Vec<u64>,

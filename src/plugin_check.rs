@@ -37,15 +37,24 @@ pub fn plugins() -> Vec<String> {
 /// One random problem for a plugin.
 #[derive(Debug)]
 pub struct PluginTrial {
+    /// The check case's name (`smid check --list`): the plugin's tag, with a suffix where
+    /// it is checked on more than one side.
     pub plugin: String,
+    /// Where the plugin sits relative to the linear block.
     pub structure: Structure,
+    /// The true linear block: stable, second order, `b0 = 0`, unit gain.
     pub linear: LinearModel,
+    /// The true block, with parameters drawn by the plugin.
     pub nonlinearity: Box<dyn Nonlinearity>,
+    /// The model that identifies it.
     pub model: Box<dyn NonlinearityModel>,
+    /// Encoder resolution `n_bit`, 8 to 16 (sets the noise bound).
     pub bits: u32,
+    /// The seed everything was drawn from.
     pub seed: u64,
-    /// Steady-state amplitudes `[min, max]` and PRBS amplitude.
+    /// Steady-state amplitudes `[min, max]`.
     pub steady: (f64, f64),
+    /// Amplitude of the dynamic record (PRBS).
     pub amplitude: f64,
 }
 

@@ -65,21 +65,32 @@ pub fn paper_spec(bits: u32, seed: u64) -> Result<Spec> {
 /// Medians over seeds of one parameter at one bit count.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Row {
+    /// Encoder resolution `n_bit` (15, 12, 10 or 8).
     pub bits: u32,
+    /// The parameter's name.
     pub name: String,
+    /// The parameter's true value.
     pub truth: f64,
+    /// The centre the paper's Table I or II reports.
     pub paper_center: f64,
+    /// The radius the paper's Table I or II reports.
     pub paper_radius: f64,
+    /// Median over seeds of smid's centre.
     pub median_center: f64,
+    /// Median over seeds of smid's radius.
     pub median_radius: f64,
+    /// Runs whose bound contains the truth.
     pub contained: usize,
+    /// Runs at this bit count (one per seed).
     pub runs: usize,
 }
 
 /// All results of a reproduction.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Reproduction {
+    /// Seeds run per bit count.
     pub seeds: usize,
+    /// One row per bit count and parameter, in table order.
     pub rows: Vec<Row>,
     /// Median SNR per bit count.
     pub snr: Vec<(u32, f64)>,
@@ -104,7 +115,9 @@ pub fn median(v: &mut [f64]) -> f64 {
 /// One identification of the reproduction: Section 6 at one bit count and seed.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PaperRun {
+    /// Encoder resolution `n_bit`.
     pub bits: u32,
+    /// The experiment's seed.
     pub seed: u64,
     /// `Err`: the message of a run that ended in an error.
     pub outcome: std::result::Result<PaperBounds, String>,
@@ -113,6 +126,7 @@ pub struct PaperRun {
 /// The figures Tables I-II take from one identification.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PaperBounds {
+    /// Signal-to-noise ratio of the dynamic record, in dB.
     pub snr_db: f64,
     /// (name, truth, center, radius) of each parameter of the tables.
     pub parameters: Vec<(String, Option<f64>, f64, f64)>,

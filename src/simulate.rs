@@ -23,6 +23,7 @@ use std::path::{Path, PathBuf};
 pub struct SimulatedRecord {
     /// Time of each sample: the sample index times the plant's step (1 for the simulator).
     pub t: Vec<f64>,
+    /// The input: the spec's PRBS.
     pub u: Vec<f64>,
     /// Measured output `w + η`, `|η| <= noise.simulate` (default Δη).
     pub y: Vec<f64>,

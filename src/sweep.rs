@@ -18,7 +18,9 @@ pub struct CheckOptions {
     pub method: Option<EivMethod>,
     /// Identification from one dynamic record (no steady-state experiment).
     pub any_record: bool,
+    /// The first seed of the whole run.
     pub first_seed: u64,
+    /// Trials (seeds) in the whole run, all shards together.
     pub trials: usize,
     /// `(K, M)`, 1-based; `None` is the whole run.
     pub shard: Option<(usize, usize)>,
@@ -29,13 +31,19 @@ pub struct CheckOptions {
 /// One `smid check` run (or shard): what was checked and the outcome, as `--json` writes it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CheckRun {
+    /// The check case (plugin) that was checked.
     pub plugin: String,
+    /// The stage-3 method's name.
     pub method: String,
+    /// Identification from one dynamic record (no steady-state experiment).
     pub any_record: bool,
-    /// The whole run's seeds `first_seed..first_seed + trials`, and this shard `(K, M)`.
+    /// The whole run's seeds are `first_seed..first_seed + trials`.
     pub first_seed: u64,
+    /// Trials (seeds) in the whole run.
     pub trials: usize,
+    /// This shard `(K, M)`, 1-based (`(1, 1)`: the whole run).
     pub shard: (usize, usize),
+    /// The outcome counts of this shard's trials.
     pub summary: Summary,
 }
 
@@ -188,8 +196,11 @@ pub fn format_check(run: &CheckRun) -> String {
 /// A shard of `smid reproduce paper --seeds S`: its runs, as `--shard K/M --json` writes them.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PaperShard {
+    /// Seeds of the whole reproduction (`1..=seeds`).
     pub seeds: usize,
+    /// This shard `(K, M)`, 1-based (`(1, 1)`: the whole run).
     pub shard: (usize, usize),
+    /// This shard's identifications, one per bit count and seed.
     pub runs: Vec<PaperRun>,
 }
 

@@ -155,7 +155,10 @@ fn result_json_carries_the_whole_model_set() {
     v["smid_version"] = serde_json::json!(written);
     let refused = |v: &serde_json::Value| -> smid::SmidError {
         match closeloop::source_from_json(&v.to_string(), Path::new("old/result.json")) {
-            Ok(_) => panic!("a result of another format was read: {}", v["format_version"]),
+            Ok(_) => panic!(
+                "a result of another format was read: {}",
+                v["format_version"]
+            ),
             Err(e) => e,
         }
     };

@@ -421,22 +421,28 @@ fn the_readme_and_the_code_map_stay_short() {
     }
 }
 
-/// Whether `text` holds a word `stop` or `issue` (or their plurals) followed by a number: the
-/// numbering of how the project was built, which no file speaks of.
+/// Whether `text` holds a word `stop` or `issue` (or their plurals) followed by one space and a
+/// number (`stop 12`, `issue #7`): the numbering of how the project was built, which no file
+/// speaks of.
 fn names_history(text: &str) -> Option<String> {
     let lower = text.to_lowercase();
-    let words: Vec<&str> = lower
-        .split(|c: char| !(c.is_alphanumeric() || c == '#'))
-        .filter(|w| !w.is_empty())
-        .collect();
-    for pair in words.windows(2) {
-        let first = pair[0];
-        let number = pair[1].trim_start_matches('#');
-        if matches!(first, "stop" | "stops" | "issue" | "issues")
-            && !number.is_empty()
-            && number.chars().all(|c| c.is_ascii_digit())
-        {
-            return Some(format!("{} {}", pair[0], pair[1]));
+    let bytes = lower.as_bytes();
+    for word in ["stops", "stop", "issues", "issue"] {
+        let mut from = 0;
+        while let Some(at) = lower[from..].find(word) {
+            let start = from + at;
+            let end = start + word.len();
+            from = end;
+            let starts_word = start == 0 || !(bytes[start - 1] as char).is_alphanumeric();
+            let mut rest = &lower[end..];
+            if !starts_word || !rest.starts_with(' ') {
+                continue;
+            }
+            rest = rest[1..].strip_prefix('#').unwrap_or(&rest[1..]);
+            if rest.starts_with(|c: char| c.is_ascii_digit()) {
+                let number: String = rest.chars().take_while(|c| c.is_ascii_digit()).collect();
+                return Some(format!("{word} {number}"));
+            }
         }
     }
     None
@@ -465,6 +471,7 @@ fn no_file_speaks_of_how_the_project_was_built() {
     assert!(names_history(&format!("the guard of {} 12 holds", "stop")).is_some());
     assert!(names_history(&format!("{} #7", "Issue")).is_some());
     assert!(names_history("a stop condition at 3 rounds").is_none());
+    assert!(names_history("below `stop` (0: run to the end)").is_none());
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 

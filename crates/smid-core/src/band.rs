@@ -1,4 +1,4 @@
-//! The guaranteed one-step output band of an identified [`ModelSet`] on a record (issue 27):
+//! The guaranteed one-step output band of an identified [`ModelSet`] on a record:
 //! per sample `t`, an interval that holds the noise-free output `w_t + s_t` (eq 1 with the
 //! chain's blocks and the effects' sensor terms) for **every** member of the set, whatever the
 //! noise on the past samples within its bound. It uses the record's past only (`y_0..y_{t-1}`,
@@ -51,8 +51,8 @@ use serde::Serialize;
 pub const WINDOW: usize = 16;
 
 /// Sets with more cells than this take the prediction's range over each cell's `θ` box by
-/// interval arithmetic instead of the LPs (two LPs per sample and cell cost minutes over
-/// hundreds of cells; the box is an outer bound of the polytope, so the band stays guaranteed,
+/// interval arithmetic instead of the LPs (two LPs per sample and cell, over hundreds of
+/// cells, would cost far more than the identification; the box is an outer bound of the polytope, so the band stays guaranteed,
 /// only wider).
 pub const LP_CELLS: usize = 16;
 
@@ -61,11 +61,14 @@ pub const LP_CELLS: usize = 16;
 /// has its past).
 #[derive(Debug, Clone, Serialize)]
 pub struct Band {
+    /// Per-sample lower end of the noise-free output (`-inf` where nothing is guaranteed).
     pub lower: Vec<f64>,
+    /// Per-sample upper end of the noise-free output (`+inf` where nothing is guaranteed).
     pub upper: Vec<f64>,
     /// Cells of the set the band is the hull over, and how many of them were proven empty by
     /// their `θ` polytope (they hold no member and add nothing).
     pub cells: usize,
+    /// How many of those [`Band::cells`] were proven empty.
     pub empty_cells: usize,
     /// Whether the prediction's range came from the LPs over each cell's polytope (else from
     /// its `θ` box, see [`LP_CELLS`]).

@@ -10,7 +10,9 @@ use crate::model::Record;
 /// A fitted ARX model.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Arx {
+    /// The fitted `A` and `B` coefficients.
     pub linear: LinearModel,
+    /// Input delay `nk` in samples (`b_0` multiplies `u_{t-nk}`).
     pub nk: usize,
     /// The constant `c` (an offset of the operating point).
     pub constant: f64,

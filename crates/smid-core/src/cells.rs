@@ -44,6 +44,7 @@ pub enum UndecidedCause {
 }
 
 impl UndecidedCause {
+    /// A short human-readable phrase for reports (e.g. "LP solver failure on a cell").
     pub fn label(self) -> &'static str {
         match self {
             UndecidedCause::Unbounded => "stage 3 unbounded over a cell",
@@ -75,6 +76,7 @@ pub struct Budget {
 /// A surviving cell.
 #[derive(Debug, Clone)]
 pub struct Leaf<T> {
+    /// The cell's box: one interval per bisected parameter.
     pub cell: Vec<Interval>,
     /// The result over this cell (`None`: undecided).
     pub value: Option<T>,
@@ -85,9 +87,12 @@ pub struct Leaf<T> {
 /// The outcome of the search.
 #[derive(Debug)]
 pub struct Search<T> {
+    /// The surviving cells (those not proven inconsistent); together they cover every
+    /// consistent value of the bisected parameters.
     pub leaves: Vec<Leaf<T>>,
     /// Cells tested and finally evaluated.
     pub evaluated: usize,
+    /// Cells proven inconsistent with the data and dropped.
     pub discarded: usize,
     /// The budget stopped the bisection before the resolution was reached, or the leaves were
     /// merged back to stay within `max_leaves`.
@@ -122,9 +127,11 @@ pub fn hull_of_boxes<'a>(boxes: impl IntoIterator<Item = &'a [Interval]>) -> Vec
 /// Progress of the search, for a progress bar.
 #[derive(Debug, Clone)]
 pub struct Progress {
+    /// Cells tested so far.
     pub evaluated: usize,
     /// Cells queued at the next level.
     pub queued: usize,
+    /// Cells of the level just finished that were not discarded.
     pub kept: usize,
     /// Hull of the cells kept so far at this level (empty before the first level is done).
     pub hull: Vec<Interval>,

@@ -74,6 +74,8 @@ impl Side {
 /// A block of the chain besides the spec's nonlinearity, as the layout resolved it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BlockLayout {
+    /// Whether the block sits before the linear block (`model.input`) or after the
+    /// nonlinearity (`model.output`).
     pub side: Side,
     /// Index in its side's list (`model.input[index]`).
     pub index: usize,

@@ -102,13 +102,16 @@ pub enum TrainVerdict {
     },
     /// The training data falsify the model.
     Falsified {
+        /// The stage whose proof found the contradiction.
         stage: Stage,
         /// The training record (in the order given).
         record: usize,
         /// The first offending sample of that record, or with `located: false` a sample up to
         /// which the data are inconsistent ([`crate::Falsification::located`]).
         sample: usize,
+        /// Whether `sample` is the first offending one.
         located: bool,
+        /// What contradicts what, in words.
         detail: String,
     },
     /// With an estimated bound: the training data are inconsistent at the largest bound the
@@ -127,22 +130,33 @@ pub enum TrainVerdict {
     /// would be identified with, if finishing it found one (it may end falsified, or above its
     /// bar), is at least that, already more than the rule's step above the choice's.
     Bracketed {
+        /// The bound it would be identified with (with `at_least`: a floor of it).
         bound: f64,
+        /// The bracket was not finished: `bound` is a floor.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         at_least: bool,
     },
     /// Identification failed otherwise (unbounded parameters, solver trouble...).
-    Failed { message: String },
+    Failed {
+        /// The error, in words.
+        message: String,
+    },
     /// Not identified: the base model's class reproduces the candidate's outputs exactly
     /// ([`reproduced_by_base`]: at each of `draws` draws of its parameters, the corners of
     /// their prior box and some inside it, the base model's equation, refitted by least
     /// squares, leaves an error of at most `residual` of the outputs' range), so its exact
     /// smallest consistent bound is not below the base model's (as far as the draws show): a
     /// lower one would be the relaxation's slack, not the data's.
-    Reproduced { residual: f64, draws: usize },
+    Reproduced {
+        /// The largest refit error over the draws, as a fraction of the outputs' range.
+        residual: f64,
+        /// Draws of the candidate's added parameters that were compared.
+        draws: usize,
+    },
 }
 
 impl TrainVerdict {
+    /// Whether the model stays in the running: consistent with the training data.
     pub fn admissible(&self) -> bool {
         matches!(self, TrainVerdict::Consistent { .. })
     }
@@ -182,20 +196,24 @@ impl TrainVerdict {
 /// One candidate's evidence.
 #[derive(Debug, Clone, Serialize)]
 pub struct Evidence {
+    /// The candidate in words (an effect's label, or a block and its side).
     pub label: String,
+    /// The `type` tag of the effect or block plugin it adds.
     pub tag: String,
     /// Parameters the candidate adds to the model.
     pub added_parameters: usize,
     /// Prior boxes given to its bisected parameters (from the training data's scale).
     pub priors: Vec<(String, [f64; 2])>,
+    /// What the training data said of the base model with this candidate added.
     pub train: TrainVerdict,
+    /// The rule chose this candidate in its round.
     pub chosen: bool,
     /// Other admissible candidates of the round (and the base model, as "the model as
     /// declared") that the training records cannot tell from this one: their members' free
     /// runs on the training inputs, or one's member put into the other's class, stay within
-    /// twice the noise bound of each other once past their transients from rest
-    /// ([`mark_equivalences`]); or the rule could tell them only by a fit difference the noise
-    /// accounts for, at the same parameter count ([`mark_ties`]).
+    /// twice the noise bound of each other once past their transients from rest; or the rule
+    /// could tell them only by a fit difference the noise accounts for, at the same parameter
+    /// count.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub equivalent_to: Vec<String>,
     /// The verdict of a candidate that is not identified at all, known before it is tried:
@@ -882,7 +900,9 @@ fn mark_ties(evidence: &mut [Evidence], i: usize, slack: f64) {
 pub struct Round {
     /// The model this round extends (its effects).
     pub base: String,
+    /// What the training data said of the base model itself.
     pub base_train: TrainVerdict,
+    /// Every candidate tried on top of the base, with its evidence.
     pub candidates: Vec<Evidence>,
 }
 
@@ -891,11 +911,14 @@ pub struct Round {
 pub struct Choice {
     /// The rule used, in words.
     pub rule: String,
+    /// The rounds of the search, in order (each extends the previous round's choice).
     pub rounds: Vec<Round>,
     /// Labels of the effects added (empty: "no missing effect found").
     pub added: Vec<String>,
+    /// The model as declared in the spec.
     #[serde(skip)]
     pub before: ModelSpec,
+    /// The model with the chosen effects added.
     #[serde(skip)]
     pub after: ModelSpec,
     /// The after-model is admissible on the training data.
@@ -1137,10 +1160,12 @@ fn screen_reproduced(base: &ModelSet, cands: &mut [(ModelSpec, Evidence)]) {
 /// Whether the class of `base` (identified, consistent) holds the candidate class `cand`'s
 /// free runs on the training inputs, by sampling: the candidate at the base model's
 /// representative values with its added bisected parameters at every corner of their prior box
-/// and at [`REPRODUCTION_DRAWS`] inside it, simulated from rest; the base model's `θ` refitted
-/// to each run by equation-error least squares ([`crate::members::theta_reproducing`]).
-/// `Some((largest error / range, draws))` when some draw moves the run ([`ACTIVE`]) and every
-/// refit reproduces its run ([`REPRODUCED`]): a sensor offset, or a bias before or after the
+/// and at three draws inside it (at the fractions 0.25, 0.6 and 0.9 of each box, rotated over
+/// the parameters), simulated from rest; the base model's `θ` refitted to each run by
+/// equation-error least squares ([`crate::members::theta_reproducing`]).
+/// `Some((largest error / range, draws))` when some draw moves the run (by more than `1e-3`
+/// of its range) and every refit reproduces its run (the root of its summed squared error at
+/// most `1e-8` of the run's range): a sensor offset, or a bias before or after the
 /// linear block, beside a constant term. Where the class does hold the candidate's runs, every
 /// noise sequence consistent with the candidate is consistent with the base model at the same
 /// bound (the equation holds sample by sample), so the candidate's exact smallest consistent
@@ -1400,7 +1425,7 @@ fn describe(b: &Result<Bracket>) -> String {
 /// is left [`TrainVerdict::Bracketed`] with `at_least` (taking it on could only move it further
 /// up). So the candidates identified, their order and the pick are the ones finishing every
 /// bracket first gives: on the tanks the input saturation's narrowing, where each falsified
-/// verdict proves every cell empty, took minutes per round and decided nothing.
+/// verdict proves every cell empty, is costly in every round and decides nothing.
 fn identify_needed(
     evidence: &mut [Evidence],
     order: Vec<(usize, Bracket)>,
@@ -1460,7 +1485,7 @@ fn identify_needed(
         // The doublings first (their verdicts far below the threshold are cheap, and each
         // turns an open end into a ceiling), the narrowings (the costly verdicts near it) only
         // when no doubling reaches. (A floor that is not a number is taken on while there is
-        // no pick; past one it is left bracketed, as a bound that is not a number was.)
+        // no pick; past one it is left bracketed, as is a bound that is not a number.)
         // A started bracket facing a known reach is first asked at the one bound that decides
         // whether it can keep a bound at or below the reach (`Started::probe`: falsified
         // there, its floor rises past the reach); it is doubled when asked again.
@@ -1554,7 +1579,7 @@ pub fn candidates(
             }
             if priors.len() < names.len() {
                 // No default prior from these data (a quantiser's step under an estimated
-                // bound): not offered, and said so in the log (README, *Diagnosis*).
+                // bound): not offered, and said so in the log (docs/loop.md).
                 log::info!(target: "smid::diagnose", "{}: not offered (no default prior for {} from these data)", cand.label(), names.join(", "));
                 continue;
             }
@@ -1955,11 +1980,12 @@ fn estimated_pick_of<'a>(
 /// light-budget member ([`crate::spec::MemberSpec::LIGHT`]) simulates the training records more
 /// than `slack` points below the best candidate's: the rule compares members, so a set must
 /// not lose on fit because its first member search was cut short (a second backlash after the
-/// first: 89.63 % on the light budget, 97.33 % searched again, and the rule had chosen an input
-/// saturation). The better of the two members is kept (the larger budget probes other cells
-/// and may find a worse one). Whether any fit changed. (With spread, as the after-model's
-/// member is searched, one more seed of 10 of that case was named, at 4.5 s a search against
-/// 0.7 s: the 12-bit drift diagnosis took 10.8 s, against 6.2 s.)
+/// first can fit several points better searched again than on the light budget, and without
+/// this pass a worse candidate such as an input saturation would win). The better of the two
+/// members is kept (the larger budget probes other cells and may find a worse one). Whether any
+/// fit changed. (No spread, unlike the after-model's member search: spread names the right
+/// effect in slightly more cases but makes each search several times dearer, and this pass
+/// pays it for every contender it searches again.)
 fn refine_contenders(
     cands: &mut [(ModelSpec, Evidence)],
     sets: &mut [Option<ModelSet>],
@@ -2328,11 +2354,13 @@ pub fn choose(
 /// One column of the before/after table.
 #[derive(Debug, Serialize)]
 pub struct Column {
+    /// The model in words ([`ModelSpec::label`]).
     pub label: String,
     /// The noise bound the model was identified with.
     pub bound: f64,
     /// The bound was inflated past the declared one to make the training data consistent.
     pub inflated: bool,
+    /// Number of identified parameters (those with a non-degenerate bound).
     pub parameters: usize,
     /// Mean radius of the identified parameters' bounds.
     pub mean_radius: f64,
@@ -2420,7 +2448,7 @@ fn identify_consistent_at(
     // without cells) is searched below first: a larger bound only widens the exact set, so a
     // window where the model is consistent and bounded lies between the last inconsistent
     // bound and it, and is bisected for. Without one, the doubling goes on past it (the
-    // computed sets are outer approximations, and one was seen bounded again at a larger
+    // computed sets are outer approximations, and one can be bounded again at a larger
     // bound), and where it stops the column says both ends.
     let (mut lo, mut hi) = (d0, 2.0 * d0);
     let mut ceiling: Option<(f64, String)> = None;
@@ -2584,8 +2612,8 @@ pub fn assess(
     if unchanged {
         if let Some(known) = choice.after_set.as_ref() {
             // Nothing added: both columns are the one model set on the same records, validated
-            // once (the validation is deterministic; on the tanks it is 40 s of a 75 s
-            // diagnosis that finds nothing).
+            // once (the validation is deterministic, and on a long measured record it is about
+            // half of a diagnosis that adds nothing).
             let after = column(&choice.after, Some(known), None)?;
             let before = Column {
                 label: choice.before.label(),
@@ -2817,8 +2845,8 @@ mod tests {
 
     /// Taking a bracket on (doubling, narrowing) only where its place is open identifies the
     /// same candidates, in the same order, with the same verdicts and pick, as finishing every
-    /// bracket first and then identifying in the order of the bounds (written out here, as the
-    /// rule was before brackets were left unfinished); a bracket left unfinished is reported at
+    /// bracket first and then identifying in the order of the bounds (written out here as the
+    /// reference rule, which leaves no bracket unfinished); a bracket left unfinished is reported at
     /// a floor at or below its true bound (or belongs to a bracket that finds none) and more
     /// than a rule step above the pick's, and some are left so, before the doubling and after
     /// it. Random rounds: sizes, bounds (some tied), brackets started, coarse or finished as

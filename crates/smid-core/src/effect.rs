@@ -13,8 +13,9 @@
 //! * **orders** ([`OrderChange`]): one more sample of delay (`nk`), one more pole (`na`,
 //!   e.g. an actuator lag), one more zero (`nb`); bounded by stage 3 as coefficients of `A`, `B`;
 //! * **equation terms** ([`EquationTerm`]): known regressors `φ_k(t)` (a velocity, its
-//!   sign...) whose coefficients `c_k` stage 3 bounds beside `θ`; they vanish at steady state,
-//!   so stage 1 is unchanged;
+//!   sign...) whose coefficients `c_k` stage 3 bounds beside `θ`. Most vanish at steady state,
+//!   so stage 1 is unchanged; one that does not (a constant, a parallel input path) names its
+//!   shift at rest ([`EquationTerm::rest_parameter`]), which stage 1 then carries;
 //! * **sensor terms** ([`SensorTerm`]): an additive output term `s_t` (an offset, a drift)
 //!   known up to parameters `ψ`, which the branch and bound of [`crate::cells`] bisects over a
 //!   prior box; every stage sees the outputs `y - s` with `s` as an interval over the cell, so
@@ -26,7 +27,7 @@
 //!
 //! Apart from the model side, the plant side ([`PlantEffect`]) applies the same effect with its
 //! true values in the built-in simulator, so that data with an undeclared effect need no FMU.
-//! Effects register with `typetag` (the `type` tag) and with [`register_effect!`] (schema,
+//! Effects register with `typetag` (the `type` tag) and with [`register_effect!`](crate::register_effect) (schema,
 //! example with true values, diagnosis candidates); the core names none of them.
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
@@ -37,8 +38,11 @@ use std::fmt::Debug;
 /// delay `nk` (the equation reads `v_{t-nk-j}`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Orders {
+    /// Order of `A(q^-1)`: the coefficients `a_1..a_na`.
     pub na: usize,
+    /// Order of `B(q^-1)`: the coefficients `b_0..b_nb` (`nb + 1` of them).
     pub nb: usize,
+    /// Input delay in samples.
     pub nk: usize,
 }
 
@@ -69,7 +73,9 @@ impl<'a> Signals<'a> {
 /// `x[..t]` only).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Column {
+    /// The column's coefficient name in `θ` (as reported).
     pub name: String,
+    /// The regressor's interval at each sample of the record.
     pub values: Vec<Interval>,
 }
 
@@ -92,8 +98,9 @@ pub struct DataScale {
     pub y_max: f64,
     /// Longest training record (samples), steady-state record included.
     pub length: usize,
-    /// Range of the outputs `[min y, max y]` and of the inputs.
+    /// Range of the outputs `(min y, max y)` over the training records.
     pub y_range: (f64, f64),
+    /// Range of the inputs `(min u, max u)` over the training records.
     pub u_range: (f64, f64),
     /// The declared noise bound `Δη`, where the caller knows one (a diagnosis of a spec that
     /// declares it; `None` under `noise.estimate`): what a prior may not go below where a
@@ -217,7 +224,7 @@ pub trait EquationTerm {
     /// and the backlash then holds the overshoot. Default: yes. With a term that says no,
     /// steady-state points reach a Wiener nonlinearity with parameters only through a prior box
     /// (`model.prior`: the points prune its cells with any history), never through the
-    /// polygons ([`crate::model::ModelSpec::term_breaking_steady_design`]).
+    /// polygons ([`crate::spec::ModelSpec::term_breaking_steady_design`]).
     fn keeps_steady_design(&self) -> bool {
         true
     }
@@ -382,7 +389,7 @@ impl<'a> dyn Effect + 'a {
             .map(|c| c.cell_parameters())
             .unwrap_or_default()
     }
-    /// The parameters this term may have bisected: [`Self::sensor_parameters`], then the
+    /// The parameters this term may have bisected: its `sensor_parameters`, then the
     /// [`EquationTerm::rest_parameter`], which a model has only where its prior box is given
     /// (`model.prior`; the diagnosis gives it with steady-state data).
     pub fn cell_parameters(&self) -> Vec<String> {
@@ -499,7 +506,9 @@ pub fn same_effect(a: &dyn Effect, b: &dyn Effect) -> bool {
 /// (true values given: what the simulator injects in checks) and the candidates diagnosis
 /// tries (open values).
 pub struct EffectEntry {
+    /// The effect's `type` tag in a spec (`model.effects[].type`).
     pub tag: &'static str,
+    /// The JSON Schema of the effect's fields, for the spec schema.
     pub schema: fn(&mut schemars::SchemaGenerator) -> schemars::Schema,
     /// An instance with every true value given.
     pub example: fn() -> Box<dyn Effect>,

@@ -50,18 +50,24 @@ pub struct BisectionOptions {
 /// One tested pole.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct BisectionTrial {
+    /// The tested filter pole `a*` in `[0, ā]`.
     pub pole: f64,
+    /// Noise-free steady-state output `w_s(a*)` at the end of the filtered test step.
     pub steady_output: f64,
+    /// Whether the pole passed: steady-state difference and overshoot both at most `ε`.
     pub passed: bool,
 }
 
 /// Outcome of the filter design.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FilterDesign {
+    /// The chosen filter pole `a` in `[0, 1)`: the last one that passed (`a_U`), or the given one.
     pub pole: f64,
     /// `r̄_F` used by the search (enters α of eqs 14-15); `None` when the pole was given.
     pub step: Option<f64>,
+    /// Steady-state output `w_s(ā)` through the reference pole; `None` when the pole was given.
     pub reference_output: Option<f64>,
+    /// Every pole the bisection tested, in order (empty when the pole was given).
     pub trials: Vec<BisectionTrial>,
     /// Overshoot bias measured at the chosen pole, noise-free, for a step of `+r̄_F`
     /// (`w(a) - w(ā)`, clamped at 0) and of `-r̄_F` (`w(ā) - w(a)`, clamped at 0), with a
@@ -216,10 +222,14 @@ pub fn design_filter_pole(plant: &mut dyn Plant, o: &BisectionOptions) -> Result
 pub struct SteadyStateOptions {
     /// `M`, the number of square-wave amplitudes.
     pub amplitudes: usize,
+    /// Smallest square-wave amplitude (`> 0`).
     pub min: f64,
+    /// Largest square-wave amplitude (`> min`).
     pub max: f64,
     /// Samples per half-wave; `None` = filter settling time + `settle`.
     pub half_period: Option<usize>,
+    /// Extra samples per half-wave for the plant to settle after the filter has (used when
+    /// `half_period` is `None`).
     pub settle: usize,
     /// Play the amplitudes in a shuffled order drawn from this seed (`None`: ascending, the
     /// paper's). Shuffling decorrelates time from amplitude, so a sensor drift cannot pass for
@@ -230,7 +240,9 @@ pub struct SteadyStateOptions {
 /// The noise-free steady-state record: the whole filtered square wave and where it was sampled.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct SteadyRecord {
+    /// The filtered square wave applied to the plant.
     pub u: Vec<f64>,
+    /// The plant's noise-free output.
     pub w: Vec<f64>,
     /// `(time index, ū, rising, step)` of each steady-state sample, `step` the height of the
     /// square wave's step that led to it (`2|ū|` in ascending order).
@@ -375,7 +387,9 @@ pub fn apply_design_alpha(data: &mut SteadyStateData, overshoot: [f64; 2], step:
 pub struct DynamicOptions {
     /// `N`, the PRBS length.
     pub length: usize,
+    /// Largest input magnitude (`> 0`): the PRBS takes `±amplitude`.
     pub amplitude: f64,
+    /// Samples each PRBS value is held (at least 1).
     pub hold: usize,
     /// Magnitude levels (2: the binary PRBS `±amplitude`).
     pub levels: usize,
@@ -431,7 +445,7 @@ mod tests {
         }
     }
 
-    /// The bisection below floating-point resolution used to spin forever: a tolerance below
+    /// A bisection below floating-point resolution would never end: a tolerance below
     /// `MIN_FILTER_TOL` is an error naming the field; at the limit the search ends within the
     /// cap, and the pole it keeps passed.
     #[test]

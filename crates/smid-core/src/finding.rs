@@ -34,6 +34,7 @@ impl std::fmt::Display for Stage {
 // fields may be added without breaking them.
 #[non_exhaustive]
 pub struct Falsification {
+    /// The stage whose proof found the contradiction.
     pub stage: Stage,
     /// Index of the record (training records in identification, fresh records in validation;
     /// 0 for stage 1, whose sample is a steady-state point).
@@ -44,6 +45,7 @@ pub struct Falsification {
     pub sample: usize,
     /// Whether `sample` is the first offending one.
     pub located: bool,
+    /// What contradicts what, in words (e.g. which parameter's set became empty).
     pub detail: String,
 }
 

@@ -15,8 +15,10 @@ pub const ABS_PAD: f64 = 1e-15;
 /// infinity) and read back as `-inf` for `lo`, `+inf` for `hi`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Interval {
+    /// Lower end (may be `-inf`).
     #[serde(deserialize_with = "lo_or_minus_inf")]
     pub lo: f64,
+    /// Upper end (may be `+inf`).
     #[serde(deserialize_with = "hi_or_plus_inf")]
     pub hi: f64,
 }

@@ -86,7 +86,9 @@ pub enum InnerKind {
 /// A guaranteed bound on one inner-signal sample.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct InnerBound {
+    /// The interval that holds the sample (the whole line when unknown).
     pub interval: Interval,
+    /// How the interval was obtained.
     pub kind: InnerKind,
 }
 

@@ -93,6 +93,7 @@ pub const THETA_MAX: f64 = 1e9;
 /// A polytope in `R^n` by inequalities and equalities (rows stored densely, row-major).
 #[derive(Debug, Clone, Default)]
 pub struct Polytope {
+    /// Dimension of the space (the number of unknowns, `θ`'s length in stage 3).
     pub n: usize,
     /// Coefficients of the rows `g·θ <= h`, `n` per row.
     g: Vec<f64>,
@@ -796,7 +797,7 @@ impl Polytope {
 
     /// Bounds by the interior-point path (good_lp + clarabel), for what the simplex cannot
     /// conclude. Clarabel's multipliers are certified as the simplex's are (weak duality with
-    /// the residual carried, [`Self::certify_weights`]), so its bounds are certificates too.
+    /// the residual carried), so its bounds are certificates too.
     pub fn clarabel_bounds(&self) -> Result<LpOutcome> {
         let mut certs: Vec<[Certificate; 2]> = Vec::with_capacity(self.n);
         for k in 0..self.n {

@@ -22,7 +22,9 @@ use std::ops::Range;
 /// A bisected parameter: its name and prior interval.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CellDim {
+    /// The parameter's name (`m_l`, `in1.c_l`, an effect's parameter).
     pub name: String,
+    /// The prior interval the branch and bound bisects.
     pub prior: Interval,
 }
 
@@ -375,17 +377,22 @@ impl ModelSpec {
 pub struct Record {
     /// Where it came from (file and rows, or the plant and seed), for reports and errors.
     pub name: String,
+    /// Input samples `u_t`.
     pub u: Vec<f64>,
+    /// Measured output samples `y_t` (noise included).
     pub y: Vec<f64>,
     /// Per-sample noise bound `Δη_t` (eq 5).
     pub dy: Vec<f64>,
     /// Sample time in seconds.
     pub dt: f64,
-    /// Noise-free output, inner signal and noise, when simulated.
+    /// Noise-free output `w_t`, when simulated.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub w: Option<Vec<f64>>,
+    /// Noise-free inner signal `x_t` (between the linear block and the nonlinearity), when
+    /// simulated.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub x: Option<Vec<f64>>,
+    /// The noise `η_t = y_t - w_t` that was added, when simulated.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise: Option<Vec<f64>>,
 }
@@ -456,8 +463,11 @@ impl Record {
 /// The training data a model set was identified from (enough to rebuild every stage's data).
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct Training {
+    /// The steady-state points of stage 1 (`None`: the nonlinearity was bounded over a prior
+    /// box instead).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub steady: Option<SteadyStateData>,
+    /// The dynamic records of stages 2 and 3.
     pub records: Vec<Record>,
 }
 
@@ -523,16 +533,23 @@ impl BoundSource {
 /// One parameter's guaranteed interval with its truth when known.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ParamResult {
+    /// The parameter's name (`m_l`, `a1`, `b0`, an effect's coefficient, `in1.c_l`).
     pub name: String,
+    /// Guaranteed lower bound (`-inf`, `null` in JSON, when unbounded below).
     #[serde(deserialize_with = "crate::model::lo_inf")]
     pub lower: f64,
+    /// Guaranteed upper bound (`+inf`, `null` in JSON, when unbounded above).
     #[serde(deserialize_with = "crate::model::hi_inf")]
     pub upper: f64,
+    /// Centre of the bound, `(lower + upper) / 2`.
     #[serde(deserialize_with = "crate::model::hi_inf")]
     pub center: f64,
+    /// Half-width of the bound, `(upper - lower) / 2`.
     #[serde(deserialize_with = "crate::model::hi_inf")]
     pub radius: f64,
+    /// The true value, when known (simulated plants, or declared in the spec).
     pub truth: Option<f64>,
+    /// Whether the truth lies in `[lower, upper]`; `None` when the truth is unknown.
     pub contains: Option<bool>,
 }
 
@@ -544,6 +561,7 @@ fn hi_inf<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f64, D:
 }
 
 impl ParamResult {
+    /// The result for parameter `name` bounded by `i`, with its truth when known.
     pub fn new(name: &str, i: Interval, truth: Option<f64>) -> Self {
         ParamResult {
             name: name.to_string(),
@@ -555,6 +573,7 @@ impl ParamResult {
             contains: truth.map(|t| i.contains(t)),
         }
     }
+    /// The bound as an [`Interval`] `[lower, upper]`.
     pub fn interval(&self) -> Interval {
         Interval::new(self.lower, self.upper)
     }
@@ -563,6 +582,7 @@ impl ParamResult {
 /// The identified model set: everything `validate` and `diagnose` need, serialisable.
 #[derive(Debug, Serialize, Deserialize)]
 pub struct ModelSet {
+    /// The spec's `name` (`smid` when it has none).
     pub name: String,
     /// The model structure as declared (plugin, orders, effects, priors).
     pub model: ModelSpec,
@@ -570,6 +590,7 @@ pub struct ModelSet {
     pub method: MethodSpec,
     /// The noise bound `Δη` of the training data.
     pub delta: f64,
+    /// Whether that bound was declared or estimated from the data.
     pub bound_source: BoundSource,
     /// The bisected parameters (empty: one cell, the paper's three stages).
     pub dims: Vec<CellDim>,
@@ -579,8 +600,9 @@ pub struct ModelSet {
     pub parameters: Vec<ParamResult>,
     /// Cells evaluated, discarded, and whether the budget stopped the bisection.
     pub search: SearchSummary,
+    /// The training data, from which every stage's data are rebuilt exactly.
     pub training: Training,
-    /// The simulation member (issue 27): the certified-consistent member whose free run fits
+    /// The simulation member: the certified-consistent member whose free run fits
     /// the training records best; `None` when none was certified (the centre stands in).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub simulation_member: Option<SimulationMember>,
@@ -603,10 +625,12 @@ pub struct SimulationMember {
     /// infinite one, stored as null, when stage 2 fails at it).
     #[serde(deserialize_with = "crate::model::hi_inf")]
     pub consistency: f64,
-    /// Free-run fit % on the training records (warm start as `validate`'s), and the centre's
-    /// (minus infinity, stored as null, for a free run that diverges).
+    /// Free-run fit % on the training records (warm start as `validate`'s; minus infinity,
+    /// stored as null, for a free run that diverges).
     #[serde(deserialize_with = "crate::model::lo_inf")]
     pub training_fit: f64,
+    /// The central member's free-run fit % on the same records, for comparison (minus
+    /// infinity, stored as null, when it diverges).
     #[serde(deserialize_with = "crate::model::lo_inf")]
     pub centre_training_fit: f64,
     /// Cost evaluations spent by the search.
@@ -640,8 +664,12 @@ fn certified_default() -> bool {
 /// What the branch and bound did.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct SearchSummary {
+    /// Cells tested and finally evaluated.
     pub evaluated: usize,
+    /// Cells proven inconsistent with the data and dropped.
     pub discarded: usize,
+    /// Whether the cell budget stopped the bisection before every parameter reached its
+    /// resolution (the bounds are then looser, still guaranteed).
     pub budget_stopped: bool,
     /// Undecided cells halved further (stage 3 unbounded or a solver failure over them).
     #[serde(default, skip_serializing_if = "is_zero")]
@@ -661,7 +689,9 @@ fn is_zero(n: &usize) -> bool {
 pub struct UnboundedCell {
     /// The cell, as `name ∈ [lo, hi]` per bisected parameter.
     pub cell: String,
+    /// Why stage 3 gave no finite bound over it.
     pub cause: UndecidedCause,
+    /// The stage's message (which parameter, which solver path).
     pub detail: String,
 }
 

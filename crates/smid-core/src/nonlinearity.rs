@@ -154,6 +154,7 @@ impl SteadyPoint {
 /// Steady-state data for stage 1.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct SteadyStateData {
+    /// The steady-state samples, in the order they were recorded.
     pub points: Vec<SteadyPoint>,
 }
 
@@ -257,7 +258,9 @@ pub fn two_branches_contain(left: &Polygon, right: &Polygon, truth: &[f64]) -> b
 /// A named guaranteed parameter interval.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ParameterBound {
+    /// The parameter's name, as the plugin reports it (`m_l`, `c_r`...).
     pub name: String,
+    /// Guaranteed interval holding the parameter's true value.
     pub interval: Interval,
 }
 
@@ -319,6 +322,7 @@ pub struct Region {
     pub name: String,
     /// Axis labels of the polygon's coordinates.
     pub axes: [String; 2],
+    /// The polygon's vertices in those coordinates, counter-clockwise.
     pub vertices: Vec<[f64; 2]>,
     /// The true parameters in the same coordinates, when known.
     pub truth: Option<[f64; 2]>,

@@ -36,9 +36,11 @@ impl<T> Outcome<T> {
             Outcome::Falsified(f) => Some(f),
         }
     }
+    /// Whether the data are consistent with the model (no falsification).
     pub fn is_consistent(&self) -> bool {
         matches!(self, Outcome::Consistent(_))
     }
+    /// Apply `f` to the result when consistent; a falsification passes through unchanged.
     pub fn map<U>(self, f: impl FnOnce(T) -> U) -> Outcome<U> {
         match self {
             Outcome::Consistent(t) => Outcome::Consistent(f(t)),

@@ -47,8 +47,11 @@ pub trait Plant {
 /// The built-in simulator.
 #[derive(Debug)]
 pub struct SimulatedPlant<'a> {
+    /// The true linear block `G = B(q^-1) / A(q^-1)`.
     pub linear: LinearModel,
+    /// The true nonlinearity, with its parameter values.
     pub nonlinearity: &'a dyn Nonlinearity,
+    /// Wiener (`w = N(G u)`) or Hammerstein (`w = G(N(u))`).
     pub structure: Structure,
     /// Blocks before the linear block (and before `nonlinearity` when Hammerstein), in signal
     /// order (a chain, see [`crate::chain`]).

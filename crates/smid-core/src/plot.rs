@@ -246,7 +246,9 @@ pub fn inner_svg(inner: &[InnerBound], truth: Option<&[f64]>, path: &Path) -> Re
 
 /// One line of a time-series plot.
 pub struct Line<'a> {
+    /// Legend entry.
     pub label: &'a str,
+    /// One value per sample (the x axis is the sample index).
     pub values: &'a [f64],
     /// RGB colour.
     pub color: (u8, u8, u8),
@@ -254,8 +256,12 @@ pub struct Line<'a> {
 
 /// A shaded area between two series (an envelope, a band), drawn under the lines.
 pub struct Shade<'a> {
+    /// Legend entry.
     pub label: &'a str,
+    /// Lower edge, one value per sample (clipped to the chart; an infinite end reaches its
+    /// edge).
     pub lower: &'a [f64],
+    /// Upper edge, one value per sample (clipped likewise).
     pub upper: &'a [f64],
     /// RGB colour (drawn translucent).
     pub color: (u8, u8, u8),

@@ -12,8 +12,11 @@ use crate::interval::Interval;
 /// One linear two-sided constraint `lo <= n[0] z0 + n[1] z1 <= hi`, tagged by its sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Strip {
+    /// Normal vector `n` of the two parallel lines bounding the strip.
     pub n: [f64; 2],
+    /// Lower bound of `n·z`.
     pub lo: f64,
+    /// Upper bound of `n·z`.
     pub hi: f64,
     /// Index of the sample that produced it (reported when the set becomes empty).
     pub sample: usize,
@@ -22,6 +25,7 @@ pub struct Strip {
 /// A convex polygon given by its vertices in counter-clockwise order.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Polygon {
+    /// Vertices `[z0, z1]`, counter-clockwise; empty for the empty set.
     pub vertices: Vec<[f64; 2]>,
 }
 

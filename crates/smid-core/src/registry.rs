@@ -5,8 +5,8 @@
 //! round-trip every registered `type` through YAML. The containment check's cases
 //! ([`check_cases`]) derive from it too: each plugin in each structure it offers a random trial
 //! in. Registration is link-time (`inventory`), so
-//! the core names no plugin: a plugin crate calls [`register_nonlinearity!`] and
-//! [`register_model!`] and is linked into the binary.
+//! the core names no plugin: a plugin crate calls [`register_nonlinearity!`](crate::register_nonlinearity) and
+//! [`register_model!`](crate::register_model) and is linked into the binary.
 use crate::nonlinearity::{CheckDraw, Nonlinearity, NonlinearityModel, Structure};
 use schemars::{JsonSchema, Schema, SchemaGenerator};
 use serde_json::{json, Map, Value};

@@ -12,8 +12,9 @@
 //! * **Free-run simulation** of the representative member (the simulation member, else the central one) ([`crate::members`]) from the input alone
 //!   after an initial condition taken from the first `na + nb + nk` measured samples (as
 //!   MATLAB's `compare` estimates one; the figures leave those samples out), with an envelope
-//!   over members at the ends of each bound (indicative, not a guarantee: those members lie in
-//!   the outer bounds, not necessarily in the feasible set); RMS error, NRMSE, fit % as
+//!   over certified members where there are any (an inner approximation of the set's output
+//!   range), else over members at the ends of each bound (indicative, not a guarantee: those
+//!   lie in the outer bounds, not necessarily in the feasible set); RMS error, NRMSE, fit % as
 //!   `compare` (`100 (1 - |y - ŷ| / |y - mean y|)`), maximum error; `k`-step-ahead prediction.
 //! * **Residuals**: auto- and cross-correlation of the one-step residual with 99 % bands
 //!   `±2.576/√N` (MATLAB's `resid`).
@@ -74,12 +75,15 @@ pub use crate::outcome::Falsification;
 /// Figures of merit of a simulated or predicted output against the measured one.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Fit {
+    /// Root-mean-square error `sqrt(mean (y - ŷ)²)`, in output units.
     pub rms: f64,
     /// `|y - ŷ| / |y - mean y|`.
     pub nrmse: f64,
     /// `100 (1 - nrmse)`.
     pub fit_percent: f64,
+    /// Largest absolute error `max |y - ŷ|`, in output units.
     pub max_abs: f64,
+    /// Samples compared (after each record's warm start).
     pub samples: usize,
 }
 
@@ -176,14 +180,19 @@ pub fn correlations(e: &[f64], u: &[f64]) -> Correlations {
 /// The series of one fresh record, for plots.
 #[derive(Debug, Clone, Serialize)]
 pub struct Series {
+    /// The record's name.
     pub name: String,
+    /// The measured output.
     pub y: Vec<f64>,
-    /// Free run of the centre member.
+    /// Free run of the representative member ([`Validation::member`]).
     pub free_run: Vec<f64>,
     /// Envelope over the members (lower, upper).
     pub envelope: (Vec<f64>, Vec<f64>),
+    /// One-step-ahead prediction of the same member.
     pub one_step: Vec<f64>,
+    /// `k`-step-ahead prediction of the same member ([`Options::k`]).
     pub k_step: Vec<f64>,
+    /// Free run of the ARX baseline ([`crate::baseline`]), when it could be fitted.
     pub baseline: Option<Vec<f64>>,
     /// The guaranteed one-step band of the whole set (lower, upper), when computed.
     pub band: Option<(Vec<f64>, Vec<f64>)>,
@@ -195,12 +204,14 @@ pub struct BandSummary {
     /// Cells of the set the band is the hull over, and how many of them the training
     /// equations prove empty (their `θ` polytope holds no point: no member there).
     pub cells: usize,
+    /// How many of those cells the training equations prove empty.
     pub empty_cells: usize,
     /// The prediction's range by LPs over each cell's `θ` polytope (else over its `θ` box:
     /// more than [`crate::band::LP_CELLS`] cells).
     pub lp: bool,
     /// Samples (after the warm start) and those with a finite band.
     pub samples: usize,
+    /// Samples whose band is finite.
     pub finite: usize,
     /// Mean width of the finite band.
     pub mean_width: f64,
@@ -214,10 +225,13 @@ pub struct BandSummary {
 /// A whole validation.
 #[derive(Debug, Clone, Serialize)]
 pub struct Validation {
+    /// The model set's name.
     pub model: String,
+    /// The set-membership verdict on the fresh records.
     pub consistency: Consistency,
     /// The declared (or estimated) noise bound of the model.
     pub bound: f64,
+    /// Whether that bound was declared or estimated.
     pub bound_source: BoundSource,
     /// Smallest noise bound of the fresh records for which they are consistent, as a bracket
     /// `[lo, hi]`: provably inconsistent below `lo`, consistent at `hi`; `(0, 0)` when a cell
@@ -225,26 +239,38 @@ pub struct Validation {
     pub smallest_bound: Option<(f64, f64)>,
     /// The smallest consistent bound is within the declared one.
     pub pass: bool,
+    /// Free-run fit of the representative member ([`Validation::member`]), all fresh records
+    /// pooled, after each record's warm start.
     pub free_run: Fit,
     /// The member the free run and predictions use ([`members::representative_label`]).
     pub member: String,
     /// The central member's free-run fit on the same records, when the simulation member
     /// stands in for the set (both are reported).
     pub centre_free_run: Option<Fit>,
+    /// One-step-ahead prediction fit of the same member.
     pub one_step: Fit,
+    /// Horizon of the `k`-step-ahead prediction ([`Options::k`]).
     pub k: usize,
+    /// `k`-step-ahead prediction fit of the same member.
     pub k_step: Fit,
     /// Per fresh record: the free-run fit.
     pub per_record: Vec<(String, Fit)>,
+    /// Free-run fit of the ARX baseline fitted on the training records, when it could be.
     pub baseline: Option<Fit>,
+    /// The baseline's orders `(na, nb, nk)`: the model's.
     pub baseline_orders: (usize, usize, usize),
     /// How the envelope was made.
     pub envelope: String,
     /// The guaranteed one-step band ([`Options::band`]).
     pub band: Option<BandSummary>,
+    /// Correlations of the one-step residuals with themselves and with the input.
     pub correlations: Correlations,
+    /// What the verdicts rest on beyond the data (an unstable member, a bound reached at a
+    /// prior's edge, an estimated noise bound, unchecked cells, a spent budget), in words.
     pub warnings: Vec<String>,
+    /// Number of identified parameters (those with a non-degenerate bound).
     pub parameters: usize,
+    /// The per-record series, for plots (not serialised).
     #[serde(skip)]
     pub series: Vec<Series>,
 }

@@ -23,7 +23,12 @@ pub enum FmuErrorKind {
     NotAnFmu(String),
     /// The bundled FMU source directory exists but its FMU was not built.
     #[error("the bundled FMU `{name}` was not built (expected {expected}); rebuild smid")]
-    NotBuilt { name: String, expected: String },
+    NotBuilt {
+        /// The bundled FMU's name (its source directory).
+        name: String,
+        /// The path where the built archive was expected.
+        expected: String,
+    },
     /// Not a zip archive, or one without `modelDescription.xml`.
     #[error("not an FMU archive: {0}")]
     NotZip(String),
@@ -32,13 +37,19 @@ pub enum FmuErrorKind {
     ModelDescription(String),
     /// An FMI version other than 2.0.
     #[error("FMI version {found} is not supported (smid loads FMI 2.0 co-simulation units)")]
-    Version { found: String },
+    Version {
+        /// The `fmiVersion` the model description declares.
+        found: String,
+    },
     /// No co-simulation interface.
     #[error("the FMU provides no co-simulation interface (Model Exchange is not supported)")]
     NotCoSimulation,
     /// No binary for this platform.
     #[error("no binary for this platform: expected `{expected}` in the archive")]
-    NoBinary { expected: String },
+    NoBinary {
+        /// The binary's path expected inside the archive for this platform.
+        expected: String,
+    },
     /// A unit exported from Python (PythonFMU) and no usable Python runtime to host it.
     #[error("{0}")]
     PythonRuntime(String),
@@ -48,32 +59,51 @@ pub enum FmuErrorKind {
     /// A variable named in the spec does not exist or has the wrong role.
     #[error("{role} `{name}`: {message}")]
     Variable {
+        /// The role the spec gives it: `input`, `output` or `parameter`.
         role: &'static str,
+        /// The variable's name, as the spec gives it.
         name: String,
+        /// What is wrong with it.
         message: String,
     },
     /// An invalid plant option (step, ...).
     #[error("`{field}`: {message}")]
-    Config { field: String, message: String },
+    Config {
+        /// The plant option (`step`, ...).
+        field: String,
+        /// What is wrong with it.
+        message: String,
+    },
     /// An FMI call returned an error status.
     #[error("{call} returned {status} at t = {time} (sample {sample}){variable}{log}",
         variable = variable.as_ref().map(|v| format!(", variable `{v}`")).unwrap_or_default(),
         log = if log.is_empty() { String::new() } else { format!("; FMU log: {}", log.join(" | ")) })]
     Status {
+        /// The FMI function (`fmi2DoStep`, ...).
         call: &'static str,
+        /// The status it returned (`fmi2Error`, `fmi2Fatal`, ...).
         status: String,
+        /// Simulation time in seconds (`sample × step`).
         time: f64,
+        /// Index of the sample being simulated.
         sample: usize,
+        /// The variable being set or read, when the call concerns one.
         variable: Option<String>,
+        /// Messages the FMU logged during the call.
         log: Vec<String>,
     },
     /// An input or output value is not finite.
     #[error("{role} `{variable}` is {value} at t = {time} (sample {sample})")]
     NonFinite {
+        /// `input` or `output`.
         role: &'static str,
+        /// The variable's name.
         variable: String,
+        /// The value (`NaN` or infinite).
         value: f64,
+        /// Simulation time in seconds.
         time: f64,
+        /// Index of the sample.
         sample: usize,
     },
 }

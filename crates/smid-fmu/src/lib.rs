@@ -26,6 +26,7 @@
 //! ```
 // Unsafe only in `python` (loading the Python runtime for PythonFMU units); denied elsewhere.
 #![deny(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod error;
 mod logcap;

@@ -10,6 +10,7 @@
 //! the one crate of smid with `unsafe` code: one call of a C function without arguments that
 //! could be invalid.
 #![deny(unsafe_code)]
+#![warn(missing_docs)]
 
 use std::os::raw::c_int;
 use std::sync::Once;

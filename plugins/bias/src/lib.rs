@@ -21,6 +21,7 @@
 //! static map is a sensor offset: the diagnosis reports such pairs as equivalent where the
 //! training data cannot tell them apart.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -62,6 +63,7 @@ pub struct BiasModel {}
 /// An interval of biases.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize)]
 pub struct BiasSet {
+    /// Guaranteed interval of the bias `d` (output units of the block).
     pub d: Interval,
 }
 

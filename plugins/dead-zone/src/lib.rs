@@ -25,6 +25,7 @@
 //!   `u_t < 0`) is monotone in the linear form `m u - m c`, whose range over a polygon is
 //!   attained at its vertices: the propagated interval is exact for the polygon.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};

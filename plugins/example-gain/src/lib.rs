@@ -14,6 +14,7 @@
 //!   `smid check --plugin` and of the band tests with no edit elsewhere;
 //! * registration of its `type` for the spec's JSON Schema ([`smid_core::register_nonlinearity!`]).
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -59,6 +60,7 @@ pub struct GainModel {}
 /// The feasible interval of `k`.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize)]
 pub struct GainSet {
+    /// Guaranteed interval of the gain `k`.
     pub k: Interval,
 }
 

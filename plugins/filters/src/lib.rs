@@ -19,6 +19,7 @@
 //!   - **Steady state:** unit gain, so it passes steady-state points unchanged (stage 1 of the
 //!     nonlinearity beside it still uses the polygons).
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -68,6 +69,7 @@ pub struct LagModel {}
 /// A cell of the pole.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize)]
 pub struct LagSet {
+    /// The cell's interval of the pole `p`, within `[0, 1)`.
     pub p: Interval,
 }
 

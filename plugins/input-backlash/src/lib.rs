@@ -34,6 +34,7 @@
 //! * **Stage 3** is the core's errors-in-variables stage with the uncertainty on the input side
 //!   (`v_t` intervals) and the measured output `y_t ± Δη`.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -100,7 +101,10 @@ pub struct InputBacklashModel {
 /// The feasible set: the two branch polygons, and how the propagation starts.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct InputBacklashSet {
+    /// The two branch polygons in `(m, m·c)` from stage 1.
     pub polygons: BacklashSet,
+    /// Whether the propagation starts the play at rest (the model's `at_rest` option); else
+    /// from an unknown state.
     pub at_rest: bool,
 }
 

@@ -42,6 +42,7 @@
 //! be 0 join the two sides. A sample beyond every limit of the cell (`y - Δη > s_hi`, or
 //! `y + Δη < -s_l,hi`) is inconsistent with the cell: every member has `-s_l <= w <= s_r`.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -137,11 +138,14 @@ fn up(v: f64) -> f64 {
 pub struct Staircase {
     /// Lower corner: `m >= lo_m`, `s >= lo_s` (rounded down).
     pub lo_m: f64,
+    /// Lower bound of the output limit `s` (the corner's second coordinate).
     pub lo_s: f64,
     /// Disjunctions `s <= r_i or m <= m_i` (rounded up).
     pub steps: Vec<(f64, f64)>,
     /// Exact projections (rounded outward); `s.hi` may be `+inf`.
     pub m: Interval,
+    /// Exact projection on the output limit `s` (upper end `+inf` when no sample is surely
+    /// clipped).
     pub s: Interval,
 }
 
@@ -222,7 +226,9 @@ impl Staircase {
 /// The feasible sets of both branches.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SaturationSet {
+    /// The left branch (`x < 0`) in `(m_l, s_l)`.
     pub left: Staircase,
+    /// The right branch (`x >= 0`) in `(m_r, s_r)`.
     pub right: Staircase,
 }
 

@@ -452,13 +452,19 @@ pub fn envelope(
 /// not a guarantee: see [`axis_members`]).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct SetSimulation {
+    /// The central member's output `y` (with the sensor terms, without noise).
     pub y: Vec<f64>,
+    /// The central member's linear-block output `x`.
     pub x: Vec<f64>,
+    /// The central member's true output `w` (before the sensor terms).
     pub w: Vec<f64>,
+    /// Per-sample lowest output of the envelope's stable members (with the central one).
     pub lower: Vec<f64>,
+    /// Per-sample highest output of the envelope's stable members (with the central one).
     pub upper: Vec<f64>,
-    /// Stable members in the envelope, and all its members.
+    /// Stable members in the envelope.
     pub stable_members: usize,
+    /// All members of the envelope, stable or not.
     pub members: usize,
     /// What the envelope is made of ([`envelope_members`]).
     pub envelope: String,
@@ -628,13 +634,17 @@ pub(super) fn finite_centre(i: Interval) -> f64 {
 /// One member of a model set with concrete values.
 #[derive(Debug)]
 pub struct ModelPoint {
+    /// Where the nonlinearity sits relative to the linear block.
     pub structure: Structure,
+    /// The nonlinearity with this member's parameter values.
     pub nonlinearity: Box<dyn Nonlinearity>,
     /// The chain's blocks before the linear block (and the nonlinearity when Hammerstein).
     pub input: Vec<Box<dyn Nonlinearity>>,
     /// The chain's blocks after the nonlinearity (Wiener) or the linear block (Hammerstein).
     pub output: Vec<Box<dyn Nonlinearity>>,
+    /// The linear block's `A` and `B` coefficients (the first entries of `θ`).
     pub linear: LinearModel,
+    /// Input delay of the linear block, in samples.
     pub nk: usize,
     /// `model.feedback`: the autoregressive part reads the chain's output `w`, so the free run
     /// steps the output side sample by sample.
@@ -643,7 +653,9 @@ pub struct ModelPoint {
     pub extras: Vec<f64>,
     /// Values of the bisected (sensor) parameters.
     pub psi: Vec<f64>,
+    /// The model's effects (`model.effects`), in spec order.
     pub effects: Vec<Box<dyn Effect>>,
+    /// The slice of [`ModelPoint::psi`] that belongs to each effect, in effect order.
     pub effect_cells: Vec<Range<usize>>,
 }
 
@@ -651,8 +663,12 @@ pub struct ModelPoint {
 /// sensor terms, without noise).
 #[derive(Debug, Clone)]
 pub struct Simulation {
+    /// The linear block's output `x`.
     pub x: Vec<f64>,
+    /// The true output `w`: `x` through the chain's output side (the nonlinearity under
+    /// Wiener, then the output blocks), before the sensor terms.
     pub w: Vec<f64>,
+    /// The measured output `y`: `w` with the sensor maps and terms, without noise.
     pub y: Vec<f64>,
 }
 

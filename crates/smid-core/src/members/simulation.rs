@@ -1,4 +1,4 @@
-//! The simulation member (issue 27): the member of the identified set whose free run (eqs 1-2
+//! The simulation member: the member of the identified set whose free run (eqs 1-2
 //! with the chain's blocks and the effects) fits the training records best, in the
 //! least-squares norm: the sum of squared free-run errors over the training records after the
 //! warm-start samples (what the fit % of MATLAB's `compare` ranks).
@@ -251,8 +251,7 @@ const FAR: f64 = 0.1;
 /// [`HOPELESS_AFTER`] evaluations, its best measure is still above [`HOPELESS`]. Measured on
 /// the three 12-bit diagnoses (36 searches): after 30 evaluations every search that went on to
 /// certify stood at or below 0.18, every one that did not at or above 0.53 (most above 0.75);
-/// a failed search otherwise spends ~250 evaluations (0.3-2.8 s) before the `FAR` rule stops
-/// it. A full search does not give up this way: on examples/hammerstein-wiener.yaml the cell
+/// a failed search otherwise spends about 250 evaluations before the `FAR` rule stops it. A full search does not give up this way: on examples/hammerstein-wiener.yaml the cell
 /// that certifies ends its first run at 4.3 and its fourth below zero.
 const HOPELESS_AFTER: usize = 30;
 /// See [`HOPELESS_AFTER`].
@@ -781,7 +780,7 @@ impl<'s> Search<'s> {
             // A declared stable block: a point whose poles leave the unit circle stands for
             // its stable projection (the roots outside moved onto the circle's inside), so
             // the search can lie along the boundary where an integrator's optimum sits (EMPS)
-            // instead of stopping at a wall. A declared (fixed) `a` keeps the old wall.
+            // instead of stopping at a wall. A declared (fixed) `a` keeps the wall.
             let na = self.layout.orders.na;
             if self.set.model.stable
                 && (0..na).all(|i| self.layout.fixed[i].is_none())
@@ -857,8 +856,8 @@ impl<'s> Search<'s> {
         };
         let z0 = vec![0.0; split + t_free.len()];
         // The quick search, and a ranking search's (the diagnosis's candidates, compared by
-        // fit), is one Nelder-Mead run: the two local searches cost 4-8 times as much on the
-        // 12-bit diagnoses' input-side candidates (6 s to 50 s for the whole offset diagnosis).
+        // fit), is one Nelder-Mead run: the two local searches cost several times as much on
+        // input-side candidates, and a diagnosis searches a member for every candidate.
         if !thorough {
             let (z, e2) = nelder_mead(&cost, &z0, 0.05, opts.iterations, f64::NEG_INFINITY)?;
             return self.stand_in(sp, &point_of, &z, e2);
@@ -1009,8 +1008,8 @@ pub fn simulation_member_seeded(
     let found: Vec<Option<(f64, SimulationMember)>> = if opts.gives_up_early() {
         // A ranking search (no spread: the diagnosis's candidates) goes one cell at a time:
         // when its best-ranked cell ended far from a certified point (measure above FAR) it
-        // does not search the lower-ranked ones (in the 12-bit diagnoses none of 9 such
-        // searches certified a later cell, and each cost as much as the first: 0.5-3.6 s).
+        // does not search the lower-ranked ones (on the 12-bit diagnoses no such search
+        // certified a later cell, and each costs as much as the first).
         let mut out = Vec::new();
         for sp in &searched {
             let (f, last) = search.search(sp, opts);
@@ -1062,8 +1061,7 @@ pub fn simulation_member_seeded(
                 };
                 // Only a run that beats the certified member clearly (a tenth less squared
                 // error) is searched from: near the member the search from it costs as much
-                // as the cell's first and finds the same point (the 12-bit diagnoses' full
-                // searches: 1.6 s to 2.7 s for the delay case, the same reports).
+                // as the cell's first and finds the same point.
                 if f.as_ref().is_some_and(|(e2, _)| *e2 <= e2u / 0.9) {
                     return f;
                 }
@@ -1140,9 +1138,9 @@ pub fn simulation_member_seeded(
         //
         // Every probed cell gets the quick search (one Nelder-Mead run per start); a full
         // search then refines the best `opts.cells` of them with both local searches
-        // ([`Search::uncertified_from`]). Refining every probed cell (up to 64) made four
-        // any-record trials of `dead_zone_output` take 197 s instead of 52 s. A refined cell keeps the better of its two points, so the
-        // ranking only decides where the effort goes.
+        // ([`Search::uncertified_from`]). Refining every probed cell (up to 64) would multiply
+        // the cost of an any-record trial several times over. A refined cell keeps the better
+        // of its two points, so the ranking only decides where the effort goes.
         //
         // The cells are independent, so both passes run side by side, each kept in the
         // cells' order (the stand-in does not depend on the thread timing).

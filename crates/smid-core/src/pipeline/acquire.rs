@@ -24,6 +24,8 @@ pub struct ExperimentData {
     pub steady_record: Option<SteadyRecord>,
     /// Dynamic records (the training records).
     pub records: Vec<Record>,
+    /// The filter pole of the steady-state experiment and how it was found (`None` without
+    /// a designed experiment).
     pub filter: Option<FilterDesign>,
 }
 

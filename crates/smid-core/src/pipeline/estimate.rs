@@ -154,7 +154,9 @@ pub fn estimate_bound(spec: &Spec, data: &ExperimentData) -> Result<Outcome<f64>
 /// [`estimate_bound_traced`]; a test's own verdict read again counts in neither).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct EstimateTrace {
+    /// Consistency tests actually run.
     pub asked: usize,
+    /// Bounds answered "consistent" from another bound's test, without running one.
     pub implied: usize,
 }
 

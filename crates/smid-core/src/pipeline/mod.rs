@@ -10,9 +10,9 @@
 //! The stage functions ([`stage1`], [`stage2`], [`stage3`]) are public: validation runs the same
 //! stages on fresh records with the identified sets as constraints.
 //!
-//! Split by concern: [`acquire`] (data), [`stages`] (stages 1-3 over a cell), [`search`] (the
-//! branch and bound and the hulls), [`estimate`] (the noise bound from the data). Everything is
-//! re-exported here, so callers name `pipeline::stage2`, `pipeline::identify`...
+//! Split by concern into private files: `acquire` (data), `stages` (stages 1-3 over a cell),
+//! `search` (the branch and bound and the hulls), `estimate` (the noise bound from the data).
+//! Everything is re-exported here, so callers name `pipeline::stage2`, `pipeline::identify`...
 mod acquire;
 mod estimate;
 mod search;

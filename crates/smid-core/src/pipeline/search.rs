@@ -20,8 +20,14 @@ use crate::spec::{AlphaSpec, ModelSpec, Spec};
 /// Result of a whole identification: the model set and the run's artifacts.
 #[derive(Debug)]
 pub struct Identification {
+    /// The spec's `name` (`smid` when it has none).
     pub name: String,
+    /// The noise bound `Δη` the set was identified with (declared or estimated; see
+    /// [`crate::model::ModelSet::bound_source`]).
     pub delta_eta: f64,
+    /// Signal-to-noise ratio of the first training record in dB: `10 log10(Σ w² / Σ η²)` when
+    /// the noise-free output is known, else the measured output's power against that of
+    /// uniform noise in `[-Δη, Δη]`; NaN without a record.
     pub snr_db: f64,
     /// The identified model set (what `result.json` carries as `model`).
     pub model: ModelSet,
@@ -31,6 +37,7 @@ pub struct Identification {
     pub inner: Vec<InnerBound>,
     /// Time indices (in the concatenated records) of the stage-3 equations of that cell.
     pub equations: Vec<usize>,
+    /// The data identified from (steady-state points, dynamic records, filter design).
     pub data: ExperimentData,
     /// Whether the truth lies in the exact stage-1 set of some cell holding the true `ψ`.
     pub truth_in_nonlinearity_set: Option<bool>,
@@ -150,8 +157,11 @@ pub fn identify_below(spec: &Spec, data: ExperimentData, bar: Option<f64>) -> Re
 /// [`BelowBar::Above`] to the diagnosis's verdict.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct AboveBar {
+    /// The noise bound at which the data were proven inconsistent.
     pub bar: f64,
+    /// Which test proved it (the classical test, or the stage-3 method by name).
     pub test: String,
+    /// What the test proved, with the first offending sample where it names one.
     pub detail: String,
 }
 
@@ -191,7 +201,9 @@ pub enum Bracket {
 /// margin times a bound above it).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Started {
+    /// The classical test's estimate with the margin: where the doubling starts.
     pub first: f64,
+    /// The estimate's margin (`noise.estimate`, `>= 1`).
     pub margin: f64,
     /// The bar the classical test did not falsify, still to be asked of the method first
     /// (falsified there: [`Bracket::Above`]; consistent: a step at or above it is answered
@@ -339,8 +351,11 @@ impl Started {
 /// narrow only the brackets whose place in the rule's order they leave open.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Coarse {
+    /// A bound at which the method proves the training data inconsistent.
     pub lo: f64,
+    /// A bound at which the method finds them consistent (`lo < hi <= 2 lo`).
     pub hi: f64,
+    /// The estimate's margin (`noise.estimate`, `>= 1`).
     pub margin: f64,
     /// The method found the data consistent here already (the bar's verdict; `+∞` when
     /// none): a narrowing step at or above it, with the same cells, is consistent without
@@ -583,8 +598,8 @@ pub fn bracket_start(spec: &Spec, data: &ExperimentData, bar: Option<f64>) -> Re
     }
     // Then the classical estimate, and the method's verdict at the bar only with the doubling
     // ([`Started::double`]): a candidate whose estimate is refused, or whose estimate already
-    // puts it out of the rule's reach, is not asked it (tens of seconds for a bisected
-    // input-side block on the tanks).
+    // puts it out of the rule's reach, is not asked it (for a bisected input-side
+    // block on a long measured record that verdict is expensive).
     Ok(match estimate_bound(spec, data)? {
         Outcome::Consistent(first) => Bracket::Started(Started::new(first, margin, bar)),
         Outcome::Falsified(f) => Bracket::Falsified(f),

@@ -49,8 +49,9 @@ pub fn prior_box_to_give(model: &ModelSpec) -> String {
 /// This is an assumption, not a bound: a block that breaks the design may make the linear block
 /// overshoot, which the polygons do not allow for. The diagnosis uses it, reported, as the
 /// prior box of a candidate whose input block breaks the design; identification within it then
-/// uses the steady-state points only through the any-history test of
-/// [`prune_by_steady_points`], which is sound.
+/// uses the steady-state points only through stage 1's any-history test of each prior-box
+/// cell (the steady input carried forward, the measured output carried backward, with any
+/// history), which is sound.
 pub fn design_prior(
     model: &ModelSpec,
     layout: &Layout,
@@ -479,8 +480,13 @@ impl BlockSets {
 /// equation spans two records.
 #[derive(Debug, Clone)]
 pub struct StageSignals {
+    /// Bounds on the linear block's output `x_t` (stage 2: inverted under Wiener, the
+    /// sensor-corrected outputs under Hammerstein); unknown in the gaps.
     pub output: Vec<InnerBound>,
+    /// The linear block's input `v_{t-nk}`, already delayed by `nk` (exact under Wiener,
+    /// propagated intervals under Hammerstein or behind input blocks); unknown in the gaps.
     pub input: Vec<Interval>,
+    /// The equation terms' regressor columns, one per extra coefficient of `θ`.
     pub extra: Vec<Regressor>,
     /// `model.feedback`: the chain's output `w_t` the autoregressive part reads, bounded
     /// from the measurements (`y ± Δ` through the sensor terms); unknown in the gaps.

@@ -57,6 +57,7 @@ impl Default for ExactOptions {
 /// guaranteed outer hull.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct ExactGrid {
+    /// Grid resolution and budget (`method.options` of the spec).
     pub opts: ExactOptions,
 }
 
@@ -128,6 +129,7 @@ pub struct ExactResult {
     /// boxes that admits them; negative: strictly inside). `None` when no consistent `a` was
     /// found, and then no inner hull either.
     pub anchor: Option<(Vec<f64>, f64)>,
+    /// Time indices `t` of the equations used.
     pub equations: Vec<usize>,
 }
 

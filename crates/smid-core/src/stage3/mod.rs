@@ -107,7 +107,6 @@ pub struct EivResult {
     pub unsettled: Option<f64>,
 }
 
-/// Parameter names in θ order: `a1..a_na, b0..b_nb`.
 /// The prior box of a **stable** linear block over `p` θ entries (`a1..a_na` first): a stable
 /// `A(q) = Π (1 - r_j q⁻¹)`, every `|r_j| <= 1`, has `|a_i| <= C(na, i)`; the other entries
 /// are free.
@@ -121,6 +120,7 @@ pub fn stable_prior(na: usize, p: usize) -> Vec<Interval> {
     out
 }
 
+/// Parameter names in θ order: `a1..a_na, b0..b_nb` (without the extras' coefficients).
 pub fn theta_names(na: usize, nb: usize) -> Vec<String> {
     (1..=na)
         .map(|i| format!("a{i}"))
@@ -875,7 +875,9 @@ pub fn configured(
 
 /// A method as the pipeline runs it: the registered one or one built with spec options.
 pub enum ConfiguredMethod {
+    /// The registered instance with its default options (no `method.options` given).
     Registered(&'static dyn Stage3Method),
+    /// An instance built from the spec's `method.options`.
     Owned(Box<dyn Stage3Method>),
 }
 

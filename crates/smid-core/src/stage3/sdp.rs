@@ -59,6 +59,7 @@ pub const AVAILABLE: bool = cfg!(feature = "sdp");
 /// The moment relaxation (`method.eiv: sdp`), starting from `shared`.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Sdp {
+    /// Relaxation options (`method.options` of the spec).
     pub opts: SdpOptions,
 }
 

@@ -33,7 +33,7 @@ pub struct SharedOptions {
     /// Stop when no radius shrinks by more than this fraction in a round.
     pub min_improvement: f64,
     /// Records with at least this many equations are bounded from a working set of equations
-    /// ([`super::working_set`]: guaranteed whatever the set; the whole LP's bounds up to the
+    /// (guaranteed whatever the set; the whole LP's bounds up to the
     /// solver's accuracy where its completion verifies them, at a fraction of the cost);
     /// shorter ones solve the whole LP each time.
     pub working_set_from: usize,
@@ -57,6 +57,7 @@ impl Default for SharedOptions {
 /// The shared-error relaxation (`method.eiv: shared`), starting from `classical`.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Shared {
+    /// Relaxation options (`method.options` of the spec).
     pub opts: SharedOptions,
 }
 

@@ -11,7 +11,7 @@
 //! `2c + 1`: upper; an *objective*) has its own set and its own LP: an end leans on a few
 //! hundred equations of its own (order 4, N = 1e5: 100-120 above 1e-5 of its largest
 //! multiplier), and an LP over every end's windows at once costs each end the others' equations
-//! (sets of 1400-4500 for all 16 ends, against 150-1600 per end; 34-45 s against 14 s). Every
+//! (sets of 1400-4500 for all 16 ends, against 150-1600 per end, and a slower run). Every
 //! end starts from the same first set (one LP, one warm start, while the sets are equal); ends
 //! with equal sets share an LP.
 //!
@@ -54,12 +54,12 @@
 //! unfinished later rounds (either way), a set without the block form, or a set past half the
 //! record retire the working set: the later rounds solve the whole LP.
 //!
-//! **Measured** (`SMID_LOG=debug`, this machine). Order 4, N = 1e5: the first set is 480 equations; the
-//! first round's 4 generations grow each end's to about 1430; later rounds start from 150-330
-//! per end and end at 300-1600, in 3-5 generations; 4 rounds, 14 s for the whole run, every
-//! radius within 1e-4 (relative) of the shared set's run. Order 4, N = 1e4: within 1.2e-4 of
-//! the whole LP's rounds (with 3 first-round generations 1.4e-3 looser: the box the first round
-//! leaves matters; with 6, identical but 15 % slower). Order 2: 3-4 generations in the first
+//! **Typical sizes** (the `debug` log below shows them). Order 4, N = 1e5: the first set is 480
+//! equations; the first round's 4 generations grow each end's to about 1430; later rounds start
+//! from 150-330 per end and end at 300-1600, in 3-5 generations; 4 rounds, every radius within
+//! 1e-4 (relative) of the shared set's run. Order 4, N = 1e4: within 1.2e-4 of the whole LP's
+//! rounds (with 3 first-round generations 1.4e-3 looser: the box the first round leaves
+//! matters; with 6, identical but slower). Order 2: 3-4 generations in the first
 //! round (each end's set ending at 3 % of the record at N = 1e5, 26 % at 1e4), one in the
 //! second.
 //!
@@ -84,7 +84,7 @@ pub(crate) const MAX_GENERATIONS: usize = 8;
 /// while the next round, from the box it leaves, needs the sets anyway. The first round only
 /// shrinks the box (guaranteed) and grows the sets; the rounds never end on it. Its box sets
 /// the path of the later rounds: order 4, N = 1e4, 3 generations end 1.4e-3 (relative) looser
-/// than the whole LP's rounds, 4 within 1.2e-4, 6 identical (at N = 1e5 14 s, 19 s with 5).
+/// than the whole LP's rounds, 4 within 1.2e-4, 6 identical (at N = 1e5, 5 take longer than 4).
 pub(crate) const FIRST_ROUND_GENERATIONS: usize = 4;
 
 /// Relative tolerance of the completion, beyond each equation's own pad: a tenth of the result
@@ -122,12 +122,12 @@ const FLOOR_CAP: f64 = 1e-6;
 const SUPPORT_WEIGHT: f64 = 1e-7;
 
 /// Windows each objective adds to its set per generation. Order 4, N = 1e5 (per-end sets of
-/// 200-1800 equations): 16 and 32 take 14-15 s, 8 takes 19 s (more generations).
+/// 200-1800 equations): 32 is no faster than 16, 8 is slower (it needs more generations).
 const WINDOWS_PER_OBJECTIVE: usize = 16;
 
 /// The first set holds about `1 / INITIAL_SHARE` of the record (evenly spaced windows, and the
-/// first one). Order 4, N = 1e5: 200 takes 14 s where 50 takes 19-21 s (the first round's LPs
-/// are the largest; its generations add what each end needs).
+/// first one). Order 4, N = 1e5: a first set of 1/50 of the record is slower than 1/200 (the
+/// first round's LPs are the largest; its generations add what each end needs).
 const INITIAL_SHARE: usize = 200;
 
 /// The working sets: per end of a free θ (`2c`: lower end of free θ `c`, `2c + 1`: upper), the
