@@ -422,7 +422,7 @@ fn the_readme_and_the_code_map_stay_short() {
 }
 
 /// Whether `text` holds a word `stop` or `issue` (or their plurals) followed by one space and a
-/// number (`stop 12`, `issue #7`): the numbering of how the project was built, which no file
+/// number, with or without a `#`: the numbering of how the project was built, which no file
 /// speaks of.
 fn names_history(text: &str) -> Option<String> {
     let lower = text.to_lowercase();
