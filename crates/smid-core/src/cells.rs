@@ -230,6 +230,9 @@ pub fn search_consistent<T: Send + Sync>(
     run(prior, budget, test, finish, &|_| {}, true)
 }
 
+/// The search of [`search`] and [`search_consistent`] (`first_value`): the levels of tests
+/// and halvings ([`test_levels`]), then the finishing rounds, each refining the undecided
+/// cells while the second budget lasts ([`Refine::cells`]).
 fn run<T: Send + Sync>(
     prior: &[Interval],
     budget: Budget,
@@ -246,91 +249,18 @@ fn run<T: Send + Sync>(
             ));
         }
     }
-    let mut evaluated = 0usize;
-    let mut discarded = 0usize;
-    let mut budget_stopped = false;
-    let mut coarsened = false;
-    let mut worst: Option<Falsification> = None;
-    let note = |e: Falsification, worst: &mut Option<Falsification>| {
-        *worst = Some(match worst.take() {
-            Some(w) if later(&w, &e) => w,
-            _ => e,
-        });
-    };
-    // Cells to finish.
-    let mut finals: Vec<Vec<Interval>> = Vec::new();
-    if prior.is_empty() {
-        finals.push(Vec::new());
+    let mut tally = Tally::default();
+    // Cells to finish, and whether the budget stopped the levels or coarsened their leaves.
+    let (finals, stopped) = if prior.is_empty() {
+        (vec![Vec::new()], false)
     } else {
-        // Each cell carries the cells it was cut from (to coarsen the leaves if too many).
-        type Node = (Vec<Interval>, Vec<u32>, Vec<Vec<Interval>>);
-        let mut level: Vec<Node> = vec![(prior.to_vec(), vec![0u32; prior.len()], Vec::new())];
-        let mut tree: Vec<(Vec<Interval>, Vec<Vec<Interval>>)> = Vec::new();
-        while !level.is_empty() {
-            if evaluated + level.len() > budget.max_cells.max(1) {
-                budget_stopped = true;
-                tree.extend(level.into_iter().map(|(c, _, a)| (c, a)));
-                break;
-            }
-            let verdicts: Vec<Result<Verdict<()>>> =
-                level.par_iter().map(|(c, _, _)| test(c)).collect();
-            evaluated += level.len();
-            let mut next = Vec::new();
-            let mut kept: Vec<Vec<Interval>> = Vec::new();
-            for ((cell, depth, ancestors), v) in level.into_iter().zip(verdicts) {
-                if let Verdict::Infeasible(e) = v? {
-                    discarded += 1;
-                    note(e, &mut worst);
-                    continue;
-                }
-                kept.push(cell.clone());
-                match bisect(&cell, &depth, &budget, false) {
-                    Some(children) => {
-                        for (c, d) in children {
-                            let mut a = ancestors.clone();
-                            a.push(cell.clone());
-                            next.push((c, d, a));
-                        }
-                    }
-                    None => tree.push((cell, ancestors)),
-                }
-            }
-            progress(&Progress {
-                evaluated,
-                queued: next.len(),
-                kept: kept.len(),
-                hull: hull_of_boxes(kept.iter().map(|c| c.as_slice())),
-            });
-            level = next;
-        }
-        // Too many leaves to finish: replace them by the cells they were cut from (tested and
-        // kept, so still a cover), a level at a time.
-        while tree.len() > budget.max_leaves.max(1) {
-            let mut up: Vec<(Vec<Interval>, Vec<Vec<Interval>>)> = Vec::new();
-            let mut moved = false;
-            for (cell, mut anc) in tree {
-                let item = match anc.pop() {
-                    Some(parent) => {
-                        moved = true;
-                        (parent, anc)
-                    }
-                    None => (cell, anc),
-                };
-                if !up.iter().any(|(c, _)| *c == item.0) {
-                    up.push(item);
-                }
-            }
-            tree = up;
-            coarsened = true;
-            if !moved {
-                break;
-            }
-        }
-        finals = tree.into_iter().map(|(c, _)| c).collect();
-    }
+        test_levels(prior, &budget, test, progress, &mut tally)?
+    };
     let mut leaves = Vec::new();
-    let mut refined = 0usize;
-    let mut spare = budget.max_leaves.max(1);
+    let mut refine = Refine {
+        spare: budget.max_leaves.max(1),
+        refined: 0,
+    };
     let mut round: Vec<(Vec<Interval>, Vec<u32>)> = finals
         .into_iter()
         .map(|c| {
@@ -339,97 +269,29 @@ fn run<T: Send + Sync>(
         })
         .collect();
     while !round.is_empty() {
-        if first_value {
-            // A thread-count of cells at a time; the first with a value ends the search.
-            let chunk = rayon::current_num_threads().max(1);
-            let mut rest = Vec::new();
-            let mut undecided = Vec::new();
-            let mut queue = std::mem::take(&mut round).into_iter();
-            loop {
-                let batch: Vec<(Vec<Interval>, Vec<u32>)> = queue.by_ref().take(chunk).collect();
-                if batch.is_empty() {
-                    break;
+        let undecided = if first_value {
+            match finish_first(round, finish, &mut tally)? {
+                Ok(leaf) => {
+                    return Ok(Outcome::Consistent(Search {
+                        leaves: vec![leaf],
+                        evaluated: tally.evaluated,
+                        discarded: tally.discarded,
+                        budget_stopped: stopped,
+                        refined: refine.refined,
+                    }));
                 }
-                let done: Vec<Result<Verdict<T>>> =
-                    batch.par_iter().map(|(c, _)| finish(c)).collect();
-                evaluated += batch.len();
-                for ((cell, depth), v) in batch.into_iter().zip(done) {
-                    match v? {
-                        Verdict::Infeasible(e) => {
-                            discarded += 1;
-                            note(e, &mut worst);
-                        }
-                        Verdict::Feasible(t) => {
-                            return Ok(Outcome::Consistent(Search {
-                                leaves: vec![Leaf {
-                                    cell,
-                                    value: Some(t),
-                                    cause: None,
-                                }],
-                                evaluated,
-                                discarded,
-                                budget_stopped: budget_stopped || coarsened,
-                                refined,
-                            }));
-                        }
-                        Verdict::Undecided(cause, detail) => {
-                            undecided.push((cell, depth, (cause, detail)))
-                        }
-                    }
-                }
+                Err(undecided) => undecided,
             }
-            // No value yet: refine the undecided cells as the full search does.
-            for (cell, depth, why) in undecided {
-                match bisect(&cell, &depth, &budget, true) {
-                    Some(children) if spare >= 2 => {
-                        spare -= 2;
-                        refined += 1;
-                        rest.extend(children);
-                    }
-                    _ => leaves.push(Leaf {
-                        cell,
-                        value: None,
-                        cause: Some(why),
-                    }),
-                }
-            }
-            round = rest;
-            continue;
-        }
-        let done: Vec<Result<Verdict<T>>> = round.par_iter().map(|(c, _)| finish(c)).collect();
-        evaluated += round.len();
-        let mut undecided: Vec<(Vec<Interval>, Vec<u32>, (UndecidedCause, String))> = Vec::new();
-        for ((cell, depth), v) in round.into_iter().zip(done) {
-            match v? {
-                Verdict::Infeasible(e) => {
-                    discarded += 1;
-                    note(e, &mut worst);
-                }
-                Verdict::Feasible(t) => leaves.push(Leaf {
-                    cell,
-                    value: Some(t),
-                    cause: None,
-                }),
-                Verdict::Undecided(cause, detail) => undecided.push((cell, depth, (cause, detail))),
-            }
-        }
-        // Refine the undecided cells while the second budget lasts: both halves or none.
-        round = Vec::new();
-        for (cell, depth, why) in undecided {
-            match bisect(&cell, &depth, &budget, true) {
-                Some(children) if spare >= 2 => {
-                    spare -= 2;
-                    refined += 1;
-                    round.extend(children);
-                }
-                _ => leaves.push(Leaf {
-                    cell,
-                    value: None,
-                    cause: Some(why),
-                }),
-            }
-        }
+        } else {
+            finish_all(round, finish, &mut tally, &mut leaves)?
+        };
+        round = refine.cells(undecided, &budget, &mut leaves);
     }
+    let Tally {
+        evaluated,
+        discarded,
+        worst,
+    } = tally;
     if leaves.is_empty() {
         let f = match worst {
             // No parameter bisected: the stages' own finding.
@@ -453,9 +315,215 @@ fn run<T: Send + Sync>(
         leaves,
         evaluated,
         discarded,
-        budget_stopped: budget_stopped || coarsened,
-        refined,
+        budget_stopped: stopped,
+        refined: refine.refined,
     }))
+}
+
+/// The counts of a search and its latest contradiction.
+#[derive(Default)]
+struct Tally {
+    evaluated: usize,
+    discarded: usize,
+    worst: Option<Falsification>,
+}
+
+impl Tally {
+    /// A discarded cell and its contradiction (kept when later than the latest so far).
+    fn discard(&mut self, e: Falsification) {
+        self.discarded += 1;
+        self.worst = Some(match self.worst.take() {
+            Some(w) if later(&w, &e) => w,
+            _ => e,
+        });
+    }
+}
+
+/// An undecided cell, its halvings and why it is undecided.
+type Undecided = (Vec<Interval>, Vec<u32>, (UndecidedCause, String));
+
+/// The levels of the search from `prior`: each level's cells `test`ed in parallel and the
+/// survivors halved, until every cell reaches its resolution or the budget runs out; then,
+/// with too many leaves to finish, the leaves coarsened ([`coarsen`]). The cells to finish,
+/// and whether the budget stopped the levels or coarsened the leaves.
+fn test_levels(
+    prior: &[Interval],
+    budget: &Budget,
+    test: &(dyn Fn(&[Interval]) -> Result<Verdict<()>> + Sync),
+    progress: &(dyn Fn(&Progress) + Sync),
+    tally: &mut Tally,
+) -> Result<(Vec<Vec<Interval>>, bool)> {
+    let mut budget_stopped = false;
+    // Each cell carries the cells it was cut from (to coarsen the leaves if too many).
+    type Node = (Vec<Interval>, Vec<u32>, Vec<Vec<Interval>>);
+    let mut level: Vec<Node> = vec![(prior.to_vec(), vec![0u32; prior.len()], Vec::new())];
+    let mut tree: Vec<(Vec<Interval>, Vec<Vec<Interval>>)> = Vec::new();
+    while !level.is_empty() {
+        if tally.evaluated + level.len() > budget.max_cells.max(1) {
+            budget_stopped = true;
+            tree.extend(level.into_iter().map(|(c, _, a)| (c, a)));
+            break;
+        }
+        let verdicts: Vec<Result<Verdict<()>>> =
+            level.par_iter().map(|(c, _, _)| test(c)).collect();
+        tally.evaluated += level.len();
+        let mut next = Vec::new();
+        let mut kept: Vec<Vec<Interval>> = Vec::new();
+        for ((cell, depth, ancestors), v) in level.into_iter().zip(verdicts) {
+            if let Verdict::Infeasible(e) = v? {
+                tally.discard(e);
+                continue;
+            }
+            kept.push(cell.clone());
+            match bisect(&cell, &depth, budget, false) {
+                Some(children) => {
+                    for (c, d) in children {
+                        let mut a = ancestors.clone();
+                        a.push(cell.clone());
+                        next.push((c, d, a));
+                    }
+                }
+                None => tree.push((cell, ancestors)),
+            }
+        }
+        progress(&Progress {
+            evaluated: tally.evaluated,
+            queued: next.len(),
+            kept: kept.len(),
+            hull: hull_of_boxes(kept.iter().map(|c| c.as_slice())),
+        });
+        level = next;
+    }
+    let (tree, coarsened) = coarsen(tree, budget.max_leaves.max(1));
+    Ok((
+        tree.into_iter().map(|(c, _)| c).collect(),
+        budget_stopped || coarsened,
+    ))
+}
+
+/// Too many leaves to finish (more than `max_leaves`): replace them by the cells they were
+/// cut from (tested and kept, so still a cover), a level at a time. Whether any was replaced.
+fn coarsen(
+    mut tree: Vec<(Vec<Interval>, Vec<Vec<Interval>>)>,
+    max_leaves: usize,
+) -> (Vec<(Vec<Interval>, Vec<Vec<Interval>>)>, bool) {
+    let mut coarsened = false;
+    while tree.len() > max_leaves {
+        let mut up: Vec<(Vec<Interval>, Vec<Vec<Interval>>)> = Vec::new();
+        let mut moved = false;
+        for (cell, mut anc) in tree {
+            let item = match anc.pop() {
+                Some(parent) => {
+                    moved = true;
+                    (parent, anc)
+                }
+                None => (cell, anc),
+            };
+            if !up.iter().any(|(c, _)| *c == item.0) {
+                up.push(item);
+            }
+        }
+        tree = up;
+        coarsened = true;
+        if !moved {
+            break;
+        }
+    }
+    (tree, coarsened)
+}
+
+/// Finish every cell of `round` in parallel: the feasible ones become `leaves`, the
+/// undecided ones are returned.
+fn finish_all<T: Send + Sync>(
+    round: Vec<(Vec<Interval>, Vec<u32>)>,
+    finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
+    tally: &mut Tally,
+    leaves: &mut Vec<Leaf<T>>,
+) -> Result<Vec<Undecided>> {
+    let done: Vec<Result<Verdict<T>>> = round.par_iter().map(|(c, _)| finish(c)).collect();
+    tally.evaluated += round.len();
+    let mut undecided: Vec<Undecided> = Vec::new();
+    for ((cell, depth), v) in round.into_iter().zip(done) {
+        match v? {
+            Verdict::Infeasible(e) => tally.discard(e),
+            Verdict::Feasible(t) => leaves.push(Leaf {
+                cell,
+                value: Some(t),
+                cause: None,
+            }),
+            Verdict::Undecided(cause, detail) => undecided.push((cell, depth, (cause, detail))),
+        }
+    }
+    Ok(undecided)
+}
+
+/// Finish the cells of `round` a thread-count at a time: `Ok` with the first cell that has a
+/// value (which ends the search), else `Err` with the undecided cells.
+fn finish_first<T: Send + Sync>(
+    round: Vec<(Vec<Interval>, Vec<u32>)>,
+    finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
+    tally: &mut Tally,
+) -> Result<std::result::Result<Leaf<T>, Vec<Undecided>>> {
+    let chunk = rayon::current_num_threads().max(1);
+    let mut undecided = Vec::new();
+    let mut queue = round.into_iter();
+    loop {
+        let batch: Vec<(Vec<Interval>, Vec<u32>)> = queue.by_ref().take(chunk).collect();
+        if batch.is_empty() {
+            break;
+        }
+        let done: Vec<Result<Verdict<T>>> = batch.par_iter().map(|(c, _)| finish(c)).collect();
+        tally.evaluated += batch.len();
+        for ((cell, depth), v) in batch.into_iter().zip(done) {
+            match v? {
+                Verdict::Infeasible(e) => tally.discard(e),
+                Verdict::Feasible(t) => {
+                    return Ok(Ok(Leaf {
+                        cell,
+                        value: Some(t),
+                        cause: None,
+                    }));
+                }
+                Verdict::Undecided(cause, detail) => undecided.push((cell, depth, (cause, detail))),
+            }
+        }
+    }
+    Ok(Err(undecided))
+}
+
+/// The second budget: leaves left to spend on refining undecided cells, and the cells
+/// refined so far.
+struct Refine {
+    spare: usize,
+    refined: usize,
+}
+
+impl Refine {
+    /// Halve each undecided cell while the budget lasts (both halves or none): the halves,
+    /// to finish next; a cell not halved becomes an undecided leaf.
+    fn cells<T>(
+        &mut self,
+        undecided: Vec<Undecided>,
+        budget: &Budget,
+        leaves: &mut Vec<Leaf<T>>,
+    ) -> Vec<(Vec<Interval>, Vec<u32>)> {
+        let mut round = Vec::new();
+        for (cell, depth, why) in undecided {
+            match bisect(&cell, &depth, budget, true) {
+                Some(children) if self.spare >= 2 => {
+                    self.spare -= 2;
+                    self.refined += 1;
+                    round.extend(children);
+                }
+                _ => leaves.push(Leaf {
+                    cell,
+                    value: None,
+                    cause: Some(why),
+                }),
+            }
+        }
+        round
+    }
 }
 
 /// Halvings of each parameter of `cell` from `prior` (by widths; a bisection halves exactly).

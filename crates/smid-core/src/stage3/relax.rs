@@ -21,7 +21,7 @@ use std::collections::HashMap;
 
 /// Which signal a sample belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub(crate) enum Side {
+pub enum Side {
     /// The inner signal entering `A` (`x_t`).
     Out,
     /// The signal entering `B` (`v_t`; `u_t` itself for Wiener).
@@ -32,21 +32,26 @@ pub(crate) enum Side {
 
 /// One uncertain signal sample.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Sig {
+pub struct Sig {
+    /// The centre of the sample's interval.
     pub center: f64,
+    /// The radius of the sample's interval: its `δ` is bounded by it (`|δ_s| <= Δ_s`).
     pub radius: f64,
     /// Which sample it is.
     pub key: (Side, usize),
 }
 
 /// The shared-error LP model of an [`EivProblem`]: variable layout and row builder.
-pub(crate) struct SharedModel<'p, 'a> {
+pub struct SharedModel<'p, 'a> {
+    /// The problem modelled.
     pub prob: &'p EivProblem<'a>,
+    /// Time indices `t` of the equations modelled.
     pub times: Vec<usize>,
     /// Free θ indices, in column order.
     pub free: Vec<usize>,
     /// Column of each θ index (None when fixed).
     pub col_theta: Vec<Option<usize>>,
+    /// The uncertain signal samples, one `δ` column each, in column order.
     pub deltas: Vec<Sig>,
     pub(crate) delta_of: HashMap<(Side, usize), usize>,
     /// Products `(θ index, δ index)`.
@@ -55,10 +60,11 @@ pub(crate) struct SharedModel<'p, 'a> {
 }
 
 /// One term `sign · coef · signal` of an equation; `coef` is `None` for the leading `x_t`.
-pub(crate) type Term = (Option<usize>, f64, Side, usize);
+pub type Term = (Option<usize>, f64, Side, usize);
 
 impl<'p, 'a> SharedModel<'p, 'a> {
-    pub(crate) fn signal(&self, side: Side, s: usize) -> Interval {
+    /// The interval of sample `s` of the signal `side`.
+    pub fn signal(&self, side: Side, s: usize) -> Interval {
         match side {
             Side::Out => self.prob.output[s].interval,
             Side::In => self.prob.input[s],
@@ -76,6 +82,8 @@ impl<'p, 'a> SharedModel<'p, 'a> {
             .chain((0..p.extra.len()).map(move |k| (Some(p.n_ab() + k), -1.0, Side::Extra(k), t)))
     }
 
+    /// The model of `prob` over the equations at `times`: one column per free θ, per
+    /// uncertain sample those equations read (`δ`) and per product `θ_k δ_s` they contain.
     pub fn new(prob: &'p EivProblem<'a>, times: Vec<usize>) -> Self {
         let p = prob.p();
         let free: Vec<usize> = (0..p).filter(|&k| prob.fixed[k].is_none()).collect();
@@ -124,13 +132,16 @@ impl<'p, 'a> SharedModel<'p, 'a> {
         m
     }
 
+    /// The number of LP columns: free θ, then `δ`'s, then products.
     pub fn n_cols(&self) -> usize {
         self.free.len() + self.deltas.len() + self.products.len()
     }
-    pub(crate) fn col_delta(&self, d: usize) -> usize {
+    /// The LP column of `δ` number `d` (an index into [`Self::deltas`]).
+    pub fn col_delta(&self, d: usize) -> usize {
         self.free.len() + d
     }
-    pub(crate) fn col_product(&self, w: usize) -> usize {
+    /// The LP column of product number `w` (an index into [`Self::products`]).
+    pub fn col_product(&self, w: usize) -> usize {
         self.free.len() + self.deltas.len() + w
     }
 
@@ -227,7 +238,7 @@ impl<'p, 'a> SharedModel<'p, 'a> {
 }
 
 /// `a·b` over boxes, widened outward by a rounding pad.
-pub(crate) fn mul(a: Interval, b: Interval) -> Interval {
+pub fn mul(a: Interval, b: Interval) -> Interval {
     let p = [a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi];
     let lo = p.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = p.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -299,7 +310,7 @@ impl SharedModel<'_, '_> {
     }
 
     /// Equation `t` as `c0 + row·z = 0` over the model's columns.
-    pub(crate) fn equation(&self, t: usize) -> (Vec<(usize, f64)>, f64) {
+    pub fn equation(&self, t: usize) -> (Vec<(usize, f64)>, f64) {
         let mut row: Vec<(usize, f64)> = Vec::new();
         let mut c0 = 0.0;
         for (k, sign, side, s) in self.terms(t) {
@@ -377,10 +388,10 @@ impl SharedModel<'_, '_> {
 }
 
 /// Per free θ: its guaranteed lower and upper bound (`None` where no finite bound came out).
-pub(crate) type FreeBounds = Vec<(Option<f64>, Option<f64>)>;
+pub type FreeBounds = Vec<(Option<f64>, Option<f64>)>;
 
 /// The ends `[lo_0, hi_0, lo_1, hi_1, ..]` of the free θ as their intervals.
-pub(crate) fn pair_ends(ends: &[Option<f64>]) -> FreeBounds {
+pub fn pair_ends(ends: &[Option<f64>]) -> FreeBounds {
     ends.chunks(2)
         .map(|e| (e[0], e.get(1).copied().flatten()))
         .collect()
@@ -391,7 +402,7 @@ pub(crate) fn pair_ends(ends: &[Option<f64>]) -> FreeBounds {
 /// when the warm start or a bound proves the LP empty; `(None, _)` entries where no finite bound came out. When
 /// the block form does not apply (a box not finite, an equation without an uncertain sample),
 /// the sparse clarabel path answers.
-pub(crate) fn bound_free(
+pub fn bound_free(
     model: &SharedModel,
     tb: &[Interval],
     db: &[Interval],
@@ -412,7 +423,7 @@ pub(crate) fn bound_free(
 }
 
 /// One end as [`solve_ends`] found it.
-pub(crate) struct End {
+pub struct End {
     /// The guaranteed bound (padded outward; `None` when not finite).
     pub value: Option<f64>,
     /// The last primal iterate over the model's columns (original units).
@@ -423,7 +434,7 @@ pub(crate) struct End {
 }
 
 /// What [`solve_ends`] found.
-pub(crate) enum Ends {
+pub enum Ends {
     /// Per requested end, in order.
     Found(Vec<End>),
     /// The LP is proven empty (by the round's warm start, or by one end's bound).
@@ -436,7 +447,7 @@ pub(crate) enum Ends {
 /// equations `times`, by the structured interior-point method, in parallel from one warm start.
 /// A warm start that proves the LP empty answers at once (even with no end asked for), and once
 /// an end proves it, the ends not yet started are not run.
-pub(crate) fn solve_ends(
+pub fn solve_ends(
     model: &SharedModel,
     tb: &[Interval],
     db: &[Interval],
@@ -495,7 +506,7 @@ pub(crate) fn solve_ends(
 }
 
 /// Whether the LP over `times` is non-empty: `false` is proven; `true` when not proven empty.
-pub(crate) fn feasible_free(
+pub fn feasible_free(
     model: &SharedModel,
     tb: &[Interval],
     db: &[Interval],
@@ -513,7 +524,7 @@ pub(crate) fn feasible_free(
 }
 
 /// Bound every free θ over one LP; `None` entries where the solver gave no conclusion.
-pub(crate) fn bound_all(model: &SharedModel, solver: &mut LpSolver) -> Result<Option<FreeBounds>> {
+pub fn bound_all(model: &SharedModel, solver: &mut LpSolver) -> Result<Option<FreeBounds>> {
     let mut out = Vec::with_capacity(model.free.len());
     for c in 0..model.free.len() {
         let lo = match solver.minimise(c)? {
@@ -534,7 +545,7 @@ pub(crate) fn bound_all(model: &SharedModel, solver: &mut LpSolver) -> Result<Op
 /// Intersect `old` with new guaranteed bounds (`None`: no conclusion, keep the old end).
 /// Returns the new interval and the fraction its radius shrank, or `None` when the bounds do
 /// not meet (no θ is consistent).
-pub(crate) fn tighten(old: Interval, lo: Option<f64>, hi: Option<f64>) -> Option<(Interval, f64)> {
+pub fn tighten(old: Interval, lo: Option<f64>, hi: Option<f64>) -> Option<(Interval, f64)> {
     let new = Interval::new(
         lo.map_or(old.lo, |v| v.max(old.lo)),
         hi.map_or(old.hi, |v| v.min(old.hi)),
@@ -551,7 +562,7 @@ pub(crate) fn tighten(old: Interval, lo: Option<f64>, hi: Option<f64>) -> Option
 }
 
 /// What one round of a relaxation found at the current boxes.
-pub(crate) enum Round {
+pub enum Round {
     /// Guaranteed ends of the free θ (in `model.free` order), and whether they are the whole
     /// relaxation's (a working set's bounds alone, guaranteed but perhaps looser, do not end
     /// the rounds).
@@ -562,7 +573,7 @@ pub(crate) enum Round {
 
 /// When the rounds of [`shrink_rounds`] stop, and the method they are logged under.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct RoundLimits {
+pub struct RoundLimits {
     /// At most this many rounds (at least one runs).
     pub max_rounds: usize,
     /// Settled: no radius shrank by this fraction in a conclusive round.
@@ -572,13 +583,13 @@ pub(crate) struct RoundLimits {
 }
 
 /// The box-shrinking rounds of a relaxation (`shared`, `sdp`): propagate the `δ` boxes twice
-/// (a sample they empty is a finding at `t`, [`inconsistent`]), take the round's guaranteed
-/// ends of the free θ, intersect (ends that do not meet, or an empty round, are the finding
-/// `emptied` makes), until no radius shrinks by `limits.min_improvement` in a conclusive round
+/// (a sample they empty is a finding at `t`, [`SmidError::inconsistent`]), take the round's
+/// guaranteed ends of the free θ, intersect (ends that do not meet, or an empty round, are the
+/// finding `emptied` makes), until no radius shrinks by `limits.min_improvement` in a conclusive round
 /// or `limits.max_rounds` are spent. Returns the last round's largest shrinkage when the rounds
 /// stopped at the cap before they settled (`EivResult::unsettled`), `None` when they settled.
 /// A round must give one pair of ends per free θ, in `model.free`'s order.
-pub(crate) fn shrink_rounds(
+pub fn shrink_rounds(
     model: &SharedModel,
     tb: &mut [Interval],
     limits: RoundLimits,
