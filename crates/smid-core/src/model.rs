@@ -101,26 +101,7 @@ impl ModelSpec {
     pub fn layout(&self) -> Result<Layout> {
         // Orders bound every allocation below: check them (and each effect's share, from
         // zero, so the sum cannot overflow) before anything is sized by them.
-        let limits = |o: Orders, field: &str| -> Result<()> {
-            if o.na > 8 || o.nb > 8 || o.nk > 1000 {
-                // The model's own orders: the field that is out of range.
-                let field = match field {
-                    "model" if o.na > 8 => "model.na".to_string(),
-                    "model" if o.nb > 8 => "model.nb".to_string(),
-                    "model" => "model.nk".to_string(),
-                    f => f.to_string(),
-                };
-                return Err(SmidError::invalid(
-                    field,
-                    format!(
-                        "orders na = {}, nb = {} (at most 8) and delay nk = {} (at most 1000) are out of range",
-                        o.na, o.nb, o.nk
-                    ),
-                ));
-            }
-            Ok(())
-        };
-        limits(self.base_orders(), "model")?;
+        Self::orders_in_range(self.base_orders(), "model")?;
         if self.feedback && self.unit_gain {
             return Err(SmidError::invalid(
                 "model.feedback",
@@ -143,7 +124,7 @@ impl ModelSpec {
                 nk: 0,
             };
             e.orders(&mut o);
-            limits(o, &format!("model.effects[{i}]"))?;
+            Self::orders_in_range(o, &format!("model.effects[{i}]"))?;
         }
         let orders = effect::augmented(self.base_orders(), &self.effects);
         let empty = Signals::input(&[], 1.0);
@@ -154,6 +135,53 @@ impl ModelSpec {
         let mut theta_names = crate::stage3::theta_names(orders.na, orders.nb);
         theta_names.extend(extra_names.iter().cloned());
         let mut dims = Vec::new();
+        self.nonlinearity_dims(&mut dims)?;
+        let nonlinearity_cells = 0..dims.len();
+        let blocks = self.block_dims(&mut dims)?;
+        let effect_cells = self.effect_dims(&mut dims)?;
+        self.check_names(&theta_names, &dims)?;
+        let fixed = self.fixed_theta_values(orders, &theta_names)?;
+        let theta_prior = self
+            .stable
+            .then(|| crate::stage3::stable_prior(orders.na, theta_names.len()));
+        Ok(Layout {
+            orders,
+            theta_names,
+            extra_names,
+            fixed,
+            dims,
+            nonlinearity_cells,
+            effect_cells,
+            blocks,
+            theta_prior,
+        })
+    }
+
+    /// Orders `o` within what the layout allocates (`na`, `nb` at most 8, `nk` at most 1000);
+    /// the error names `field`, or for the model's own orders the one out of range.
+    fn orders_in_range(o: Orders, field: &str) -> Result<()> {
+        if o.na > 8 || o.nb > 8 || o.nk > 1000 {
+            // The model's own orders: the field that is out of range.
+            let field = match field {
+                "model" if o.na > 8 => "model.na".to_string(),
+                "model" if o.nb > 8 => "model.nb".to_string(),
+                "model" => "model.nk".to_string(),
+                f => f.to_string(),
+            };
+            return Err(SmidError::invalid(
+                field,
+                format!(
+                    "orders na = {}, nb = {} (at most 8) and delay nk = {} (at most 1000) are out of range",
+                    o.na, o.nb, o.nk
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The nonlinearity's parameters as bisected parameters, appended to `dims`: all of them
+    /// when the prior names any (identification from any record), else none.
+    fn nonlinearity_dims(&self, dims: &mut Vec<CellDim>) -> Result<()> {
         // The plugin's parameters are bisected when the prior names any of them (identification
         // from any record); then every one needs its prior.
         let pnames = crate::registry::parameter_names(&self.nonlinearity_tag());
@@ -174,7 +202,12 @@ impl ModelSpec {
                 });
             }
         }
-        let nonlinearity_cells = 0..dims.len();
+        Ok(())
+    }
+
+    /// The parameters of the chain's blocks (input side, then output side) as bisected
+    /// parameters, appended to `dims`; each block's layout.
+    fn block_dims(&self, dims: &mut Vec<CellDim>) -> Result<Vec<BlockLayout>> {
         let mut blocks = Vec::new();
         for (side, list) in [(Side::Input, &self.input), (Side::Output, &self.output)] {
             for (index, b) in list.iter().enumerate() {
@@ -212,6 +245,12 @@ impl ModelSpec {
                 });
             }
         }
+        Ok(blocks)
+    }
+
+    /// The effects' sensor parameters (and a shift at rest with its prior) as bisected
+    /// parameters, appended to `dims`; each effect's slice of them.
+    fn effect_dims(&self, dims: &mut Vec<CellDim>) -> Result<Vec<std::ops::Range<usize>>> {
         let mut effect_cells = Vec::new();
         for e in &self.effects {
             let start = dims.len();
@@ -238,6 +277,11 @@ impl ModelSpec {
             }
             effect_cells.push(start..dims.len());
         }
+        Ok(effect_cells)
+    }
+
+    /// No two terms share a name, and every prior names a bisected parameter.
+    fn check_names(&self, theta_names: &[String], dims: &[CellDim]) -> Result<()> {
         let mut all: Vec<&str> = theta_names.iter().map(|s| s.as_str()).collect();
         all.extend(dims.iter().map(|d| d.name.as_str()));
         let mut sorted = all.clone();
@@ -266,6 +310,15 @@ impl ModelSpec {
                 ));
             }
         }
+        Ok(())
+    }
+
+    /// The fixed value of each `θ` entry (`model.fixed`), by index.
+    fn fixed_theta_values(
+        &self,
+        orders: Orders,
+        theta_names: &[String],
+    ) -> Result<Vec<Option<f64>>> {
         let mut fixed = vec![None; theta_names.len()];
         for (k, v) in &self.fixed {
             let Some(i) = theta_names.iter().position(|n| n == k) else {
@@ -287,20 +340,7 @@ impl ModelSpec {
             }
             fixed[i] = Some(*v);
         }
-        let theta_prior = self
-            .stable
-            .then(|| crate::stage3::stable_prior(orders.na, theta_names.len()));
-        Ok(Layout {
-            orders,
-            theta_names,
-            extra_names,
-            fixed,
-            dims,
-            nonlinearity_cells,
-            effect_cells,
-            blocks,
-            theta_prior,
-        })
+        Ok(fixed)
     }
 
     /// A copy (the plugin and effects are trait objects): a round trip through JSON.

@@ -629,50 +629,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     let (members, envelope) = members::envelope_members(model);
     log::info!(target: "smid::validate", "envelope members: {:.2} s", clock.elapsed().as_secs_f64());
     let arx = Arx::fit(&model.training.records, o.na, o.nb, o.nk).ok();
-    let mut warnings = Vec::new();
-    if !centre.stable() {
-        warnings.push(format!(
-            "the representative member is unstable (largest pole modulus {:.4}): its free run diverges",
-            centre.linear.spectral_radius()
-        ));
-    }
-    for d in &model.dims {
-        if let Some(p) = model.parameter(&d.name) {
-            let w = d.prior.hi - d.prior.lo;
-            let tol = 1e-6 * w;
-            if w > 0.0 && (p.lower <= d.prior.lo + tol || p.upper >= d.prior.hi - tol) {
-                warnings.push(format!(
-                    "`{}` reaches the edge of its prior [{:.4e}, {:.4e}]: the prior, not the data, bounds it there",
-                    d.name, d.prior.lo, d.prior.hi
-                ));
-            }
-        }
-    }
-    warnings.extend(model.unsettled_warning());
-    if model.bound_source.estimated() {
-        warnings.push(format!(
-            "the noise bound was {}, not given: the verdicts hold for that estimate, not as a prior guarantee",
-            model.bound_source.describe()
-        ));
-    }
-    if consistency.unchecked > 0 {
-        warnings.push(format!(
-            "{} cell(s) could not be checked (LP solver trouble): they count as not contradicted, so CONSISTENT is not proven there",
-            consistency.unchecked
-        ));
-    }
-    if !model.search.unbounded.is_empty() {
-        warnings.push(format!(
-            "{} cell(s) of the identified set have no finite θ bound (the refinement budget was spent): the simulated members come from the bounded cells only",
-            model.search.unbounded.len()
-        ));
-    }
-    if model.search.budget_stopped {
-        warnings.push(
-            "the cell budget stopped the branch and bound: the bounds hold but are looser than the resolution asked for".into(),
-        );
-    }
-
+    let warnings = warnings(model, &centre, &consistency);
     let mut series = Vec::new();
     let mut per_record = Vec::new();
     let mut residuals = Vec::new();
@@ -702,28 +659,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
             None
         };
         if let Some(b) = &band {
-            let (sum, width) = band_sum.get_or_insert_with(|| {
-                let sum = BandSummary {
-                    cells: b.cells,
-                    empty_cells: b.empty_cells,
-                    lp: b.lp,
-                    samples: 0,
-                    finite: 0,
-                    mean_width: 0.0,
-                    outside: 0,
-                    first_outside: None,
-                };
-                (sum, 0.0)
-            });
-            let (finite, w) = b.finite(w0);
-            let outside = b.outside(&rec.y, &rec.dy, w0);
-            sum.samples += n - w0;
-            sum.finite += finite;
-            *width += w;
-            sum.outside += outside.len();
-            if sum.first_outside.is_none() {
-                sum.first_outside = outside.first().map(|&t| (series.len(), t));
-            }
+            add_to_band_summary(&mut band_sum, b, rec, w0, series.len());
         }
         per_record.push((rec.name.clone(), Fit::of(&[(&rec.y[w0..], &free[w0..])])));
         let skip = (w0 + 1).min(n);
@@ -794,4 +730,92 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
         parameters: model.free_parameters().len(),
         series,
     })
+}
+
+/// The warnings of a validation: an unstable representative member `centre`, parameters
+/// at the edge of their prior, unsettled steady-state points, an estimated bound, cells the
+/// `consistency` check could not decide, unbounded cells, a spent cell budget.
+fn warnings(
+    model: &ModelSet,
+    centre: &members::ModelPoint,
+    consistency: &Consistency,
+) -> Vec<String> {
+    let mut warnings = Vec::new();
+    if !centre.stable() {
+        warnings.push(format!(
+            "the representative member is unstable (largest pole modulus {:.4}): its free run diverges",
+            centre.linear.spectral_radius()
+        ));
+    }
+    for d in &model.dims {
+        if let Some(p) = model.parameter(&d.name) {
+            let w = d.prior.hi - d.prior.lo;
+            let tol = 1e-6 * w;
+            if w > 0.0 && (p.lower <= d.prior.lo + tol || p.upper >= d.prior.hi - tol) {
+                warnings.push(format!(
+                    "`{}` reaches the edge of its prior [{:.4e}, {:.4e}]: the prior, not the data, bounds it there",
+                    d.name, d.prior.lo, d.prior.hi
+                ));
+            }
+        }
+    }
+    warnings.extend(model.unsettled_warning());
+    if model.bound_source.estimated() {
+        warnings.push(format!(
+            "the noise bound was {}, not given: the verdicts hold for that estimate, not as a prior guarantee",
+            model.bound_source.describe()
+        ));
+    }
+    if consistency.unchecked > 0 {
+        warnings.push(format!(
+            "{} cell(s) could not be checked (LP solver trouble): they count as not contradicted, so CONSISTENT is not proven there",
+            consistency.unchecked
+        ));
+    }
+    if !model.search.unbounded.is_empty() {
+        warnings.push(format!(
+            "{} cell(s) of the identified set have no finite θ bound (the refinement budget was spent): the simulated members come from the bounded cells only",
+            model.search.unbounded.len()
+        ));
+    }
+    if model.search.budget_stopped {
+        warnings.push(
+            "the cell budget stopped the branch and bound: the bounds hold but are looser than the resolution asked for".into(),
+        );
+    }
+    warnings
+}
+
+/// The band `b` of the fresh record `rec` (number `record`, warm start `w0`) added to the
+/// summary over the records and the sum of its finite widths.
+fn add_to_band_summary(
+    band_sum: &mut Option<(BandSummary, f64)>,
+    b: &crate::band::Band,
+    rec: &Record,
+    w0: usize,
+    record: usize,
+) {
+    let n = rec.y.len();
+    let (sum, width) = band_sum.get_or_insert_with(|| {
+        let sum = BandSummary {
+            cells: b.cells,
+            empty_cells: b.empty_cells,
+            lp: b.lp,
+            samples: 0,
+            finite: 0,
+            mean_width: 0.0,
+            outside: 0,
+            first_outside: None,
+        };
+        (sum, 0.0)
+    });
+    let (finite, w) = b.finite(w0);
+    let outside = b.outside(&rec.y, &rec.dy, w0);
+    sum.samples += n - w0;
+    sum.finite += finite;
+    *width += w;
+    sum.outside += outside.len();
+    if sum.first_outside.is_none() {
+        sum.first_outside = outside.first().map(|&t| (record, t));
+    }
 }

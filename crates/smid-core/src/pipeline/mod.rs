@@ -11,14 +11,17 @@
 //! stages on fresh records with the identified sets as constraints.
 //!
 //! Split by concern into private files: `acquire` (data), `stages` (stages 1-3 over a cell),
-//! `search` (the branch and bound and the hulls), `estimate` (the noise bound from the data).
+//! `search` (the branch and bound and the hulls), `estimate` (the noise bound from the data),
+//! `bracket` (the bracket of an estimated bound and the identification at the bound it keeps).
 //! Everything is re-exported here, so callers name `pipeline::stage2`, `pipeline::identify`...
 mod acquire;
+mod bracket;
 mod estimate;
 mod search;
 mod stages;
 
 pub use acquire::*;
+pub use bracket::*;
 pub use estimate::*;
 pub use search::*;
 pub use stages::*;
