@@ -94,19 +94,13 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub use smid_bias as bias;
 pub use smid_core as core;
 pub use smid_core::{Falsification, Outcome, Result, SmidError};
-pub use smid_dead_zone as dead_zone;
-pub use smid_effects as effects;
-pub use smid_example_gain as example_gain;
-pub use smid_filters as filters;
 #[cfg(feature = "fmu")]
 pub use smid_fmu as fmu;
-pub use smid_input_backlash as input_backlash;
-pub use smid_linear as linear;
-pub use smid_output_backlash as output_backlash;
-pub use smid_saturation as saturation;
+// Every plugin crate of this package's `[dependencies]` under `plugins/`, re-exported by its
+// name without `smid-` (`smid::dead_zone`), and `PLUGIN_PACKAGES` (written by `build.rs`).
+include!(concat!(env!("OUT_DIR"), "/plugins.rs"));
 
 pub mod chain_check;
 pub mod closeloop;
@@ -123,38 +117,21 @@ use smid_core::pipeline::{self, Identification};
 use smid_core::spec::Spec;
 use std::path::Path;
 
-/// The bundled plugin crates, one line each (adding a plugin crate to smid is its crate plus
-/// one line here): a vtable of each plugin's model makes the linker keep that crate's code,
-/// and with it its registrations (`register_model!`, `register_nonlinearity!`, typetag).
-fn bundled_models() -> Vec<Box<dyn smid_core::nonlinearity::NonlinearityModel>> {
-    vec![
-        Box::new(smid_output_backlash::OutputBacklashModel::default()),
-        Box::new(smid_input_backlash::InputBacklashModel::default()),
-        Box::new(smid_dead_zone::DeadZoneModel::default()),
-        Box::new(smid_saturation::SaturationModel::default()),
-        Box::new(smid_example_gain::GainModel::default()),
-        Box::new(smid_linear::LinearModel::default()),
-        Box::new(smid_filters::LagModel::default()),
-        Box::new(smid_bias::BiasModel::default()),
-    ]
-}
-
 /// Make every bundled plugin crate part of the final binary, so their `type` tags are
-/// registered with typetag. A program that uses only `smid_core` links no plugin and sees
-/// "unknown variant ... there are no variants"; go through this facade (or call this) instead.
+/// registered. Linking is done by the facade's re-exports of its plugin dependencies (one line
+/// each in its `Cargo.toml`, read by `build.rs`): a binary or test that depends on `smid` links
+/// them all, and their `inventory` registrations with them. This function reads the registry
+/// once so that the registrations are in place before a spec is parsed; a program that uses
+/// only `smid_core` links no plugin and sees "unknown variant ... there are no variants".
 pub fn link_plugins() {
-    std::hint::black_box(bundled_models());
-    let effects: fn() = smid_effects::link;
-    std::hint::black_box(effects);
+    std::hint::black_box(smid_core::registry::model_types());
 }
 
-/// The `type` tags of the bundled plugin crates (what [`link_plugins`] links), for the test
-/// that each one registered itself.
+/// The Cargo package names of the plugin crates this facade links, sorted: the dependencies of
+/// its `Cargo.toml` whose path lies under `plugins/`. A test checks that each one registered a
+/// plugin or an effect.
 pub fn bundled_plugins() -> Vec<String> {
-    bundled_models()
-        .iter()
-        .map(|m| smid_core::nonlinearity::tag_of_model(m.as_ref()))
-        .collect()
+    PLUGIN_PACKAGES.iter().map(|p| p.to_string()).collect()
 }
 
 /// Parse a spec file with every bundled plugin registered.

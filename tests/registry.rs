@@ -16,23 +16,45 @@ fn root() -> PathBuf {
 }
 
 /// Every plugin crate the `smid` facade links registered itself (a dropped registration fails
-/// here): the list is the facade's own one line per crate, not a copy of it.
+/// here): the list is what the facade's `build.rs` read from its `Cargo.toml` (every
+/// dependency under `plugins/`), and each package must have registered a model, a simulation
+/// nonlinearity or an effect in the binary; every model has its simulation nonlinearity.
 #[test]
 fn every_bundled_plugin_is_registered() {
     let bundled = smid::bundled_plugins();
     assert!(bundled.len() >= 7, "{bundled:?}");
+    let manifest = std::fs::read_to_string(root().join("Cargo.toml")).unwrap();
     for p in &bundled {
         assert!(
-            !p.is_empty(),
-            "a bundled model has no `type` tag: {bundled:?}"
+            manifest.contains(&format!("{p} = {{ path = \"plugins/"))
+                || manifest.contains(&format!("{p}.workspace = true")),
+            "{p} is not a dependency of the facade's Cargo.toml"
+        );
+        let models = registry::models().iter().filter(|e| e.package == p).count();
+        let sims = registry::nonlinearities()
+            .iter()
+            .filter(|e| e.package == p)
+            .count();
+        let effects = smid::core::effect::effects()
+            .iter()
+            .filter(|e| e.package == p)
+            .count();
+        assert!(
+            models + sims + effects > 0,
+            "{p} is linked but registered nothing"
+        );
+    }
+    for m in registry::models() {
+        assert!(
+            bundled.iter().any(|p| p == m.package) || m.package == "smid-core",
+            "{} registered by {}, which the facade does not list",
+            m.tag,
+            m.package
         );
         assert!(
-            registry::nonlinearity_types().contains(&p.as_str()),
-            "{p} (simulation) not registered"
-        );
-        assert!(
-            registry::model_types().contains(&p.as_str()),
-            "{p} (model) not registered"
+            registry::nonlinearity_types().contains(&m.tag),
+            "{} (model) has no simulation nonlinearity",
+            m.tag
         );
     }
 }

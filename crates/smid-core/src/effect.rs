@@ -508,6 +508,9 @@ pub fn same_effect(a: &dyn Effect, b: &dyn Effect) -> bool {
 pub struct EffectEntry {
     /// The effect's `type` tag in a spec (`model.effects[].type`).
     pub tag: &'static str,
+    /// The Cargo package that registered it (the macro reads the registering crate's
+    /// `CARGO_PKG_NAME`).
+    pub package: &'static str,
     /// The JSON Schema of the effect's fields, for the spec schema.
     pub schema: fn(&mut schemars::SchemaGenerator) -> schemars::Schema,
     /// An instance with every true value given.
@@ -578,6 +581,7 @@ macro_rules! register_effect {
         $crate::inventory::submit! {
             $crate::effect::EffectEntry {
                 tag: $tag,
+                package: ::std::env!("CARGO_PKG_NAME"),
                 schema: |g| <$ty as $crate::schemars::JsonSchema>::json_schema(g),
                 example: || -> ::std::boxed::Box<dyn $crate::effect::Effect> {
                     ::std::boxed::Box::new($example)

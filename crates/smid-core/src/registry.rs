@@ -16,6 +16,9 @@ use std::borrow::Cow;
 pub struct NonlinearityEntry {
     /// The `type` tag (must equal the `typetag` name).
     pub tag: &'static str,
+    /// The Cargo package that registered it (the macro reads the plugin crate's
+    /// `CARGO_PKG_NAME`): how a test tells that every linked plugin crate registered itself.
+    pub package: &'static str,
     /// JSON Schema of the plugin's fields (without `type`).
     pub schema: fn(&mut SchemaGenerator) -> Schema,
     /// A valid example value (used by the round-trip test and the extension guide).
@@ -26,6 +29,8 @@ pub struct NonlinearityEntry {
 pub struct ModelEntry {
     /// The `type` tag (must equal the `typetag` name).
     pub tag: &'static str,
+    /// The Cargo package that registered it (see [`NonlinearityEntry::package`]).
+    pub package: &'static str,
     /// JSON Schema of the plugin's options (without `type`).
     pub schema: fn(&mut SchemaGenerator) -> Schema,
     /// A valid example value.
@@ -168,6 +173,7 @@ macro_rules! register_nonlinearity {
         $crate::inventory::submit! {
             $crate::registry::NonlinearityEntry {
                 tag: $tag,
+                package: ::std::env!("CARGO_PKG_NAME"),
                 schema: |g| <$ty as $crate::schemars::JsonSchema>::json_schema(g),
                 example: || -> ::std::boxed::Box<dyn $crate::nonlinearity::Nonlinearity> {
                     ::std::boxed::Box::new($example)
@@ -184,6 +190,7 @@ macro_rules! register_model {
         $crate::inventory::submit! {
             $crate::registry::ModelEntry {
                 tag: $tag,
+                package: ::std::env!("CARGO_PKG_NAME"),
                 schema: |g| <$ty as $crate::schemars::JsonSchema>::json_schema(g),
                 example: || -> ::std::boxed::Box<dyn $crate::nonlinearity::NonlinearityModel> {
                     ::std::boxed::Box::new($example)
