@@ -2,12 +2,13 @@
 //! blocks with a random model nonlinearity, a random input-side block and a random block after
 //! the nonlinearity, random true values and prior boxes, one multilevel record. No trial may
 //! miss the truth (a bound excluding it, or the true chain found inconsistent); most must give
-//! finite bounds, so the check is not vacuous.
+//! finite bounds, so the check is not vacuous. Without `slow-checks` (CI) the first six of the
+//! sixteen seeds, which draw blocks on both sides; `smid check-chains` runs any number.
 use smid::chain_check::{trial, Outcome};
 
 #[test]
 fn random_chains_from_the_registry_hold_the_truth() {
-    let seeds: Vec<u64> = (1..=16).collect();
+    let seeds: Vec<u64> = (1..=common::full_or(16, 6)).collect();
     let mut contained = 0;
     let mut no_bound = Vec::new();
     let mut shapes = std::collections::BTreeSet::new();

@@ -129,11 +129,25 @@ proptest! {
     }
 }
 
+/// The configuration of the any-record property. Half as many seeds as the designed trials
+/// under `slow-checks`, with the seeds saved in `plugins.proptest-regressions` replayed first:
+/// an any-record trial costs about ten times as much (the bisection of the nonlinearity's box),
+/// and `smid check --any-record --trials 1000` runs this path at full count. Without it (CI) a
+/// quarter, one new seed by default, and the saved seeds are not replayed here (as any-record
+/// trials they are among the longest; the designed property above replays them in CI).
+fn any_record_config() -> ProptestConfig {
+    if cfg!(feature = "slow-checks") {
+        ProptestConfig::with_cases(cases().div_ceil(2))
+    } else {
+        ProptestConfig {
+            failure_persistence: None,
+            ..ProptestConfig::with_cases(cases().div_ceil(4))
+        }
+    }
+}
+
 proptest! {
-    // Half as many seeds as the designed trials: an any-record trial costs about ten times as
-    // much (the bisection of the nonlinearity's box), and `smid check --any-record --trials
-    // 1000` runs this path at full count.
-    #![proptest_config(ProptestConfig::with_cases(cases().div_ceil(2)))]
+    #![proptest_config(any_record_config())]
     /// The same cases from one dynamic record.
     #[test]
     fn every_check_case_from_any_record_contains_truth(seed in 1u64..1_000_000) {

@@ -31,6 +31,22 @@ pub fn measured(tag: &str, u: &[f64], y: &[f64], rest: &str) -> (Spec, Experimen
 
 static COUNTER: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 
+/// Whether the slow checks run (`scripts/test-slow`, the feature `slow-checks`): the heavy
+/// tests then run their whole case lists; without it (`scripts/test`, CI) each runs the sample
+/// it names, chosen by a fixed rule.
+#[allow(dead_code)] // not every test file uses every helper
+pub const SLOW_CHECKS: bool = cfg!(feature = "slow-checks");
+
+/// `full` under the slow checks, `sample` otherwise.
+#[allow(dead_code)] // not every test file uses every helper
+pub fn full_or<T>(full: T, sample: T) -> T {
+    if SLOW_CHECKS {
+        full
+    } else {
+        sample
+    }
+}
+
 /// Every `(name, true value)` inside its reported bound; panics naming the first that is not
 /// (or is not reported), with `context` (the case and its spec).
 #[allow(dead_code)] // not every test file uses every helper
