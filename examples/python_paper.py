@@ -37,14 +37,14 @@ arx = "n/a" if v.baseline_fit is None else f"{v.baseline_fit:.2f} %"
 print(f"verdict: {'consistent' if v.verdict.consistent else 'FALSIFIED'}; "
       f"free-run fit {v.fit:.2f} % (ARX baseline {arx})")
 
-# %% Simulate the model set from rest: centre and envelope over the axis members.
+# %% Simulate the model set from rest: the representative member and the envelope of the set.
 s = smid.simulate(r.model, fresh.u)
 
 t = np.arange(len(fresh.u))
 fig, ax = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
 ax[0].plot(t, fresh.y, "k", lw=1, label="measured y (fresh record)")
 ax[0].plot(t, s.y, "b", lw=1, label="model set, centre (free run)")
-ax[0].fill_between(t, s.lower, s.upper, color="b", alpha=0.2, label="envelope (axis members)")
+ax[0].fill_between(t, s.lower, s.upper, color="b", alpha=0.2, label="envelope (s.envelope names its members)")
 base = v.series[0]["baseline"]
 if base is not None:
     ax[0].plot(t, base, "g--", lw=1, label="ARX baseline (free run)")

@@ -276,8 +276,9 @@ fn diagnose(
     to_text(&out)
 }
 
-/// Free run from rest of the model set of a `result.json` text on the input `u`: the central
-/// member's output (and inner signal) and the envelope over the axis members. `dt` defaults to
+/// Free run from rest of the model set of a `result.json` text on the input `u`: the
+/// representative member's output (and inner signal; the simulation member when one was
+/// certified, else the centre) and the envelope over the members its `envelope` names. `dt` defaults to
 /// the spec's sample time (1 when it has none).
 #[pyfunction]
 #[pyo3(signature = (result_text, u, dt=None))]

@@ -4,8 +4,8 @@
 //! computes per coordinate `min θ_k` and `max θ_k`, or proves the polytope empty.
 //! Infeasibility is an outcome ([`LpOutcome::Infeasible`]), not an error.
 //!
-//! **Algorithm: a dense dual simplex in active-set form**, the low-dimensional LP of the
-//! issue's "cost linear in N". A basis is `n` rows (the equalities, data rows, and rows of an
+//! **Algorithm: a dense dual simplex in active-set form**, the low-dimensional LP whose
+//! cost is linear in the record. A basis is `n` rows (the equalities, data rows, and rows of an
 //! artificial box `|θ_j| <= THETA_MAX`) whose multipliers keep the objective's dual feasible;
 //! each iteration solves two `n × n` systems and scans the `m` rows once for the most violated
 //! one, which enters. A bound takes `n` to `3n` iterations, so its cost is `O(m n²)`: linear in

@@ -91,20 +91,21 @@ pub fn envelope(
     (lo, hi)
 }
 
-/// The free run from rest of a model set on an input: the central member's output, inner
-/// signal and nonlinearity output, and the envelope over the stable axis members (indicative,
+/// The free run from rest of a model set on an input: the representative member's output
+/// (the simulation member when one was certified, else the centre: [`super::representative`]),
+/// inner signal and nonlinearity output, and the envelope over the stable axis members (indicative,
 /// not a guarantee: see [`axis_members`]).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct SetSimulation {
-    /// The central member's output `y` (with the sensor terms, without noise).
+    /// The representative member's output `y` (with the sensor terms, without noise).
     pub y: Vec<f64>,
-    /// The central member's linear-block output `x`.
+    /// The representative member's linear-block output `x`.
     pub x: Vec<f64>,
-    /// The central member's true output `w` (before the sensor terms).
+    /// The representative member's true output `w` (before the sensor terms).
     pub w: Vec<f64>,
-    /// Per-sample lowest output of the envelope's stable members (with the central one).
+    /// Per-sample lowest output of the envelope's stable members (with the representative one).
     pub lower: Vec<f64>,
-    /// Per-sample highest output of the envelope's stable members (with the central one).
+    /// Per-sample highest output of the envelope's stable members (with the representative one).
     pub upper: Vec<f64>,
     /// Stable members in the envelope.
     pub stable_members: usize,

@@ -10,7 +10,7 @@
 //! The stage functions ([`stage1`], [`stage2`], [`stage3`]) are public: validation runs the same
 //! stages on fresh records with the identified sets as constraints.
 //!
-//! Split by concern into private files: `acquire` (data), `stages` (stages 1-3 over a cell),
+//! The private files, one concern each: `acquire` (data), `stages` (stages 1-3 over a cell),
 //! `search` (the branch and bound and the hulls), `estimate` (the noise bound from the data),
 //! `bracket` (the bracket of an estimated bound and the identification at the bound it keeps).
 //! Everything is re-exported here, so callers name `pipeline::stage2`, `pipeline::identify`...
