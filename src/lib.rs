@@ -98,6 +98,9 @@ pub use smid_core as core;
 pub use smid_core::{Falsification, Outcome, Result, SmidError};
 #[cfg(feature = "fmu")]
 pub use smid_fmu as fmu;
+/// The moment relaxation of stage 3 (`method.eiv: sdp`), a method in a crate of its own: always
+/// linked, so a spec asking for it without the feature `sdp` gets an error naming the feature.
+pub use smid_sdp as sdp;
 // Every plugin crate of this package's `[dependencies]` under `plugins/`, re-exported by its
 // name without `smid-` (`smid::dead_zone`), and `PLUGIN_PACKAGES` (written by `build.rs`).
 include!(concat!(env!("OUT_DIR"), "/plugins.rs"));

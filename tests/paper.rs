@@ -148,7 +148,7 @@ fn default_method_is_within_1_25_of_the_exact_set() {
 /// the default (shared) method on the same data.
 #[test]
 fn sdp_on_the_paper_example_is_within_shared_and_contains_the_truth() {
-    if !smid_core::stage3::sdp::AVAILABLE {
+    if !smid::sdp::AVAILABLE {
         println!("skipped: this build has no feature `sdp`");
         return;
     }

@@ -39,7 +39,7 @@ pub enum Optimum {
 
 /// The `m`-row CSC matrix of column lists `cols` (rows sorted within each column), after checking
 /// that it and the right-hand side `b` are finite (`what` names the program in the error).
-pub(crate) fn csc(
+pub fn csc(
     m: usize,
     cols: &[Vec<(usize, f64)>],
     b: &[f64],
@@ -66,7 +66,7 @@ pub(crate) fn csc(
 /// A Clarabel solver for `min q·x` (no quadratic term, `q` set later with `update_q`; presolve
 /// off so that works), rows `a x + s = b`, `s` in `cones`, at most 100 iterations; `tol` sets
 /// the gap and feasibility tolerances (else Clarabel's defaults).
-pub(crate) fn conic_solver(
+pub fn conic_solver(
     a: &CscMatrix<f64>,
     b: &[f64],
     cones: &[SupportedConeT<f64>],
@@ -87,7 +87,7 @@ pub(crate) fn conic_solver(
 }
 
 /// Sum the coefficients of equal columns of a sparse row (dropping zeros).
-pub(crate) fn merge(mut row: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
+pub fn merge(mut row: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
     row.sort_by_key(|e| e.0);
     let mut out: Vec<(usize, f64)> = Vec::with_capacity(row.len());
     for (c, v) in row {
@@ -101,6 +101,13 @@ pub(crate) fn merge(mut row: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
 }
 
 impl SparseLp {
+    /// Its rows, taken apart: the `g·z <= h` rows and the `e·z = f` rows, as added (for a
+    /// conic program that adds cones of its own to them, as the moment relaxation does).
+    #[allow(clippy::type_complexity)]
+    pub fn into_rows(self) -> (Vec<(Vec<(usize, f64)>, f64)>, Vec<(Vec<(usize, f64)>, f64)>) {
+        (self.le, self.eq)
+    }
+
     /// An LP in `n` variables without rows.
     pub fn new(n: usize) -> Self {
         SparseLp {
@@ -169,8 +176,8 @@ impl SparseLp {
 /// each right-hand side relaxed outward by [`ROW_PAD`] `· (1 + |h|)` (invariant 1: the solved
 /// feasible set contains the exact one), then the `e·z = f` rows as given, with their cones.
 /// The one copy of the padding and assembly: the LP path here and the moment relaxation
-/// (`stage3/sdp.rs`, which appends its PSD blocks) both build from it.
-pub(crate) struct PaddedRows {
+/// (the crate `smid-sdp`, which appends its PSD blocks) both build from it.
+pub struct PaddedRows {
     /// Per column, `(row, value)` entries.
     pub cols: Vec<Vec<(usize, f64)>>,
     /// Right-hand sides, padded for the inequality rows.
@@ -180,7 +187,7 @@ pub(crate) struct PaddedRows {
 }
 
 /// See [`PaddedRows`]: `n` columns, `le` inequality and `eq` equality rows.
-pub(crate) fn padded_rows(
+pub fn padded_rows(
     n: usize,
     le: &[(Vec<(usize, f64)>, f64)],
     eq: &[(Vec<(usize, f64)>, f64)],

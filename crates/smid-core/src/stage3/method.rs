@@ -1,5 +1,5 @@
 //! The stage-3 method trait, the method names of specs and the link-time registry of methods.
-use super::{classical, exact_grid, sdp, shared, EivProblem, EivResult};
+use super::{classical, exact_grid, shared, EivProblem, EivResult};
 use crate::error::{Result, SmidError};
 use serde::{Deserialize, Serialize};
 
@@ -16,14 +16,16 @@ impl EivMethod {
     pub const Classical: EivMethod = EivMethod(classical::NAME);
     /// [`shared`]: the shared-error relaxation (the default).
     pub const Shared: EivMethod = EivMethod(shared::NAME);
-    /// [`sdp`]: the moment relaxation (cargo feature `sdp`).
-    pub const Sdp: EivMethod = EivMethod(sdp::NAME);
+    /// `sdp`: the moment relaxation, registered by the crate `smid-sdp` (which the facade
+    /// links; its feature `openblas` makes it available).
+    pub const Sdp: EivMethod = EivMethod("sdp");
     /// [`exact_grid`]: the exact-set reference on a grid.
     pub const ExactGrid: EivMethod = EivMethod(exact_grid::NAME);
 
-    /// Whether this build can run the method (`sdp` needs the cargo feature `sdp`).
+    /// Whether this build can run the method: it is registered (`sdp` is registered by the
+    /// crate `smid-sdp`) and available (`sdp` needs that crate's feature `openblas`).
     pub fn available(self) -> bool {
-        method(self).available()
+        by_name(self.0).is_some_and(|m| m.available())
     }
 
     /// The name used in specs and on the command line (the method's own name).

@@ -20,7 +20,7 @@
 //! |---|---|---|
 //! | `classical` | [`classical`]: orthant-wise LP outer set (Cerone 1993) | the problem |
 //! | `shared` (default) | [`shared`]: shared-error McCormick relaxation, iterated | `classical` |
-//! | `sdp` | [`sdp`]: moment relaxation (feature `sdp`) | `shared` |
+//! | `sdp` | the crate `smid-sdp`: moment relaxation (its feature `openblas`) | `shared` |
 //! | `exact-grid` | [`exact_grid`]: exact-set reference on a grid of the a-plane | `shared` |
 //!
 //! A method that starts from another one names it in [`Stage3Method::start`]; the chaining goes
@@ -32,10 +32,9 @@ pub mod ipm;
 mod method;
 mod problem;
 pub mod relax;
-pub mod sdp;
 pub mod shared;
-#[cfg(test)]
-pub(crate) mod testutil;
+#[cfg(any(test, feature = "testutil"))]
+pub mod testutil;
 pub(crate) mod working_set;
 
 pub use method::{

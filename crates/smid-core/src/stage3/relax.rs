@@ -53,10 +53,12 @@ pub struct SharedModel<'p, 'a> {
     pub col_theta: Vec<Option<usize>>,
     /// The uncertain signal samples, one `δ` column each, in column order.
     pub deltas: Vec<Sig>,
-    pub(crate) delta_of: HashMap<(Side, usize), usize>,
+    /// The `δ` column of each uncertain sample, by its side and sample.
+    pub delta_of: HashMap<(Side, usize), usize>,
     /// Products `(θ index, δ index)`.
     pub products: Vec<(usize, usize)>,
-    pub(crate) product_of: HashMap<(usize, usize), usize>,
+    /// The column of each product `(θ index, δ index)`.
+    pub product_of: HashMap<(usize, usize), usize>,
 }
 
 /// One term `sign · coef · signal` of an equation; `coef` is `None` for the leading `x_t`.

@@ -541,5 +541,6 @@ fn the_registry_knows_every_method_by_its_spec_name() {
     );
     assert!(by_name("simplex").is_none());
     assert!(EivMethod::Classical.available() && EivMethod::Shared.available());
-    assert_eq!(EivMethod::Sdp.available(), cfg!(feature = "sdp"));
+    // `sdp` is registered by the crate smid-sdp, which the core's own tests do not link.
+    assert!(!EivMethod::Sdp.available());
 }

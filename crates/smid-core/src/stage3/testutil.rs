@@ -1,16 +1,17 @@
 //! Test helpers of the stage-3 methods: random stable linear blocks (with or without extra
 //! regressor columns) with interval-valued inner signals whose bounds contain the truth
-//! (eqs 28-30), and the EIV problem over them.
+//! (eqs 28-30), and the EIV problem over them. Compiled for the core's own tests and, with the
+//! feature `testutil`, for the tests of a stage-3 method in a crate of its own.
 use super::{EivProblem, Regressor};
 use crate::interval::Interval;
 use crate::inversion::{InnerBound, InnerKind};
 use crate::linear::LinearModel;
-use proptest::test_runner::Config as ProptestConfig;
 use rand::{Rng, SeedableRng};
 
 /// `default` cases, or `PROPTEST_CASES` when set.
-pub(crate) fn cases(default: u32) -> ProptestConfig {
-    ProptestConfig::with_cases(
+#[cfg(test)]
+pub(crate) fn cases(default: u32) -> proptest::test_runner::Config {
+    proptest::test_runner::Config::with_cases(
         std::env::var("PROPTEST_CASES")
             .ok()
             .and_then(|v| v.parse().ok())
@@ -21,7 +22,7 @@ pub(crate) fn cases(default: u32) -> ProptestConfig {
 /// A random stable 2nd-order block with `b0 = 0` and unit gain, its PRBS-driven inner
 /// signal, and bounds `x_t ± Δ_t` around the true value moved by a uniform error in the bound
 /// (some samples band-wide, as the output-backlash plugin gives them).
-pub(crate) fn random_case(seed: u64, n: usize) -> (LinearModel, Vec<InnerBound>, Vec<Interval>) {
+pub fn random_case(seed: u64, n: usize) -> (LinearModel, Vec<InnerBound>, Vec<Interval>) {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let r: f64 = rng.gen_range(0.2..0.85);
     let phi: f64 = rng.gen_range(0.0..std::f64::consts::PI);
@@ -61,7 +62,9 @@ pub(crate) fn random_case(seed: u64, n: usize) -> (LinearModel, Vec<InnerBound>,
     (m, out, input)
 }
 
-pub(crate) fn problem<'a>(
+/// The EIV problem of a second-order case (`b0` fixed at zero, unit gain) over `out` and
+/// `input`; `band` lets the band samples in.
+pub fn problem<'a>(
     out: &'a [InnerBound],
     input: &'a [Interval],
     band: bool,
@@ -82,19 +85,23 @@ pub(crate) fn problem<'a>(
 }
 
 /// The true θ of `m` (`a_1..a_na, b_0..b_nb`).
-pub(crate) fn truth(m: &LinearModel) -> Vec<f64> {
+pub fn truth(m: &LinearModel) -> Vec<f64> {
     m.a.iter().chain(&m.b).copied().collect()
 }
 
 /// A random case with extra regressor columns: the block of [`random_case`]'s kind plus an
 /// offset (a column of exact ones) and a friction-like column `sign(u_t - u_{t-1})`, with
 /// random coefficients.
-pub(crate) struct ExtraCase {
+pub struct ExtraCase {
+    /// The true linear block.
     pub m: LinearModel,
     /// True coefficients of the extra columns (offset, friction).
     pub c: Vec<f64>,
+    /// Bounds of the inner signal, holding the truth.
     pub out: Vec<InnerBound>,
+    /// The input (exact).
     pub input: Vec<Interval>,
+    /// The extra columns (offset, friction).
     pub extra: Vec<Regressor>,
 }
 
@@ -116,7 +123,7 @@ impl ExtraCase {
 
 /// An [`ExtraCase`] of `n` samples; the friction column is known to within `friction_radius`
 /// (0: exact), its intervals placed at random around the true value.
-pub(crate) fn random_extra_case(seed: u64, n: usize, friction_radius: f64) -> ExtraCase {
+pub fn random_extra_case(seed: u64, n: usize, friction_radius: f64) -> ExtraCase {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let r: f64 = rng.gen_range(0.2..0.85);
     let phi: f64 = rng.gen_range(0.0..std::f64::consts::PI);
@@ -204,13 +211,20 @@ pub(crate) fn random_extra_case(seed: u64, n: usize, friction_radius: f64) -> Ex
 
 /// A [`feedback_case`]: orders, the true θ (`a`'s, `b`'s, then the constant's coefficient),
 /// the stage-2 bounds of `x`, the input, the measured past outputs and the constant column.
-pub(crate) struct FeedbackCase {
+pub struct FeedbackCase {
+    /// Order of `A(q)`.
     pub na: usize,
+    /// Order of `B(q)`.
     pub nb: usize,
+    /// The true θ (`a`'s, `b`'s, then the constant's coefficient).
     pub theta: Vec<f64>,
+    /// Stage-2 bounds of `x`.
     pub out: Vec<InnerBound>,
+    /// The input (exact).
     pub input: Vec<Interval>,
+    /// The measured past outputs.
     pub lagged: Vec<Interval>,
+    /// The constant column.
     pub extra: Vec<Regressor>,
 }
 
@@ -237,7 +251,7 @@ impl FeedbackCase {
 /// `w_t = min(s, x_t)`, measured as `w_t + η_t` (`|η_t| <= d`): the true θ (`a`'s, `b`'s,
 /// `c`), the stage-2 bounds of `x` (a clipped sample known from below only) and the measured
 /// past outputs.
-pub(crate) fn feedback_case(seed: u64) -> FeedbackCase {
+pub fn feedback_case(seed: u64) -> FeedbackCase {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let na = rng.gen_range(1..=3);
     let nb = rng.gen_range(0..=2);

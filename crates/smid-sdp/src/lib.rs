@@ -1,8 +1,10 @@
 //! Stage 3 (paper Section 5) by a moment (SDP) relaxation of the shared-error EIV problem
-//! (eqs 1, 28-30), behind the cargo feature `sdp` (Clarabel's PSD cone over the system
-//! OpenBLAS).
+//! (eqs 1, 28-30), behind this crate's cargo feature `openblas` (the facade's `sdp`:
+//! Clarabel's PSD cone over the system OpenBLAS). A stage-3 method in a crate of its own: it
+//! registers itself (`method.eiv: sdp`) and builds on the core's public services
+//! (`smid_core::stage3::relax`, `smid_core::sparse_lp`).
 //!
-//! The variables of the shared-error relaxation (`relax.rs`: the free θ, the
+//! The variables of the shared-error relaxation (`smid_core::stage3::relax`: the free θ, the
 //! inner-signal errors `δ_s`, the products `w = θ_k δ_s`) get the second moments they lack
 //! (`θ_k θ_l`, `δ_s δ_r`, missing `θ_k δ_s`), and for every equation `t` the moment matrix of
 //! `(1, θ_k, δ_s)` over the coefficients and samples of that equation (a sparse clique of
@@ -23,8 +25,10 @@
 //! boxes by interval arithmetic). An inaccurate solve gives a looser bound, never a wrong one.
 //! The result is intersected with the shared-error result it starts from, so it is never wider.
 //! Without the feature, selecting `method.eiv: sdp` is an error naming it.
-use super::{EivMethod, EivProblem, EivResult, Stage3Method};
-use crate::error::{Result, SmidError};
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+use smid_core::error::{Result, SmidError};
+use smid_core::stage3::{EivMethod, EivProblem, EivResult, Stage3Method};
 
 /// The method's name (`method.eiv: sdp`).
 pub const NAME: &str = "sdp";
@@ -53,8 +57,9 @@ impl Default for SdpOptions {
     }
 }
 
-/// Whether this build has the moment relaxation (the cargo feature `sdp`).
-pub const AVAILABLE: bool = cfg!(feature = "sdp");
+/// Whether this build has the moment relaxation (this crate's feature `openblas`, the
+/// facade's `sdp`).
+pub const AVAILABLE: bool = cfg!(feature = "openblas");
 
 /// The moment relaxation (`method.eiv: sdp`), starting from `shared`.
 #[derive(Debug, Clone, Copy, Default)]
@@ -63,7 +68,7 @@ pub struct Sdp {
     pub opts: SdpOptions,
 }
 
-crate::register_stage3!(
+smid_core::register_stage3!(
     20,
     Sdp {
         opts: SdpOptions::DEFAULT
@@ -81,7 +86,7 @@ impl Stage3Method for Sdp {
         &self,
         options: &serde_json::Map<String, serde_json::Value>,
     ) -> Result<Option<Box<dyn Stage3Method>>> {
-        super::with_parsed_options(NAME, options, |opts: SdpOptions| Box::new(Sdp { opts }))
+        smid_core::stage3::with_parsed_options(NAME, options, |opts: SdpOptions| Box::new(Sdp { opts }))
     }
     fn available(&self) -> bool {
         AVAILABLE
@@ -114,11 +119,11 @@ pub fn solve_with(prob: &EivProblem, opts: &SdpOptions) -> Result<EivResult> {
 }
 
 /// The moment relaxation from a guaranteed result `start` (the shared-error one).
-#[cfg(feature = "sdp")]
+#[cfg(feature = "openblas")]
 pub use imp::solve_from;
 
 /// The moment relaxation from `start` (this build has no `sdp` feature: an error naming it).
-#[cfg(not(feature = "sdp"))]
+#[cfg(not(feature = "openblas"))]
 pub fn solve_from(_prob: &EivProblem, _start: EivResult, _opts: &SdpOptions) -> Result<EivResult> {
     Err(unsupported())
 }
@@ -126,19 +131,19 @@ pub fn solve_from(_prob: &EivProblem, _start: EivResult, _opts: &SdpOptions) -> 
 /// Selecting the method in a build without the feature `sdp`.
 fn unsupported() -> SmidError {
     SmidError::Unsupported {
-        plugin: "smid-core".into(),
+        plugin: "smid-sdp".into(),
         what: "`method.eiv: sdp` in this build: the moment relaxation needs the cargo feature `sdp` (build with `--features sdp`; it needs apt libopenblas-dev libgfortran-12-dev); or choose `shared` (within a few percent of the exact set on the paper's example) or `exact-grid`".into(),
     }
 }
 
-#[cfg(feature = "sdp")]
+#[cfg(feature = "openblas")]
 mod imp {
     use super::*;
-    use crate::error::Stage;
-    use crate::interval::Interval;
-    use crate::lp::RESULT_PAD;
-    use crate::sparse_lp::{conic_solver, csc, merge, padded_rows, PaddedRows};
-    use crate::stage3::relax::{shrink_rounds, Round, RoundLimits, SharedModel};
+    use smid_core::error::Stage;
+    use smid_core::interval::Interval;
+    use smid_core::lp::RESULT_PAD;
+    use smid_core::sparse_lp::{conic_solver, csc, merge, padded_rows, PaddedRows};
+    use smid_core::stage3::relax::{shrink_rounds, Round, RoundLimits, SharedModel};
     use clarabel::solver::{DefaultSolver, IPSolver, SupportedConeT};
     use std::collections::HashMap;
 
@@ -189,10 +194,11 @@ mod imp {
             for (w, &(k, d)) in model.products.iter().enumerate() {
                 boxes[model.col_product(w)] = mul(tb[k], db[d]);
             }
+            let (le, eq) = lp.into_rows();
             let mut c = Conic {
                 n: model.n_cols(),
-                le: lp.le,
-                eq: lp.eq,
+                le,
+                eq,
                 psd: Vec::new(),
                 boxes,
             };
@@ -571,10 +577,10 @@ mod imp {
 
 #[cfg(test)]
 mod tests {
-    #[cfg(not(feature = "sdp"))]
+    #[cfg(not(feature = "openblas"))]
     #[test]
     fn selecting_sdp_names_the_feature() {
-        let prob = crate::stage3::EivProblem {
+        let prob = smid_core::stage3::EivProblem {
             locate: true,
             na: 0,
             nb: 0,
@@ -591,12 +597,12 @@ mod tests {
         assert!(e.contains("feature `sdp`") && e.contains("shared"), "{e}");
     }
 
-    #[cfg(feature = "sdp")]
+    #[cfg(feature = "openblas")]
     #[test]
     fn sdp_contains_the_truth_and_the_exact_inner_hull_and_is_never_wider_than_shared() {
-        use crate::stage3::exact_grid::{self, ExactOptions};
-        use crate::stage3::shared::{self, SharedOptions};
-        use crate::stage3::testutil::{problem, random_case};
+        use smid_core::stage3::exact_grid::{self, ExactOptions};
+        use smid_core::stage3::shared::{self, SharedOptions};
+        use smid_core::stage3::testutil::{problem, random_case};
         for seed in 0..6 {
             let (m, out, input) = random_case(seed, 40);
             let prob = problem(&out, &input, true);
@@ -634,11 +640,11 @@ mod tests {
 
     /// Extra columns: exact ones as plain coefficients, an uncertain friction column with its
     /// samples as δ's of the cliques. The truth is inside and the result within shared.
-    #[cfg(feature = "sdp")]
+    #[cfg(feature = "openblas")]
     #[test]
     fn sdp_with_extra_columns_contains_the_truth_and_is_never_wider_than_shared() {
-        use crate::stage3::shared::{self, SharedOptions};
-        use crate::stage3::testutil::random_extra_case;
+        use smid_core::stage3::shared::{self, SharedOptions};
+        use smid_core::stage3::testutil::random_extra_case;
         for seed in 0..3 {
             for radius in [0.0, 0.05] {
                 let case = random_extra_case(seed, 40, radius);
