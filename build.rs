@@ -6,8 +6,8 @@
 use std::path::Path;
 
 fn main() {
-    let manifest = Path::new(&std::env::var("CARGO_MANIFEST_DIR").expect("set by cargo"))
-        .join("Cargo.toml");
+    let manifest =
+        Path::new(&std::env::var("CARGO_MANIFEST_DIR").expect("set by cargo")).join("Cargo.toml");
     println!("cargo:rerun-if-changed={}", manifest.display());
     let text = std::fs::read_to_string(&manifest)
         .unwrap_or_else(|e| panic!("{}: {e}", manifest.display()));
@@ -58,10 +58,7 @@ fn plugin_packages(doc: &toml_edit::DocumentMut) -> Vec<(String, String)> {
                 }
                 None => None,
             }?;
-            let package = item
-                .get("package")
-                .and_then(|p| p.as_str())
-                .unwrap_or(name);
+            let package = item.get("package").and_then(|p| p.as_str()).unwrap_or(name);
             let under = path.trim_start_matches("./").starts_with("plugins/");
             under.then(|| (name.to_owned(), package.to_owned()))
         })

@@ -15,7 +15,10 @@ fn every_plugin_is_bounded_from_a_dynamic_record_alone_with_the_truth_inside() {
     const SLOW: &str = "dead-zone-output.yaml";
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/any");
     let entries = common::yaml_files(&dir);
-    assert!(entries.iter().any(|p| p.ends_with(SLOW)), "no example {SLOW}");
+    assert!(
+        entries.iter().any(|p| p.ends_with(SLOW)),
+        "no example {SLOW}"
+    );
     // The examples side by side (each run is mostly sequential work).
     use rayon::prelude::*;
     entries.par_iter().for_each(|path| {

@@ -219,7 +219,11 @@ fn a_linear_block_before_the_linear_block_is_reported_as_one_more_pole() {
             }
         }
         let n = seeds.count();
-        assert!(3 * named >= 2 * n, "{}: named in {named} of {n} seeds", c.name);
+        assert!(
+            3 * named >= 2 * n,
+            "{}: named in {named} of {n} seeds",
+            c.name
+        );
     }
 }
 

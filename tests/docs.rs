@@ -74,7 +74,9 @@ fn documents() -> Vec<PathBuf> {
     let mut files = vec![PathBuf::from("README.md")];
     let mut stack = vec![root().join("docs")];
     while let Some(dir) = stack.pop() {
-        let Ok(entries) = std::fs::read_dir(&dir) else { continue };
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            continue;
+        };
         for entry in entries.flatten() {
             let path = entry.path();
             if path.is_dir() {
@@ -91,7 +93,10 @@ fn documents() -> Vec<PathBuf> {
 /// What a command's output is compared by: trailing spaces dropped, and every timing (a number
 /// followed by `s` or `ms`, with or without a space) written `<t>`.
 fn normalise(text: &str) -> Vec<String> {
-    text.lines().map(normalise_line).collect::<Vec<_>>().trim_trailing_blank()
+    text.lines()
+        .map(normalise_line)
+        .collect::<Vec<_>>()
+        .trim_trailing_blank()
 }
 
 fn normalise_line(line: &str) -> String {
@@ -328,8 +333,14 @@ fn every_command_the_docs_show_runs_and_prints_what_they_show() {
 
 #[test]
 fn the_output_comparison_ignores_timings_only() {
-    assert_eq!(normalise_line("took 1.25 s, 30ms and 4s."), "took <t>, <t> and <t>.");
-    assert_eq!(normalise_line("91 equations, 3 samples  "), "91 equations, 3 samples");
+    assert_eq!(
+        normalise_line("took 1.25 s, 30ms and 4s."),
+        "took <t>, <t> and <t>."
+    );
+    assert_eq!(
+        normalise_line("91 equations, 3 samples  "),
+        "91 equations, 3 samples"
+    );
     assert_eq!(normalise_line("m_l 0.248000 2s1"), "m_l 0.248000 2s1");
     assert_eq!(normalise_line("x2 s"), "x2 s");
     assert_ne!(normalise("a\n1.0"), normalise("a\n1.1"));
@@ -342,10 +353,16 @@ fn blocks_are_read_with_their_fences_and_neighbours() {
     assert_eq!(b.len(), 3);
     assert_eq!(b[0].info, "sh");
     assert_eq!(commands(&b[0]), vec!["smid run x # exit 2"]);
-    assert_eq!(expected_exit("smid run x # exit 2"), ("smid run x".to_string(), 2));
+    assert_eq!(
+        expected_exit("smid run x # exit 2"),
+        ("smid run x".to_string(), 2)
+    );
     assert!(b[1].follows_previous);
     assert!(!b[2].follows_previous);
-    assert_eq!(as_binary("cargo run --release -- run a.yaml"), "smid run a.yaml");
+    assert_eq!(
+        as_binary("cargo run --release -- run a.yaml"),
+        "smid run a.yaml"
+    );
     assert_eq!(
         as_binary("cargo run --release --features fmu -- run a.yaml"),
         "smid run a.yaml"
@@ -390,7 +407,10 @@ fn the_guide_is_whole_every_page_listed_every_link_resolving() {
         let prose: String = strip_code(&text);
         for link in relative_links(&prose) {
             if !dir.join(&link).exists() {
-                failures.push(format!("{}: the link `{link}` leads nowhere", doc.display()));
+                failures.push(format!(
+                    "{}: the link `{link}` leads nowhere",
+                    doc.display()
+                ));
             }
         }
     }
@@ -416,8 +436,14 @@ fn strip_code(text: &str) -> String {
 #[test]
 fn the_readme_and_the_code_map_stay_short() {
     for (file, most) in [("README.md", 200), ("ARCHITECTURE.md", 300)] {
-        let lines = std::fs::read_to_string(root().join(file)).unwrap().lines().count();
-        assert!(lines <= most, "{file} has {lines} lines; it keeps to {most}: depth goes in docs/");
+        let lines = std::fs::read_to_string(root().join(file))
+            .unwrap()
+            .lines()
+            .count();
+        assert!(
+            lines <= most,
+            "{file} has {lines} lines; it keeps to {most}: depth goes in docs/"
+        );
     }
 }
 
@@ -450,7 +476,11 @@ fn names_history(text: &str) -> Option<String> {
 
 #[test]
 fn no_file_speaks_of_how_the_project_was_built() {
-    let Ok(listed) = Command::new("git").arg("ls-files").current_dir(root()).output() else {
+    let Ok(listed) = Command::new("git")
+        .arg("ls-files")
+        .current_dir(root())
+        .output()
+    else {
         println!("skipped: git is not available to list the tracked files");
         return;
     };
@@ -460,7 +490,9 @@ fn no_file_speaks_of_how_the_project_was_built() {
     }
     let mut failures = Vec::new();
     for file in String::from_utf8_lossy(&listed.stdout).lines() {
-        let Ok(text) = std::fs::read_to_string(root().join(file)) else { continue };
+        let Ok(text) = std::fs::read_to_string(root().join(file)) else {
+            continue;
+        };
         for (i, line) in text.lines().enumerate() {
             if let Some(words) = names_history(line) {
                 failures.push(format!("{file}:{}: `{words}`", i + 1));
@@ -484,7 +516,11 @@ fn the_readme_picture_is_what_the_quickstart_draws() {
         .current_dir(root())
         .output()
         .unwrap();
-    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
     let drawn = std::fs::read_to_string(out.path().join("region_left_branch.svg")).unwrap();
     let shown = std::fs::read_to_string(root().join("docs/img/paper-left-branch.svg")).unwrap();
     assert!(

@@ -18,7 +18,11 @@ fn plugin_examples() -> Vec<String> {
     let mut names = Vec::new();
     for tag in smid::core::registry::model_types() {
         let stem = tag.replace('_', "-");
-        for name in [stem.clone(), format!("{stem}-input"), format!("{stem}-output")] {
+        for name in [
+            stem.clone(),
+            format!("{stem}-input"),
+            format!("{stem}-output"),
+        ] {
             if dir.join(format!("{name}.yaml")).is_file() {
                 names.push(name);
             }

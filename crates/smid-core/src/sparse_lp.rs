@@ -39,12 +39,7 @@ pub enum Optimum {
 
 /// The `m`-row CSC matrix of column lists `cols` (rows sorted within each column), after checking
 /// that it and the right-hand side `b` are finite (`what` names the program in the error).
-pub fn csc(
-    m: usize,
-    cols: &[Vec<(usize, f64)>],
-    b: &[f64],
-    what: &str,
-) -> Result<CscMatrix<f64>> {
+pub fn csc(m: usize, cols: &[Vec<(usize, f64)>], b: &[f64], what: &str) -> Result<CscMatrix<f64>> {
     let mut colptr = Vec::with_capacity(cols.len() + 1);
     let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
     colptr.push(0);

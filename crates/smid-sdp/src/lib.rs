@@ -86,7 +86,9 @@ impl Stage3Method for Sdp {
         &self,
         options: &serde_json::Map<String, serde_json::Value>,
     ) -> Result<Option<Box<dyn Stage3Method>>> {
-        smid_core::stage3::with_parsed_options(NAME, options, |opts: SdpOptions| Box::new(Sdp { opts }))
+        smid_core::stage3::with_parsed_options(NAME, options, |opts: SdpOptions| {
+            Box::new(Sdp { opts })
+        })
     }
     fn available(&self) -> bool {
         AVAILABLE
@@ -139,12 +141,12 @@ fn unsupported() -> SmidError {
 #[cfg(feature = "openblas")]
 mod imp {
     use super::*;
+    use clarabel::solver::{DefaultSolver, IPSolver, SupportedConeT};
     use smid_core::error::Stage;
     use smid_core::interval::Interval;
     use smid_core::lp::RESULT_PAD;
     use smid_core::sparse_lp::{conic_solver, csc, merge, padded_rows, PaddedRows};
     use smid_core::stage3::relax::{shrink_rounds, Round, RoundLimits, SharedModel};
-    use clarabel::solver::{DefaultSolver, IPSolver, SupportedConeT};
     use std::collections::HashMap;
 
     /// `a·b` over boxes, widened outward by a rounding pad.

@@ -64,11 +64,7 @@ pub fn random_case(seed: u64, n: usize) -> (LinearModel, Vec<InnerBound>, Vec<In
 
 /// The EIV problem of a second-order case (`b0` fixed at zero, unit gain) over `out` and
 /// `input`; `band` lets the band samples in.
-pub fn problem<'a>(
-    out: &'a [InnerBound],
-    input: &'a [Interval],
-    band: bool,
-) -> EivProblem<'a> {
+pub fn problem<'a>(out: &'a [InnerBound], input: &'a [Interval], band: bool) -> EivProblem<'a> {
     EivProblem {
         locate: true,
         na: 2,
