@@ -2,6 +2,37 @@
 //! (Tables I-II), `check` (Monte Carlo containment). anyhow is used only here, at the edge.
 #![forbid(unsafe_code)]
 
+/// The CLI's report on stdout. A closed stdout (`smid run … | head`) ends the program quietly,
+/// as a reader that has seen enough asks; any other failure to write is an error on stderr.
+macro_rules! println {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout().lock(), $($arg)*) {
+            crate::stdout_failed(e);
+        }
+    }};
+}
+
+/// [`println!`] without the line end.
+macro_rules! print {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = write!(std::io::stdout().lock(), $($arg)*) {
+            crate::stdout_failed(e);
+        }
+    }};
+}
+
+/// Ends the program after a failed write to stdout: quietly (status 0) when the reader closed
+/// it, with the error on stderr (status 1) otherwise.
+fn stdout_failed(e: std::io::Error) -> ! {
+    if e.kind() == std::io::ErrorKind::BrokenPipe {
+        std::process::exit(0);
+    }
+    eprintln!("error: cannot write to stdout: {e}");
+    std::process::exit(1);
+}
+
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};

@@ -487,3 +487,21 @@ fn the_estimate_is_the_smallest_accepted_bound_at_every_noise_size() {
         }
     }
 }
+
+/// A reader that closes the CLI's stdout early (`smid schema | head`) ends it quietly: status
+/// 0 and nothing on stderr, not a panic with a backtrace. The pipe's read end is closed before
+/// the program starts, so its first write fails.
+#[test]
+fn a_closed_stdout_ends_the_cli_quietly() {
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = Command::new(env!("CARGO_BIN_EXE_smid"))
+        .arg("schema")
+        .stdout(writer)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(err.is_empty(), "{err}");
+}
