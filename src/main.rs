@@ -2,35 +2,41 @@
 //! (Tables I-II), `check` (Monte Carlo containment). anyhow is used only here, at the edge.
 #![forbid(unsafe_code)]
 
-/// The CLI's report on stdout. A closed stdout (`smid run … | head`) ends the program quietly,
-/// as a reader that has seen enough asks; any other failure to write is an error on stderr.
+/// The CLI's report on stdout. Once the reader has closed stdout (`smid run … | head`) the
+/// report is dropped and the command goes on, so the files it writes are still written; any
+/// other failure to write is reported on stderr once, and the program ends with status 1.
 macro_rules! println {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        if let Err(e) = writeln!(std::io::stdout().lock(), $($arg)*) {
-            crate::stdout_failed(e);
-        }
-    }};
+    ($($arg:tt)*) => {
+        crate::report_line(format_args!("{}\n", format_args!($($arg)*)))
+    };
 }
 
 /// [`println!`] without the line end.
 macro_rules! print {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        if let Err(e) = write!(std::io::stdout().lock(), $($arg)*) {
-            crate::stdout_failed(e);
-        }
-    }};
+    ($($arg:tt)*) => {
+        crate::report_line(format_args!($($arg)*))
+    };
 }
 
-/// Ends the program after a failed write to stdout: quietly (status 0) when the reader closed
-/// it, with the error on stderr (status 1) otherwise.
-fn stdout_failed(e: std::io::Error) -> ! {
-    if e.kind() == std::io::ErrorKind::BrokenPipe {
-        std::process::exit(0);
+/// Whether stdout can no longer be written: the reader closed it, or a write failed.
+static STDOUT_GONE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+/// Whether a write to stdout failed for another reason than a closed reader.
+static STDOUT_FAILED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Writes `text` to stdout unless it is gone (see [`println!`]).
+fn report_line(text: std::fmt::Arguments) {
+    use std::io::Write as _;
+    use std::sync::atomic::Ordering::Relaxed;
+    if STDOUT_GONE.load(Relaxed) {
+        return;
     }
-    eprintln!("error: cannot write to stdout: {e}");
-    std::process::exit(1);
+    if let Err(e) = std::io::stdout().lock().write_fmt(text) {
+        STDOUT_GONE.store(true, Relaxed);
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            STDOUT_FAILED.store(true, Relaxed);
+            eprintln!("error: cannot write to stdout: {e}");
+        }
+    }
 }
 
 use anyhow::{Context, Result};
@@ -381,6 +387,9 @@ fn main() {
     init_log();
     if let Err(e) = real_main() {
         eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+    if STDOUT_FAILED.load(std::sync::atomic::Ordering::Relaxed) {
         std::process::exit(1);
     }
 }

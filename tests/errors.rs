@@ -488,15 +488,21 @@ fn the_estimate_is_the_smallest_accepted_bound_at_every_noise_size() {
     }
 }
 
-/// A reader that closes the CLI's stdout early (`smid schema | head`) ends it quietly: status
-/// 0 and nothing on stderr, not a panic with a backtrace. The pipe's read end is closed before
-/// the program starts, so its first write fails.
+/// A reader that closes the CLI's stdout early (`smid run … | head`) ends the report, not the
+/// command: status 0, nothing on stderr (no panic, no backtrace), and the files the command
+/// writes after its report are still written. The pipe's read end is closed before the program
+/// starts, so its first write fails.
 #[test]
-fn a_closed_stdout_ends_the_cli_quietly() {
+fn a_closed_stdout_drops_the_report_and_keeps_the_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("out");
     let (reader, writer) = std::io::pipe().unwrap();
     drop(reader);
     let out = Command::new(env!("CARGO_BIN_EXE_smid"))
-        .arg("schema")
+        .arg("run")
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/paper.yaml"))
+        .arg("--out")
+        .arg(&out_dir)
         .stdout(writer)
         .stderr(std::process::Stdio::piped())
         .output()
@@ -504,4 +510,8 @@ fn a_closed_stdout_ends_the_cli_quietly() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "{err}");
     assert!(err.is_empty(), "{err}");
+    assert!(
+        out_dir.join("result.json").is_file(),
+        "no result.json after a closed stdout"
+    );
 }
