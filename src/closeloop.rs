@@ -9,7 +9,7 @@ use smid_core::pipeline::{self, ExperimentData};
 use smid_core::plant::Plant;
 use smid_core::plot::{self, Line};
 use smid_core::spec::{AlphaSpec, Spec};
-use smid_core::validate::{Fit, Validation};
+use smid_core::validate::{Fit, Validation, Verdict};
 use smid_core::{Result, SmidError};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -227,6 +227,15 @@ fn fit_line(name: &str, f: &Fit) -> String {
     )
 }
 
+/// PASS, FAIL, or, when the verdict is undecided, that it is not passed for that reason.
+fn pass_word(v: &Validation) -> &'static str {
+    match (v.pass, v.consistency.verdict) {
+        (true, _) => "PASS",
+        (false, Verdict::Undecided) => "not passed (the verdict is undecided)",
+        (false, _) => "FAIL",
+    }
+}
+
 /// The text report of a validation.
 pub fn format_validation(v: &Validation, records: &[Record]) -> String {
     let mut s = String::new();
@@ -241,14 +250,33 @@ pub fn format_validation(v: &Validation, records: &[Record]) -> String {
             .collect::<Vec<_>>()
             .join("; ")
     );
-    match &v.consistency.falsified_at {
-        None => {
+    match (&v.consistency.verdict, &v.consistency.falsified_at) {
+        (Verdict::Proven, _) => {
+            let _ = writeln!(
+                s,
+                "verdict: CONSISTENT, proven (a member of the set, found from the simulation member, satisfies the training and the fresh equations within their noise bounds)"
+            );
+        }
+        (Verdict::Falsified, None) => {
+            let _ = writeln!(
+                s,
+                "verdict: FALSIFIED (every cell of the set is contradicted)"
+            );
+        }
+        (Verdict::Consistent, _) => {
             let _ = writeln!(
                 s,
                 "verdict: CONSISTENT (the identified sets and the training equations admit the fresh data: no contradiction found)"
             );
         }
-        Some(f) => {
+        (Verdict::Undecided, _) => {
+            let why = v
+                .consistency
+                .undecided
+                .map_or_else(|| "no cause recorded".to_string(), |u| u.describe());
+            let _ = writeln!(s, "verdict: UNDECIDED ({why})");
+        }
+        (Verdict::Falsified, Some(f)) => {
             let at = if f.located {
                 "first offending sample"
             } else {
@@ -268,7 +296,7 @@ pub fn format_validation(v: &Validation, records: &[Record]) -> String {
                 s,
                 "smallest consistent noise bound: 0 (a cell of the set admits these records down to 1e-9 of the bound, reported as 0: noise-free records in a cell holding the truth, or stage-2 intervals over the cell wider than the noise, where the records test little); bound {:.4e} ({src}): {}",
                 v.bound,
-                if v.pass { "PASS" } else { "FAIL" }
+                pass_word(v)
             );
         }
         Some((lo, hi)) => {
@@ -276,7 +304,7 @@ pub fn format_validation(v: &Validation, records: &[Record]) -> String {
                 s,
                 "smallest consistent noise bound: {hi:.4e} (provably inconsistent below {lo:.4e}); bound {:.4e} ({src}): {}",
                 v.bound,
-                if v.pass { "PASS" } else { "FAIL" }
+                pass_word(v)
             );
         }
         None => {
@@ -465,13 +493,18 @@ fn verdict_text(t: &diagnose::TrainVerdict) -> String {
             unsettled,
             within,
         } => format!(
-            "consistent at bound {bound:.3e}, training free-run fit {}{}{}",
+            "{} at bound {bound:.3e}, training free-run fit {}{}{}",
+            if unsettled.is_some() {
+                "undecided"
+            } else {
+                "consistent"
+            },
             pct(*fit_percent),
             within.map_or(String::new(), |e| format!(
                 ", its member within {e:.3e} of every training sample"
             )),
             unsettled.map_or(String::new(), |g| format!(
-                " (stage 3's rounds not settled: the last shrank a radius by {:.1} %, so more rounds may falsify it)",
+                " (stage 3's rounds stopped at their cap, the last shrank a radius by {:.1} %, and no certified member proves the set non-empty: more rounds may falsify it; ranked as consistent)",
                 100.0 * g
             ))
         ),
@@ -509,7 +542,14 @@ fn verdict_text(t: &diagnose::TrainVerdict) -> String {
         } => format!(
             "bound at least {bound:.3e}, if any (bracketed with the diagnosis's cells, not finished: it cannot keep a lower one, and finishing it might find none), not identified: above the chosen candidate's by more than the rule's step, so it could be neither chosen nor equivalent to the choice"
         ),
+        diagnose::TrainVerdict::UnboundedCells { cells, detail } => format!(
+            "{cells} cell(s) left without a finite θ bound: {detail}"
+        ),
         diagnose::TrainVerdict::Failed { message } => format!("failed: {message}"),
+        diagnose::TrainVerdict::NotTried { reason: None } => "not tried".to_string(),
+        diagnose::TrainVerdict::NotTried {
+            reason: Some(reason),
+        } => format!("not tried: {reason}"),
         diagnose::TrainVerdict::Reproduced { residual, draws } => format!(
             "not identified: the base model reproduces its free runs exactly (equation error at most {residual:.1e} of the range at {draws} draws of its parameters: the corners of their prior box and three inside), so its smallest consistent bound is not lower"
         ),
@@ -579,18 +619,15 @@ pub fn format_table(before: &Column, after: &Column) -> String {
     );
     let verdict = |c: &Column| match &c.validation {
         None => "no member (see below)".to_string(),
-        Some(v) => match &v.consistency.falsified_at {
-            None => "CONSISTENT".to_string(),
-            Some(f) => format!("FALSIFIED (record {}, sample {})", f.record, f.sample),
-        },
+        Some(v) => v.consistency.brief(),
     };
     row(&mut s, "verdict", verdict(before), verdict(after));
-    let smallest = |c: &Column| match c.validation.as_ref().map(|v| (v.smallest_bound, v.pass)) {
-        Some((Some((_, 0.0)), pass)) => format!(
+    let smallest = |c: &Column| match c.validation.as_ref().map(|v| (v.smallest_bound, v)) {
+        Some((Some((_, 0.0)), v)) => format!(
             "0 ({}; a cell admits them down to 1e-9 of the bound)",
-            if pass { "PASS" } else { "FAIL" }
+            pass_word(v)
         ),
-        Some((Some((_, hi)), pass)) => format!("{hi:.3e} ({})", if pass { "PASS" } else { "FAIL" }),
+        Some((Some((_, hi)), v)) => format!("{hi:.3e} ({})", pass_word(v)),
         _ => "none".into(),
     };
     row(
@@ -642,7 +679,7 @@ pub fn format_table(before: &Column, after: &Column) -> String {
     );
     for (name, c) in [("before", before), ("after", after)] {
         if let Some(why) = &c.stopped {
-            let _ = writeln!(s, "\n{name}: no model to validate: {why}");
+            let _ = writeln!(s, "\n{name}: no model to validate: {}", why.describe());
         }
     }
     s

@@ -560,7 +560,7 @@ fn real_main() -> Result<()> {
             print!("{}", smid::closeloop::format_validation(&v, &fresh));
             let files = smid::closeloop::write_validation(&v, &dir, "")?;
             println!("wrote {}", join(&files));
-            if !v.consistency.consistent {
+            if v.consistency.verdict == smid::core::validate::Verdict::Falsified {
                 std::process::exit(3);
             }
         }

@@ -9,6 +9,7 @@ use smid::closeloop;
 use smid::core::diagnose::{self, Options};
 use smid::core::pipeline;
 use smid::core::plant::SimulatedPlant;
+use smid::core::settings::Check;
 use smid::core::validate::{self, Validation};
 use std::path::{Path, PathBuf};
 
@@ -1357,9 +1358,12 @@ model:\n  structure: wiener\n  nonlinearity: {{ type: linear }}\n  na: 1\n  nb: 
         );
         // The simulator the raise starts from, and its distance recomputed from its values:
         // its run from the first equation (t0 = 1), the measured output before it.
-        let seed = smid::core::members::best_free_run(&relaxed.model, &relaxed.model.method.member)
-            .unwrap()
-            .unwrap_or_else(|| panic!("case {case}: no simulator over the relaxation's set"));
+        let seed = smid::core::members::best_free_run(
+            &relaxed.model,
+            &relaxed.model.method.member.check().unwrap(),
+        )
+        .unwrap()
+        .unwrap_or_else(|| panic!("case {case}: no simulator over the relaxation's set"));
         let get = |k: &str| seed.values.iter().find(|(n, _)| n == k).unwrap().1;
         let (a1, b0) = (get("a1"), get("b0"));
         let mut prev = y[0];
@@ -1549,7 +1553,7 @@ fn a_bound_from_the_free_run_for_every_registered_plugin() {
                 let certified = id.model.simulation_member.as_ref().is_some_and(|m| m.certified);
                 return (case.name.clone(), true, certified, false);
             }
-            let seed = smid::core::members::best_free_run(&relaxed.model, &relaxed.model.method.member)
+            let seed = smid::core::members::best_free_run(&relaxed.model, &relaxed.model.method.member.check().unwrap())
                 .unwrap()
                 .unwrap_or_else(|| panic!("{}: raised without a simulator", case.name));
             let within = seed.within.unwrap();

@@ -78,7 +78,17 @@ fn member_search_budget_is_checked_with_its_field() {
     let e = err(&with("{ restarts: 1000 }"));
     assert!(e.contains("method.member.restarts"), "{e}");
     let e = err(&with("{ probe: 0 }"));
-    assert!(e.contains("method.member") && e.contains("probe 0"), "{e}");
+    assert!(
+        e.contains("method.member.probe") && e.contains("got 0"),
+        "{e}"
+    );
+    let e = err(&with("{ far: 0.0 }"));
+    assert!(
+        e.contains("method.member.far") && e.contains("got 0"),
+        "{e}"
+    );
+    let e = err(&with("{ hopeless_after: 0 }"));
+    assert!(e.contains("method.member.hopeless_after"), "{e}");
     let e = err(&with("{ iterations: 5, sarch: false }"));
     assert!(e.contains("sarch") && e.contains("search"), "{e}");
     let ok = parse(&with("{ search: false, spread: false, iterations: 20 }")).unwrap();

@@ -127,7 +127,12 @@ class Verdict:
     """Consistent, or falsified: the data contradict the model and noise bound, at ``stage``
     and first offending ``sample`` of ``record`` (the training record in an identification, the
     fresh record in a validation). ``located`` is False when ``sample`` is only one by which
-    the data are inconsistent (the first offending one was not looked for)."""
+    the data are inconsistent (the first offending one was not looked for).
+
+    A validation's verdict also has ``kind``: ``proven`` (a member of the set satisfies the
+    training and the fresh equations), ``consistent`` (no contradiction found), ``undecided``
+    (neither proven nor falsified; ``message`` says why, and ``consistent`` is False) or
+    ``falsified``."""
 
     consistent: bool
     stage: Optional[str] = None
@@ -136,6 +141,7 @@ class Verdict:
     message: Optional[str] = None
     record: Optional[int] = None
     located: Optional[bool] = None
+    kind: Optional[str] = None
 
 
 @dataclass(frozen=True)
@@ -516,10 +522,13 @@ class Validation:
     def verdict(self) -> Verdict:
         c = self.data["consistency"]
         f = c.get("falsified_at")
+        kind = c.get("verdict")
         if c["consistent"] or not f:
-            return Verdict(consistent=bool(c["consistent"]))
+            u = c.get("undecided")
+            return Verdict(consistent=bool(c["consistent"]), kind=kind,
+                           message=None if u is None else str(u.get("cause")))
         return Verdict(consistent=False, stage=f.get("stage"), sample=f.get("sample"), detail=f.get("detail"),
-                       record=f.get("record"), located=f.get("located"),
+                       record=f.get("record"), located=f.get("located"), kind=kind,
                        message=f"record {f.get('record')}, sample {f.get('sample')}: {f.get('detail')}")
 
     @property

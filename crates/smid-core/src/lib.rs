@@ -38,6 +38,7 @@ pub mod plot;
 pub mod polygon;
 pub mod registry;
 pub mod report;
+pub mod settings;
 pub mod signals;
 pub mod sparse_lp;
 pub mod spec;

@@ -750,12 +750,18 @@ impl ModelSet {
     /// every cell settled.
     pub fn unsettled_warning(&self) -> Option<String> {
         let capped = self.cells.iter().filter(|c| c.unsettled.is_some()).count();
+        let certified = self.simulation_member.as_ref().is_some_and(|m| m.certified);
         self.unsettled().map(|worst| {
             format!(
-                "stage 3's rounds stopped at their cap before they settled in {} of {} cell(s) (the last round still shrank a radius by {:.1} %): the bounds hold, but the set may be far smaller, or empty (the data would then falsify the model); raise `method.options.max_rounds` to know",
+                "stage 3's rounds stopped at their cap before they settled in {} of {} cell(s) (the last round still shrank a radius by {:.1} %): the bounds hold, but the set may be far smaller{}; raise `method.options.max_rounds` to know",
                 capped,
                 self.cells.len(),
-                100.0 * worst
+                100.0 * worst,
+                if certified {
+                    " (it is not empty: the simulation member is certified)"
+                } else {
+                    ", or empty (the data would then falsify the model)"
+                }
             )
         })
     }

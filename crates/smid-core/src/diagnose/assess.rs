@@ -1,11 +1,12 @@
 //! The before/after table: each model at the smallest noise bound that makes its training
 //! data consistent ([`identify_consistent`]), validated on the held-out records ([`assess`]).
 use super::trying::with_model;
-use super::verdict::{Choice, Column};
+use super::verdict::{Choice, Column, Stopped};
 use crate::error::{Result, SmidError};
 use crate::model::ModelSet;
 use crate::outcome::{Falsification, Outcome};
 use crate::pipeline::{identify, ExperimentData, Identification, Record};
+use crate::settings::Check;
 use crate::spec::{ModelSpec, Spec};
 use crate::validate;
 
@@ -159,7 +160,7 @@ fn identify_consistent_at(
         }
     }
     best.model.simulation_member =
-        crate::members::simulation_member(&best.model, &spec.method.member)?;
+        crate::members::simulation_member(&best.model, &spec.method.member.check()?)?;
     Ok(Outcome::Consistent((best, true)))
 }
 
@@ -189,12 +190,18 @@ pub fn assess(
                     Ok(Outcome::Consistent((id, inflated))) => Ok((id.model, inflated)),
                     // A model the training data falsify at every bound tried, or that no
                     // bound makes finite: a row that says where the search stopped.
-                    Ok(Outcome::Falsified(f)) => Err(f.message()),
-                    Err(
-                        e @ (SmidError::Unbounded { .. }
-                        | SmidError::Solver(_)
-                        | SmidError::Unsupported { .. }),
-                    ) => Err(e.to_string()),
+                    Ok(Outcome::Falsified(f)) => Err(Stopped::Falsified {
+                        detail: f.message(),
+                    }),
+                    Err(e @ SmidError::Unbounded { .. }) => Err(Stopped::Unbounded {
+                        detail: e.to_string(),
+                    }),
+                    Err(e @ SmidError::Solver(_)) => Err(Stopped::Solver {
+                        detail: e.to_string(),
+                    }),
+                    Err(e @ SmidError::Unsupported { .. }) => Err(Stopped::Unsupported {
+                        detail: e.to_string(),
+                    }),
                     Err(e) => return Err(e),
                 };
                 match stopped {

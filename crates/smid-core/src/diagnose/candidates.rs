@@ -57,12 +57,12 @@ fn not_tried(
         tag: tag.to_string(),
         added_parameters,
         priors,
-        train: TrainVerdict::Failed {
-            message: "not tried".into(),
-        },
+        train: TrainVerdict::NotTried { reason: None },
         chosen: false,
         equivalent_to: Vec::new(),
-        untried: untried.map(|message| TrainVerdict::Failed { message }),
+        untried: untried.map(|reason| TrainVerdict::NotTried {
+            reason: Some(reason),
+        }),
     }
 }
 
@@ -378,7 +378,7 @@ pub(super) fn with_design_prior(
                     return true;
                 }
                 *untried = Some(format!(
-                    "not tried: `{}` breaks the designed steady-state experiment, so stage 1 refuses the polygons, and the steady-state points give no box for the nonlinearity even as if the design held ({e}), {}; {}",
+                    "`{}` breaks the designed steady-state experiment, so stage 1 refuses the polygons, and the steady-state points give no box for the nonlinearity even as if the design held ({e}), {}; {}",
                     term.label(),
                     if from_scale {
                         "and the box from their scale leaves the model without a layout"

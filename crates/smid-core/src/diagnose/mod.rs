@@ -62,7 +62,7 @@ pub use candidates::{candidates, inside_the_loop, offered_with_steady_points, FE
 pub use rounds::choose;
 pub use screen::reproduced_by_base;
 pub use trying::{candidate_spec, training_fit, with_model};
-pub use verdict::{Choice, Column, Evidence, Round, TrainVerdict};
+pub use verdict::{Choice, Column, Evidence, Round, Stopped, TrainVerdict};
 
 /// With an estimated noise bound, a candidate must lower the training bound to at most this
 /// fraction of the base model's per added parameter.

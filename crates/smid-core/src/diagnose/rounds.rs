@@ -14,6 +14,7 @@ use crate::error::{Result, SmidError};
 use crate::model::ModelSet;
 use crate::nonlinearity::SteadyStateData;
 use crate::pipeline::{data_scale, ExperimentData};
+use crate::settings::Check;
 use crate::spec::{CellSpec, ModelSpec, Spec};
 use crate::validate;
 
@@ -72,7 +73,7 @@ fn refine_contenders(
         .filter_map(|(i, ((_, e), set))| {
             let start = std::time::Instant::now();
             let mut set = set.as_ref()?.duplicate();
-            set.simulation_member = crate::members::simulation_member(&set, &ranking).ok()?;
+            set.simulation_member = crate::members::simulation_member(&set, &ranking.check().ok()?).ok()?;
             let fit = training_fit(&set).ok()?;
             log::info!(target: "smid::diagnose", "{}: member searched again (spec budget, ranking), training fit {:.2} % (was {:.2} %): {:.2} s", e.label, fit, fit_of(&e.train), start.elapsed().as_secs_f64());
             Some((i, set.simulation_member, fit))
@@ -380,7 +381,8 @@ pub fn choose(
         (true, Some(mut set)) => {
             set.method.member = member_budget;
             let start = std::time::Instant::now();
-            set.simulation_member = crate::members::simulation_member(&set, &member_budget)?;
+            set.simulation_member =
+                crate::members::simulation_member(&set, &member_budget.check()?)?;
             log::info!(target: "smid::diagnose", "the after-model's simulation member: {:.2} s", start.elapsed().as_secs_f64());
             Some(set)
         }

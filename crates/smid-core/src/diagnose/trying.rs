@@ -42,10 +42,7 @@ pub(super) fn try_model(
     known: Option<Result<Bracket>>,
 ) -> (TrainVerdict, Option<Identification>) {
     let first = try_model_with(spec, model, data, bar, known);
-    let left_unbounded = matches!(
-        &first,
-        (TrainVerdict::Failed { .. }, Some(id)) if !id.model.search.unbounded.is_empty()
-    );
+    let left_unbounded = matches!(&first, (TrainVerdict::UnboundedCells { .. }, Some(_)));
     if left_unbounded && spec.method.cells != *full {
         let mut finer = with_model(spec, &spec.model);
         finer.method.cells = full.clone();
@@ -62,7 +59,7 @@ fn offered(
     (t, id): (TrainVerdict, Option<Identification>),
 ) -> (TrainVerdict, Option<Identification>) {
     match t {
-        TrainVerdict::Failed { .. } => (t, None),
+        TrainVerdict::UnboundedCells { .. } | TrainVerdict::Failed { .. } => (t, None),
         t => (t, id),
     }
 }
@@ -92,12 +89,11 @@ fn try_model_with(
     match outcome {
         // Consistent, but cells left without a finite θ bound: no model to offer.
         Ok(Outcome::Consistent(id)) if !id.model.search.unbounded.is_empty() => (
-            TrainVerdict::Failed {
-                message: format!(
-                    "{} cell(s) left without a finite θ bound: first {} ({})",
-                    id.model.search.unbounded.len(),
-                    id.model.search.unbounded[0].cell,
-                    id.model.search.unbounded[0].detail
+            TrainVerdict::UnboundedCells {
+                cells: id.model.search.unbounded.len(),
+                detail: format!(
+                    "first {} ({})",
+                    id.model.search.unbounded[0].cell, id.model.search.unbounded[0].detail
                 ),
             },
             Some(id),
@@ -109,7 +105,13 @@ fn try_model_with(
                 TrainVerdict::Consistent {
                     fit_percent: fit,
                     bound,
-                    unsettled: id.model.unsettled(),
+                    // A certified member proves the set non-empty: the verdict is settled.
+                    unsettled: id.model.unsettled().filter(|_| {
+                        !id.model
+                            .simulation_member
+                            .as_ref()
+                            .is_some_and(|m| m.certified)
+                    }),
                     within: id.model.simulation_member.as_ref().and_then(|m| m.within),
                 },
                 Some(id),

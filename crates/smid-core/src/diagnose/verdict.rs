@@ -18,9 +18,10 @@ pub enum TrainVerdict {
         fit_percent: f64,
         /// The noise bound the model was identified with (estimated ones differ per model).
         bound: f64,
-        /// Stage 3's rounds stopped at their cap before they settled in some cell: the largest
-        /// last-round shrinkage ([`ModelSet::unsettled`]). The verdict then says only that the
-        /// capped rounds did not falsify the model; more rounds may.
+        /// The verdict is undecided: stage 3's rounds stopped at their cap before they settled
+        /// in some cell, and no certified member proves the set non-empty. The largest
+        /// last-round shrinkage ([`ModelSet::unsettled`]). The capped rounds did not falsify
+        /// the model; more rounds may. (The rule still ranks it as consistent.)
         #[serde(skip_serializing_if = "Option::is_none")]
         unsettled: Option<f64>,
         /// The largest distance of that member's free run from any training sample
@@ -67,10 +68,26 @@ pub enum TrainVerdict {
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         at_least: bool,
     },
+    /// Identified, but `cells` cells of the set were left without a finite `θ` bound (the
+    /// refinement budget was spent): no model to offer.
+    UnboundedCells {
+        /// Cells without a finite `θ` bound.
+        cells: usize,
+        /// The first such cell and why, in words.
+        detail: String,
+    },
     /// Identification failed otherwise (unbounded parameters, solver trouble...).
     Failed {
         /// The error, in words.
         message: String,
+    },
+    /// Not tried: with `reason`, refused before trying (a term that breaks the designed
+    /// experiment under which the steady-state points give no box); without, the rounds never
+    /// needed its verdict.
+    NotTried {
+        /// Why it was refused, in words.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        reason: Option<String>,
     },
     /// Not identified: the base model's class reproduces the candidate's outputs exactly
     /// ([`reproduced_by_base`]: at each of `draws` draws of its parameters, the corners of
@@ -89,9 +106,18 @@ pub enum TrainVerdict {
 }
 
 impl TrainVerdict {
-    /// Whether the model stays in the running: consistent with the training data.
+    /// Whether the model stays in the running: consistent with the training data (also when
+    /// the verdict is undecided: [`TrainVerdict::undecided`]).
     pub fn admissible(&self) -> bool {
         matches!(self, TrainVerdict::Consistent { .. })
+    }
+    /// A consistent verdict that stage 3's capped rounds leave undecided: the last round's
+    /// largest shrinkage.
+    pub fn undecided(&self) -> Option<f64> {
+        match self {
+            TrainVerdict::Consistent { unsettled, .. } => *unsettled,
+            _ => None,
+        }
     }
     /// How far into the data the model is proven to hold: later is better. A located finding
     /// holds up to its record and sample; one not located proves no prefix (its sample is where
@@ -121,7 +147,10 @@ impl TrainVerdict {
             // Consistent at its bound, as far as the bracket's verdicts say. (The fallback pick
             // by reach never meets one: a round leaves candidates bracketed only beside a pick.)
             TrainVerdict::Bracketed { .. } => (4, usize::MAX, usize::MAX),
-            TrainVerdict::Failed { .. } | TrainVerdict::Reproduced { .. } => (0, 0, 0),
+            TrainVerdict::UnboundedCells { .. }
+            | TrainVerdict::Failed { .. }
+            | TrainVerdict::NotTried { .. }
+            | TrainVerdict::Reproduced { .. } => (0, 0, 0),
         }
     }
 }
@@ -281,10 +310,48 @@ pub struct Column {
     /// bound the bounded search tried, or identification gave no finite bound. A row of the
     /// table, never an error exit.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub stopped: Option<String>,
+    pub stopped: Option<Stopped>,
     /// The model set, when identified.
     #[serde(skip)]
     pub model: Option<ModelSet>,
+}
+
+/// Why a column of the before/after table has no model.
+#[derive(Debug, Clone, Serialize)]
+#[serde(tag = "cause", rename_all = "snake_case")]
+pub enum Stopped {
+    /// The training data falsify the model at every bound the bounded search tried.
+    Falsified {
+        /// The finding, in words.
+        detail: String,
+    },
+    /// Identification gave no finite bound.
+    Unbounded {
+        /// The error, in words.
+        detail: String,
+    },
+    /// The LP solver could not conclude.
+    Solver {
+        /// The error, in words.
+        detail: String,
+    },
+    /// The method does not support the model.
+    Unsupported {
+        /// The error, in words.
+        detail: String,
+    },
+}
+
+impl Stopped {
+    /// Why, in words.
+    pub fn describe(&self) -> &str {
+        match self {
+            Stopped::Falsified { detail }
+            | Stopped::Unbounded { detail }
+            | Stopped::Solver { detail }
+            | Stopped::Unsupported { detail } => detail,
+        }
+    }
 }
 
 /// A consistent verdict's training free-run fit (−∞ otherwise).

@@ -27,7 +27,7 @@ pub use envelopes::{axis_members, envelope, envelope_members, simulate_set, SetS
 pub(crate) use least_squares::least_squares_theta;
 pub use least_squares::theta_reproducing;
 pub use model_point::{ModelPoint, Simulation};
-pub use simulation::{best_free_run, simulation_member, simulation_member_seeded};
+pub use simulation::{best_free_run, certificate_on, simulation_member, simulation_member_seeded};
 pub use within::{free_run, inner_estimate, training_within};
 
 /// The cells of a model set from the centre of the bisected parameters outwards: by the

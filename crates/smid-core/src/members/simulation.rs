@@ -31,23 +31,9 @@ mod uncertified;
 
 pub(crate) use optimise::nelder_mead;
 
+use crate::settings::Checked;
 /// How hard the search tries: the spec's `method.member` ([`crate::spec::MemberSpec`]).
 pub use crate::spec::MemberSpec as Options;
-
-/// The phase-1 measure above which a run ends the search for a certified point in a cell (the
-/// inner-signal boxes 10 % short of admitting the point). Measured on the 12-bit diagnoses:
-/// every certified search ended its first run below 0.013, every failed one above 0.72.
-const FAR: f64 = 0.1;
-
-/// A ranking search's ([`Options::gives_up_early`]) first phase-1 run is abandoned when, after
-/// [`HOPELESS_AFTER`] evaluations, its best measure is still above [`HOPELESS`]. Measured on
-/// the three 12-bit diagnoses (36 searches): after 30 evaluations every search that went on to
-/// certify stood at or below 0.18, every one that did not at or above 0.53 (most above 0.75);
-/// a failed search otherwise spends about 250 evaluations before the `FAR` rule stops it. A full search does not give up this way: on examples/hammerstein-wiener.yaml the cell
-/// that certifies ends its first run at 4.3 and its fourth below zero.
-const HOPELESS_AFTER: usize = 30;
-/// See [`HOPELESS_AFTER`].
-const HOPELESS: f64 = 0.35;
 
 /// The simulation member of `set` (see the module doc). When no certified point is found in
 /// the cells tried, the best free run over the outer bounds of any probed cell, marked
@@ -55,7 +41,10 @@ const HOPELESS: f64 = 0.35;
 /// the phase-1 measure at their centres (the nearest `opts.probe` to the central cell are
 /// probed) and the best `opts.cells` are searched, in that order; when the best-ranked cell
 /// gives no certified point, the search stops there.
-pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<SimulationMember>> {
+pub fn simulation_member(
+    set: &ModelSet,
+    opts: &Checked<Options>,
+) -> Result<Option<SimulationMember>> {
     simulation_member_seeded(set, opts, &[])
 }
 
@@ -65,7 +54,7 @@ pub fn simulation_member(set: &ModelSet, opts: &Options) -> Result<Option<Simula
 /// certified, else from the certified point nearest it. A seed no cell holds is passed over.
 pub fn simulation_member_seeded(
     set: &ModelSet,
-    opts: &Options,
+    opts: &Checked<Options>,
     seeds: &[Vec<(String, f64)>],
 ) -> Result<Option<SimulationMember>> {
     if !set.cells.iter().any(|c| c.bounded()) || !opts.search {
@@ -143,13 +132,13 @@ fn searched_cells(
 ) -> Vec<Option<(f64, SimulationMember)>> {
     if opts.gives_up_early() {
         // A ranking search (no spread: the diagnosis's candidates) goes one cell at a time:
-        // when its best-ranked cell ended far from a certified point (measure above FAR) it
+        // when its best-ranked cell ended far from a certified point (measure above `far`) it
         // does not search the lower-ranked ones (on the 12-bit diagnoses no such search
         // certified a later cell, and each costs as much as the first).
         let mut out = Vec::new();
         for sp in searched {
             let (f, last) = search.search(sp, opts);
-            let stop = f.is_none() && out.iter().all(Option::is_none) && last > FAR;
+            let stop = f.is_none() && out.iter().all(Option::is_none) && last > opts.far;
             out.push(f);
             if stop {
                 break;
@@ -283,6 +272,71 @@ fn seeded_members<'s>(
     Ok((seeded_spaces, seeded))
 }
 
+/// A point of the member `m`'s cell of `set` certified on `records` in place of the training
+/// records, a proof that they are consistent with the model set (`validate` passes the
+/// training records followed by the fresh ones): the exact consistency measure
+/// ([`consistency_at`]: stage 2 at the point's nonlinearity and bisected parameters, then the
+/// LP at its fixed `θ`) of the member itself, and where it is above [`CERTIFIED`], of the
+/// point phase 1 reaches from it (one run of `opts`' Nelder-Mead budget). At most
+/// [`CERTIFIED`], the point satisfies every equation of `records` inside their noise bounds.
+/// `None` when the member's cell has no searchable point.
+pub fn certificate_on(
+    set: &ModelSet,
+    m: &SimulationMember,
+    records: &[crate::model::Record],
+    opts: &Checked<Options>,
+) -> Result<Option<f64>> {
+    let mut on = set.duplicate();
+    on.training.records = records.to_vec();
+    if m.cell >= on.cells.len() {
+        return Ok(None);
+    }
+    let search = Search {
+        set: &on,
+        layout: on.layout()?,
+        x_warm: Vec::new(),
+        spread: 0.0,
+        evaluations: AtomicUsize::new(0),
+    };
+    let Some(sp) = search.space(m.cell)? else {
+        return Ok(None);
+    };
+    // A point of the model class: its θ inside the cell's guaranteed bounds and the prior
+    // (a point outside them is no member, whatever its equations say).
+    let prior = search.layout.theta_prior.as_deref();
+    let member_of_the_set = |th: &[f64]| {
+        th.iter().enumerate().all(|(i, &v)| {
+            sp.cell.theta.get(i).is_some_and(|b| b.contains(v))
+                && prior.is_none_or(|p| p.get(i).is_none_or(|b| b.contains(v)))
+        })
+    };
+    let measure = |g: &[f64], th: &[f64]| {
+        if member_of_the_set(th) {
+            search.certify(&sp, g, th)
+        } else {
+            f64::INFINITY
+        }
+    };
+    let (g, mut th) = split_values(&search, &sp, &m.values);
+    search.fix_gain(&mut th);
+    let at_member = measure(&g, &th);
+    if at_member <= CERTIFIED {
+        return Ok(Some(at_member));
+    }
+    let z = search.coordinates(&sp, &g, &th);
+    let one_run = Options {
+        restarts: 1,
+        ..**opts
+    };
+    let last = std::cell::Cell::new(f64::INFINITY);
+    Ok(Some(
+        match search.certified_point(&sp, &one_run, &last, z) {
+            Some((g1, th1)) => measure(&g1, &th1).min(at_member),
+            None => at_member,
+        },
+    ))
+}
+
 /// What a member search shares: the [`Search`], the probed cells ranked by their phase-1
 /// measure at their centres (the nearest `opts.probe` to the central cell), the centre's
 /// values and its training fit.
@@ -343,7 +397,7 @@ fn prepared<'s>(
 /// whose free-run distance from the training records is an upper end of the model's smallest
 /// consistent bound (`noise.from: free_run`). `None` when no cell is bounded or no run is
 /// finite.
-pub fn best_free_run(set: &ModelSet, opts: &Options) -> Result<Option<SimulationMember>> {
+pub fn best_free_run(set: &ModelSet, opts: &Checked<Options>) -> Result<Option<SimulationMember>> {
     if !set.cells.iter().any(|c| c.bounded()) {
         return Ok(None);
     }

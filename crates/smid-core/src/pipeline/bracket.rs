@@ -6,6 +6,7 @@ use crate::cells;
 use crate::error::{Result, SmidError};
 use crate::model::BoundSource;
 use crate::outcome::{Falsification, Outcome};
+use crate::settings::Check;
 use crate::spec::Spec;
 /// [`identify`] of a model whose noise bound is estimated (`noise.estimate`), asked only
 /// whether it clears `bar`: the bound it would be identified with must not exceed `bar`.
@@ -513,7 +514,7 @@ pub fn identify_at_estimate(
     // the set at that bound).
     let raised = match best.as_ref() {
         Ok(Outcome::Consistent(id)) if spec.noise.from_free_run() => {
-            let found = crate::members::best_free_run(&id.model, &spec.method.member)?
+            let found = crate::members::best_free_run(&id.model, &spec.method.member.check()?)?
                 .and_then(|m| m.within.map(|w| (w, m.values)))
                 .filter(|(w, _)| w.is_finite());
             if found.is_none() {
@@ -526,7 +527,7 @@ pub fn identify_at_estimate(
     if let (None, Ok(Outcome::Consistent(id))) = (&raised, best.as_mut()) {
         id.model.method.member = spec.method.member;
         id.model.simulation_member =
-            crate::members::simulation_member(&id.model, &spec.method.member)?;
+            crate::members::simulation_member(&id.model, &spec.method.member.check()?)?;
     }
     let raised_to = raised.as_ref().map(|(w, _)| margin * w);
     if let Some((within, seed)) = raised {
@@ -544,8 +545,11 @@ pub fn identify_at_estimate(
         }
         if let Ok(Outcome::Consistent(id)) = best.as_mut() {
             id.model.method.member = spec.method.member;
-            id.model.simulation_member =
-                crate::members::simulation_member_seeded(&id.model, &spec.method.member, &[seed])?;
+            id.model.simulation_member = crate::members::simulation_member_seeded(
+                &id.model,
+                &spec.method.member.check()?,
+                &[seed],
+            )?;
         }
         // The member found there may run nearer the records than the simulator it started
         // from (it is the best free run of a wider set): the bound comes down to the margin
@@ -583,7 +587,7 @@ pub fn identify_at_estimate(
                     id.model.method.member = spec.method.member;
                     id.model.simulation_member = crate::members::simulation_member_seeded(
                         &id.model,
-                        &spec.method.member,
+                        &spec.method.member.check()?,
                         &[member],
                     )?;
                     best = next;

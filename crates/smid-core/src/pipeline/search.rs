@@ -15,6 +15,7 @@ use crate::model::{
 use crate::noise;
 use crate::nonlinearity::{NonlinearitySet, Structure, UnboundedSet};
 use crate::outcome::{Falsification, Outcome};
+use crate::settings::Check;
 use crate::spec::{AlphaSpec, ModelSpec, Spec};
 
 /// Result of a whole identification: the model set and the run's artifacts.
@@ -178,7 +179,7 @@ pub fn identify_with(
         resolved: std::sync::OnceLock::from(layout.clone()),
     };
     let member_start = std::time::Instant::now();
-    set.simulation_member = crate::members::simulation_member(&set, &method.member)?;
+    set.simulation_member = crate::members::simulation_member(&set, &method.member.check()?)?;
     log::debug!(target: "smid::members", "member search: {:.2} s", member_start.elapsed().as_secs_f64());
     let snr_db = first_record_snr_db(&data, delta);
     Ok(Outcome::Consistent(Identification {

@@ -624,6 +624,33 @@ pub struct MemberSpec {
     /// free runs the reports draw.
     #[serde(default = "d_true")]
     pub spread: bool,
+    /// A ranking search (`spread: false`) stops looking for a certified point in a cell, and
+    /// in the lower-ranked cells, after a run whose phase-1 measure stays above `far` (the
+    /// inner-signal boxes that much short of admitting the point; `> 0`). On the 12-bit
+    /// diagnoses every search that certified ended its first run below 0.013, every failed
+    /// one above 0.72.
+    #[serde(default = "d_far")]
+    pub far: f64,
+    /// A ranking search gives up its first phase-1 run when, after `hopeless_after`
+    /// evaluations, its best measure is still above `hopeless` (`> 0`). On the three 12-bit
+    /// diagnoses (36 searches), after 30 evaluations every search that went on to certify
+    /// stood at or below 0.18, every one that did not at or above 0.53; a failed search
+    /// otherwise spends about 250 evaluations before `far` stops it.
+    #[serde(default = "d_hopeless")]
+    pub hopeless: f64,
+    /// Evaluations after which `hopeless` applies (`>= 1`).
+    #[serde(default = "d_hopeless_after")]
+    pub hopeless_after: usize,
+}
+
+fn d_far() -> f64 {
+    0.1
+}
+fn d_hopeless() -> f64 {
+    0.35
+}
+fn d_hopeless_after() -> usize {
+    30
 }
 
 fn d_probe() -> usize {
@@ -648,7 +675,60 @@ impl Default for MemberSpec {
             iterations: d_iterations(),
             restarts: d_restarts(),
             spread: true,
+            far: d_far(),
+            hopeless: d_hopeless(),
+            hopeless_after: d_hopeless_after(),
         }
+    }
+}
+
+impl crate::settings::Check for MemberSpec {
+    const PLACE: &'static str = "method.member";
+    fn invalid(&self) -> Option<(&'static str, String)> {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        [
+            (
+                self.probe >= 1,
+                "probe",
+                format!("expected probe >= 1, got {}", self.probe),
+            ),
+            (
+                self.cells >= 1,
+                "cells",
+                format!("expected cells >= 1, got {}", self.cells),
+            ),
+            (
+                (1..=100_000).contains(&self.iterations),
+                "iterations",
+                format!(
+                    "expected 1 <= iterations <= 100000, got {}",
+                    self.iterations
+                ),
+            ),
+            (
+                (1..=100).contains(&self.restarts),
+                "restarts",
+                format!("expected 1 <= restarts <= 100, got {}", self.restarts),
+            ),
+            (
+                positive(self.far),
+                "far",
+                format!("expected a finite far > 0, got {}", self.far),
+            ),
+            (
+                positive(self.hopeless),
+                "hopeless",
+                format!("expected a finite hopeless > 0, got {}", self.hopeless),
+            ),
+            (
+                self.hopeless_after >= 1,
+                "hopeless_after",
+                format!("expected hopeless_after >= 1, got {}", self.hopeless_after),
+            ),
+        ]
+        .into_iter()
+        .find(|c| !c.0)
+        .map(|(_, field, message)| (field, message))
     }
 }
 
@@ -668,6 +748,9 @@ impl MemberSpec {
         iterations: 150,
         restarts: 4,
         spread: false,
+        far: 0.1,
+        hopeless: 0.35,
+        hopeless_after: 30,
     };
 }
 

@@ -177,7 +177,7 @@ impl Spec {
     fn validate_budgets(&self) -> Result<()> {
         use crate::experiment::{MAX_EXPERIMENT_SAMPLES, MAX_SETTLE, MIN_FILTER_TOL};
         let f = &self.experiment.filter;
-        let checks: [(bool, &str, String); 10] = [
+        let checks: [(bool, &str, String); 7] = [
             (
                 f.pole.is_some() || (f.tol >= MIN_FILTER_TOL && f.tol < 1.0),
                 "experiment.filter.tol",
@@ -227,34 +227,13 @@ impl Spec {
                     self.method.cells.max_cells
                 ),
             ),
-            (
-                (1..=100_000).contains(&self.method.member.iterations),
-                "method.member.iterations",
-                format!(
-                    "expected 1 <= iterations <= 100000, got {}",
-                    self.method.member.iterations
-                ),
-            ),
-            (
-                (1..=100).contains(&self.method.member.restarts),
-                "method.member.restarts",
-                format!(
-                    "expected 1 <= restarts <= 100, got {}",
-                    self.method.member.restarts
-                ),
-            ),
-            (
-                self.method.member.probe >= 1 && self.method.member.cells >= 1,
-                "method.member",
-                format!(
-                    "expected probe >= 1 and cells >= 1, got probe {} and cells {}",
-                    self.method.member.probe, self.method.member.cells
-                ),
-            ),
         ];
         match checks.into_iter().find(|c| !c.0) {
             Some((_, field, message)) => Err(SmidError::invalid(field, message)),
-            None => Ok(()),
+            None => {
+                use crate::settings::Check;
+                self.method.member.check().map(|_| ())
+            }
         }
     }
 }

@@ -4,7 +4,7 @@
 //! around the member found.
 use super::optimise::{nelder_mead, nelder_mead_or_give_up};
 use super::space::{CellSpace, Search};
-use super::{extreme_at_a, Options, CERTIFIED, FAR, HOPELESS, HOPELESS_AFTER};
+use super::{extreme_at_a, Options, CERTIFIED};
 use crate::model::SimulationMember;
 use std::cell::Cell;
 use std::sync::atomic::Ordering::Relaxed;
@@ -14,8 +14,8 @@ impl Search<'_> {
     /// measure its last run ended with (`+inf` when it was given up).
     ///
     /// In a ranking search ([`Options::gives_up_early`]) phase 1 gives up on a first run still
-    /// above [`HOPELESS`] after [`HOPELESS_AFTER`] evaluations, and after a run whose measure
-    /// stays above [`FAR`].
+    /// above `opts.hopeless` after `opts.hopeless_after` evaluations, and after a run whose measure
+    /// stays above `opts.far` ([`Options::far`]).
     pub(super) fn search(
         &self,
         sp: &CellSpace,
@@ -56,7 +56,7 @@ impl Search<'_> {
     /// Phase 1 from the search coordinates `z1`: a certified point `(g, θ)` of the cell,
     /// stable where the model is declared stable; `last_measure` takes the phase-1 measure of
     /// the last run.
-    fn certified_point(
+    pub(super) fn certified_point(
         &self,
         sp: &CellSpace,
         opts: &Options,
@@ -69,7 +69,8 @@ impl Search<'_> {
         let mut step = 0.1;
         let mut last = f64::INFINITY;
         for run in 0..opts.restarts.max(1) {
-            let give_up = (run == 0 && opts.gives_up_early()).then_some((HOPELESS_AFTER, HOPELESS));
+            let give_up =
+                (run == 0 && opts.gives_up_early()).then_some((opts.hopeless_after, opts.hopeless));
             let Some((z, m)) = nelder_mead_or_give_up(
                 &|z| self.measure_at_a(sp, z).0,
                 &z1,
@@ -78,19 +79,19 @@ impl Search<'_> {
                 2.0 * CERTIFIED,
                 give_up,
             ) else {
-                log::debug!(target: "smid::members", "cell {}: phase 1 given up after {HOPELESS_AFTER} evaluations above {HOPELESS}", sp.k);
+                log::debug!(target: "smid::members", "cell {}: phase 1 given up after {} evaluations above {}", sp.k, opts.hopeless_after, opts.hopeless);
                 last_measure.set(f64::INFINITY);
                 return None;
             };
             z1 = z;
             log::debug!(target: "smid::members", "cell {}: phase-1 measure {m:.3e} after {} evaluations", sp.k, self.evaluations.load(Relaxed));
             // Certified, or a run that gained less than 10 % of the measure, or one that ends
-            // with the boxes more than FAR short: stop (a search that stalls this way has not
+            // with the boxes more than `far` short: stop (a search that stalls this way has not
             // reached a certified point in any case seen; the ones that do gain 40-90 % a run,
             // and end their first run below 0.013, the failing ones above 0.72).
             last_measure.set(m);
             if m <= 2.0 * CERTIFIED
-                || (opts.gives_up_early() && m > FAR)
+                || (opts.gives_up_early() && m > opts.far)
                 || (last.is_finite() && last - m < 0.1 * last.abs())
             {
                 break;

@@ -5,8 +5,10 @@
 //!   identified nonlinearity set (eqs 23-27), and stage 3 asks whether one `θ` satisfies the
 //!   training equations and the fresh ones together (eqs 1, 28-30, the cell's `θ` box as a
 //!   prior). CONSISTENT when some cell admits such a `θ` (no contradiction found by the
-//!   relaxation: a necessary condition), FALSIFIED when none does (a proof), with the first
-//!   offending sample. The smallest noise bound of the fresh records for which they are
+//!   relaxation: a necessary condition), and proven so when the certified simulation member
+//!   satisfies the joint equations exactly; UNDECIDED when the relaxation's rounds or the
+//!   identified set did not settle; FALSIFIED when no cell admits them (a proof), with the
+//!   first offending sample ([`consistency`]). The smallest noise bound of the fresh records for which they are
 //!   consistent (bisection; below it the data provably contradict the model) is compared with
 //!   the declared bound: PASS when it is within it.
 //! * **Free-run simulation** of the representative member (the simulation member, else the central one) ([`crate::members`]) from the input alone
@@ -24,14 +26,15 @@
 //!   a noise bound estimated from the data, a cell budget that stopped the bisection.
 use crate::baseline::Arx;
 use crate::error::{Result, SmidError};
-use crate::interval::Interval;
 use crate::members;
 use crate::model::{BoundSource, ModelSet, Record};
-use crate::outcome::{lift, Outcome};
-use crate::pipeline::{relabel, stage2, stage3};
-use rayon::prelude::*;
 use serde::Serialize;
-use std::sync::atomic::{AtomicBool, Ordering};
+
+mod consistency;
+
+pub use consistency::{
+    consistency, smallest_bound, Consistency, Falsification, Undecided, Verdict, VACUOUS_BELOW,
+};
 
 /// Largest lag of the correlation analysis.
 pub const MAX_LAG: usize = 25;
@@ -58,19 +61,6 @@ impl Default for Options {
         }
     }
 }
-
-/// The set-membership verdict on fresh records.
-#[derive(Debug, Clone, Serialize)]
-pub struct Consistency {
-    /// No contradiction was proven (FALSIFIED needs a proof for every cell).
-    pub consistent: bool,
-    /// Where the fresh data contradict every cell (the latest first offending sample).
-    pub falsified_at: Option<Falsification>,
-    /// Cells whose check the LP solver could not complete (counted as not contradicted).
-    pub unchecked: usize,
-}
-
-pub use crate::outcome::Falsification;
 
 /// Figures of merit of a simulated or predicted output against the measured one.
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -275,288 +265,6 @@ pub struct Validation {
     pub series: Vec<Series>,
 }
 
-/// The cells of a model set from the centre outwards (the centre cells are the likeliest to
-/// admit fresh data, which ends a consistency search early).
-fn centre_out(model: &ModelSet) -> Vec<usize> {
-    members::cells_from_centre(model)
-}
-
-/// One cell against the training records plus `fresh`: `Ok(bounds)` when consistent (stage
-/// 3's θ bounds of the joint equations, `None` when unbounded), else where the fresh data
-/// contradict it (the first offending sample with `locate`; a verdict alone does not look for
-/// it).
-///
-/// `warm`: a box known to hold every θ of the cell consistent with these records (the bounds
-/// of the same cell at a larger fresh bound: the set only shrinks with the bound), intersected
-/// with the model's prior for stage 3 to start from. A tighter start proves no contradiction
-/// that is not there; it may prove one a wider start misses. (The cell's own training bounds
-/// are not used so: a stage 3 restarted from its own bounds tightens further, and on the
-/// measured examples proves their training records inconsistent at the estimated bound.)
-fn check_cell(
-    model: &ModelSet,
-    k: usize,
-    records: &[Record],
-    locate: bool,
-    warm: Option<&[Interval]>,
-) -> Result<std::result::Result<Option<Vec<Interval>>, Falsification>> {
-    let layout = model.layout()?;
-    let nt = model.training.records.len();
-    let c = &model.cells[k];
-    let prior = warm.map(|w| match &layout.theta_prior {
-        Some(p) if p.len() == w.len() => w
-            .iter()
-            .zip(p)
-            .map(|(a, b)| a.intersect(b).unwrap_or(*a))
-            .collect::<Vec<_>>(),
-        _ => w.to_vec(),
-    });
-    let found = (|| {
-        let sig = stage2(
-            &model.model,
-            layout,
-            c.nonlinearity.as_ref(),
-            &c.cell,
-            records,
-        )?;
-        match stage3(
-            &model.model,
-            layout,
-            &model.method,
-            &sig,
-            prior.as_deref(),
-            locate,
-        ) {
-            Ok(r) => Ok(Some(r.bounds)),
-            // Unbounded is not a contradiction.
-            Err(SmidError::Unbounded { .. }) => Ok(None),
-            Err(e) => Err(relabel(e, &sig)),
-        }
-    })();
-    // `(record, sample)` in the joint records: a fresh record's index follows the training
-    // records'. An inconsistency inside the training records (possible only when the training
-    // set changed) is reported as record 0 and named in the detail.
-    let falsified = match lift(found)? {
-        Outcome::Consistent(bounds) => return Ok(Ok(bounds)),
-        Outcome::Falsified(f) => f,
-    };
-    Ok(Err(if falsified.record < nt {
-        Falsification {
-            detail: format!(
-                "in the training record {}: {}",
-                falsified.record, falsified.detail
-            ),
-            record: 0,
-            ..falsified
-        }
-    } else {
-        Falsification {
-            record: falsified.record - nt,
-            ..falsified
-        }
-    }))
-}
-
-fn joint(model: &ModelSet, fresh: &[Record]) -> Vec<Record> {
-    let mut records = model.training.records.clone();
-    records.extend(fresh.iter().cloned());
-    records
-}
-
-/// Whether the fresh records (with their own noise bounds) are consistent with the model set:
-/// some cell admits one `θ` for the training and fresh equations together. Cells are checked in
-/// parallel, centre first; the search stops at the first consistent cell.
-pub fn consistency(model: &ModelSet, fresh: &[Record]) -> Result<Consistency> {
-    consistency_located(model, fresh, true)
-}
-
-/// [`consistency`], with the first offending sample of each cell looked for only with `locate`.
-fn consistency_located(model: &ModelSet, fresh: &[Record], locate: bool) -> Result<Consistency> {
-    let records = joint(model, fresh);
-    let found = AtomicBool::new(false);
-    let results: Vec<Result<Option<Falsification>>> = centre_out(model)
-        .par_iter()
-        .map(|&k| {
-            if found.load(Ordering::Relaxed) {
-                return Ok(None);
-            }
-            let r = check_cell(model, k, &records, locate, None).map(|c| c.err());
-            if matches!(r, Ok(None)) {
-                found.store(true, Ordering::Relaxed);
-            }
-            r
-        })
-        .collect();
-    let mut worst: Option<Falsification> = None;
-    let mut unchecked = 0;
-    for r in results {
-        let r = match r {
-            Err(SmidError::Solver(_)) => {
-                unchecked += 1;
-                continue;
-            }
-            r => r?,
-        };
-        match r {
-            None => {
-                return Ok(Consistency {
-                    consistent: true,
-                    falsified_at: None,
-                    unchecked: 0,
-                })
-            }
-            Some(f) => {
-                if worst
-                    .as_ref()
-                    .is_none_or(|w| (f.record, f.sample) > (w.record, w.sample))
-                {
-                    worst = Some(f);
-                }
-            }
-        }
-    }
-    Ok(Consistency {
-        consistent: unchecked > 0,
-        falsified_at: if unchecked > 0 { None } else { worst },
-        unchecked,
-    })
-}
-
-/// Below this fraction of the model's bound, a cell that still admits the fresh records is
-/// taken to admit them at any bound ([`smallest_bound`] answers `(0, 0)`).
-pub const VACUOUS_BELOW: f64 = 1e-9;
-
-/// One cell's verdict at one bound of the [`smallest_bound`] search.
-enum CellCheck {
-    /// The cell admits the records: stage 3's θ bounds of the joint equations, `None` when
-    /// unbounded (a box to start the same cell's check at a smaller bound from: the set only
-    /// shrinks with the bound).
-    Admits(Option<Vec<Interval>>),
-    /// The records contradict the cell, or the solver could not check it.
-    Refuses,
-}
-
-/// The smallest noise bound of the fresh records for which they are consistent with the
-/// model set, as a bracket `[lo, hi]` (relative width `resolution`): the data provably
-/// contradict every cell below `lo`, and some cell admits them at `hi`. `None` when even
-/// `2^30` times the model's bound is inconsistent. `(0, 0)` when some cell admits them down
-/// to [`VACUOUS_BELOW`] of the model's bound (0 itself is never checked): noise-free records
-/// in a cell that holds the truth, or a cell whose stage-2 intervals (a sensor drift's
-/// `offset + drift·t` over its cell) are wider than the noise, where the records test little;
-/// the search stops at once instead of halving towards 0 cell after cell: a cell halved below
-/// a thousandth of the bound without being contradicted (records consistent at the model's
-/// own bound) is checked once at half that vacuous end, and if it admits the records there
-/// the search ends. The cell's exact set only shrinks with the bound, so it admits them at
-/// every bound the halving would still try; the check is a relaxation started from the last
-/// admitting bound's box, so where it depends on that box, the halving (tightening the box
-/// step by step) might have been contradicted in between and given a positive bound.
-///
-/// It is the smallest of the cells' own smallest bounds: the cells are visited centre first;
-/// a cell is bisected only when it admits the data just below the best bound found so far
-/// (one check otherwise), so most cells cost one stage-3 call. `consistent_at_delta`: the
-/// verdict at the model's own bound when the caller has it (the check is not repeated).
-pub fn smallest_bound(
-    model: &ModelSet,
-    fresh: &[Record],
-    resolution: f64,
-    consistent_at_delta: Option<bool>,
-) -> Result<Option<(f64, f64)>> {
-    let with = |d: f64| -> Vec<Record> {
-        let recs: Vec<Record> = fresh.iter().map(|r| r.with_bound(d)).collect();
-        joint(model, &recs)
-    };
-    let ok_set = |d: f64| -> Result<bool> {
-        let recs: Vec<Record> = fresh.iter().map(|r| r.with_bound(d)).collect();
-        Ok(consistency_located(model, &recs, false)?.consistent)
-    };
-    // A bound at which some cell admits the data.
-    let d0 = model.delta;
-    let mut lo_set = 0.0;
-    let mut hi = d0;
-    let mut steps = 0;
-    let mut known = consistent_at_delta;
-    while !match known.take() {
-        Some(v) => v,
-        None => ok_set(hi)?,
-    } {
-        steps += 1;
-        if steps > 30 {
-            return Ok(None);
-        }
-        lo_set = hi;
-        hi *= 2.0;
-    }
-    let res = resolution.max(1e-6);
-    // A cell's check. A cell the solver cannot check counts as contradicted here (its own
-    // bound stays unknown).
-    let check = |k: usize, d: f64, warm: Option<&[Interval]>| -> Result<CellCheck> {
-        match check_cell(model, k, &with(d), false, warm) {
-            Ok(Ok(bounds)) => Ok(CellCheck::Admits(bounds)),
-            Ok(Err(_)) | Err(SmidError::Solver(_)) => Ok(CellCheck::Refuses),
-            Err(e) => Err(e),
-        }
-    };
-    // Each cell: can it go below the best bound so far? The candidates are checked in
-    // parallel in chunks at the current target, then bisected one by one.
-    let order = centre_out(model);
-    for chunk in order.chunks(16) {
-        let target = hi * (1.0 - res);
-        if target <= lo_set {
-            break;
-        }
-        let pass: Vec<Result<CellCheck>> =
-            chunk.par_iter().map(|&k| check(k, target, None)).collect();
-        for (&k, p) in chunk.iter().zip(pass) {
-            let CellCheck::Admits(mut warm) = p? else {
-                continue;
-            };
-            // Bisect this cell between the set's lower end and the target.
-            let (mut a, mut b) = (lo_set, hi * (1.0 - res));
-            if b <= a {
-                continue;
-            }
-            // The best bound may have dropped since the chunk was checked: check again.
-            if b < target {
-                match check(k, b, warm.as_deref())? {
-                    CellCheck::Admits(bounds) => warm = bounds,
-                    CellCheck::Refuses => continue,
-                }
-            }
-            let mut n = 0;
-            let mut vacuous_asked = false;
-            while b - a > res * b && n < 40 {
-                let mid = 0.5 * (a + b);
-                match check(k, mid, warm.as_deref())? {
-                    CellCheck::Admits(bounds) => {
-                        b = mid;
-                        warm = bounds;
-                    }
-                    CellCheck::Refuses => a = mid,
-                }
-                n += 1;
-                // Never contradicted down to a thousandth of the bound: heading for the vacuous
-                // end. The cell's set only shrinks with the bound, so a cell admitting the
-                // records below that end admits them at every bound the halving would still
-                // try (as far as the check, a relaxation from `warm`, is monotone): one check
-                // instead of twenty.
-                if a == 0.0 && b < 1e-3 * d0 && !vacuous_asked {
-                    vacuous_asked = true;
-                    if let CellCheck::Admits(_) =
-                        check(k, 0.5 * VACUOUS_BELOW * d0, warm.as_deref())?
-                    {
-                        return Ok(Some((0.0, 0.0)));
-                    }
-                }
-                if a == 0.0 && b < VACUOUS_BELOW * d0 {
-                    // Never contradicted down to a vanishing bound: reported as 0.
-                    return Ok(Some((0.0, 0.0)));
-                }
-            }
-            hi = b;
-        }
-    }
-    Ok(Some(((hi * (1.0 - res)).max(lo_set), hi)))
-}
-
 /// The free-run fit of the representative member on records (warm start as in [`validate`]).
 pub fn free_run_fit(model: &ModelSet, records: &[Record]) -> Result<Fit> {
     member_fit(model, &members::representative(model)?, records)
@@ -619,7 +327,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
         model,
         &fresh,
         opts.bound_resolution,
-        Some(consistency.consistent),
+        Some(consistency.verdict != Verdict::Falsified),
     )?;
     log::info!(target: "smid::validate", "smallest consistent bound: {:.2} s", clock.elapsed().as_secs_f64());
     let pass = consistency.consistent && smallest.is_some_and(|(_, hi)| hi <= model.delta);
@@ -768,7 +476,7 @@ fn warnings(
     }
     if consistency.unchecked > 0 {
         warnings.push(format!(
-            "{} cell(s) could not be checked (LP solver trouble): they count as not contradicted, so CONSISTENT is not proven there",
+            "{} cell(s) could not be checked (LP solver trouble): they are not counted as contradicted, and no verdict rests on them",
             consistency.unchecked
         ));
     }
