@@ -124,6 +124,7 @@ impl Trial {
             experiment,
             model: trial_model(Default::default(), Box::new(OutputBacklashModel::default())),
             method: MethodSpec::default(),
+            diagnosis: Default::default(),
         }
     }
 

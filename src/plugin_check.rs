@@ -112,6 +112,7 @@ impl PluginTrial {
             experiment,
             model: montecarlo::trial_model(self.structure, self.model),
             method: MethodSpec::default(),
+            diagnosis: Default::default(),
         };
         (spec, self.nonlinearity, self.linear)
     }

@@ -1094,8 +1094,11 @@ fn a_round_that_identifies_only_the_needed_candidates_picks_what_identifying_all
             .iter()
             .filter(|(_, k, g, _)| {
                 g.is_some_and(|(d, f)| {
-                    d <= base_bound * diagnose::PER_PARAMETER.powi((*k).max(1) as i32)
-                        && f >= base_fit - diagnose::FIT_SLACK
+                    d <= base_bound
+                        * smid::core::spec::DiagnosisSpec::default()
+                            .per_parameter
+                            .powi((*k).max(1) as i32)
+                        && f >= base_fit - smid::core::spec::DiagnosisSpec::default().fit_slack
                 })
             })
             .min_by(|(_, ka, ga, _), (_, kb, gb, _)| {
@@ -1149,7 +1152,7 @@ fn a_round_that_identifies_only_the_needed_candidates_picks_what_identifying_all
                 }
                 let (pd, _) = pick.unwrap().2.unwrap();
                 assert!(
-                    diagnose::PER_PARAMETER * d > pd,
+                    smid::core::spec::DiagnosisSpec::default().per_parameter * d > pd,
                     "case {case}: {} at {d} left bracketed beside the pick at {pd}",
                     e.label
                 );

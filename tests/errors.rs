@@ -91,6 +91,11 @@ fn member_search_budget_is_checked_with_its_field() {
     assert!(e.contains("method.member.hopeless_after"), "{e}");
     let e = err(&with("{ iterations: 5, sarch: false }"));
     assert!(e.contains("sarch") && e.contains("search"), "{e}");
+    let e = err(&format!("{PAPER}diagnosis: {{ per_parameter: 1.5 }}\n"));
+    assert!(
+        e.contains("diagnosis.per_parameter") && e.contains("1.5"),
+        "{e}"
+    );
     let ok = parse(&with("{ search: false, spread: false, iterations: 20 }")).unwrap();
     assert!(!ok.method.member.search && ok.method.member.iterations == 20);
 }

@@ -5,6 +5,7 @@ use super::rule::bar;
 use super::schedule::identify_needed;
 use super::trying::{try_model, with_model};
 use super::verdict::{bound_of, Evidence, TrainVerdict};
+use super::Rule;
 use crate::error::Result;
 use crate::model::ModelSet;
 use crate::pipeline::{Bracket, ExperimentData};
@@ -21,14 +22,13 @@ use crate::spec::{CellSpec, ModelSpec, Spec};
 /// ([`identify_needed`]). Only the candidates the rule needs are identified whole
 /// (the set, its member, its fit), one at a time in the order of their bracketed bounds (then
 /// fewer added parameters, then candidate order): until the rule's pick is found, and beyond
-/// it those whose bound is close enough to the pick's ([`PER_PARAMETER`]) to be marked
+/// it those whose bound is close enough to the pick's (the rule's `per_parameter`) to be marked
 /// equivalent to it. The rest keep [`TrainVerdict::Bracketed`]. The pick and its equivalents
 /// are the ones identifying every candidate gives, as long as a candidate's bound is the one
 /// its bracket kept (a candidate whose coarse cells leave `θ` unbounded is bracketed again
 /// with the spec's own budget, [`try_model`]; it is ranked by its first bracket).
-///
-/// [`PER_PARAMETER`]: super::PER_PARAMETER
 pub(super) fn try_candidates(
+    rule: &Rule,
     spec: &Spec,
     full: &CellSpec,
     cands: &mut [(ModelSpec, Evidence)],
@@ -43,7 +43,7 @@ pub(super) fn try_candidates(
     let total = cands.len();
     let done = AtomicUsize::new(0);
     let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
-    let bar_of = |ev: &Evidence| base.map(|b| bar(bound_of(b), ev.added_parameters));
+    let bar_of = |ev: &Evidence| base.map(|b| bar(rule, bound_of(b), ev.added_parameters));
     // A verdict known before trying ([`Evidence::untried`]) is the candidate's.
     let known = |ev: &mut Evidence| {
         ev.untried.take().map(|t| {
@@ -139,7 +139,7 @@ pub(super) fn try_candidates(
         sets[i] = id.map(|id| id.model);
         t
     };
-    identify_needed(&mut evidence, order, base, &advance, &mut identify);
+    identify_needed(rule, &mut evidence, order, base, &advance, &mut identify);
     // The candidates left bracketed are done too.
     for _ in settled..waiting {
         tick();

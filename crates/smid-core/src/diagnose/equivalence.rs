@@ -2,16 +2,17 @@
 //! runs ([`mark_equivalences`]) or by the rule's own order ([`mark_ties`]).
 use super::comparison::{centre_runs, indistinguishable, transplanted_runs, warm_up};
 use super::verdict::{best_fit, fit_of, Evidence};
-use super::{AS_DECLARED, PER_PARAMETER};
+use super::{Rule, AS_DECLARED};
 use crate::model::ModelSet;
 
 /// Mark every pair of admissible candidates (and the admissible base model) whose training
 /// behaviour the data cannot tell apart: their members simulate within twice the noise bound
 /// of each other, or one's member, put into the other's model class ([`transplanted_runs`]),
 /// simulates within that of itself. With `estimated` bounds, two models whose smallest
-/// consistent bounds differ by more than the rule's step ([`PER_PARAMETER`]) are told apart by
+/// consistent bounds differ by more than the rule's step (its `per_parameter`) are told apart by
 /// the data themselves (at the smaller bound the other model is falsified), whatever their runs.
 pub(super) fn mark_equivalences(
+    rule: &Rule,
     evidence: &mut [Evidence],
     sets: &[Option<ModelSet>],
     base: Option<&ModelSet>,
@@ -21,7 +22,7 @@ pub(super) fn mark_equivalences(
     // the data do not already tell them apart by their bounds.
     let tol = |a: &ModelSet, b: &ModelSet| {
         let (lo, hi) = (a.delta.min(b.delta), a.delta.max(b.delta));
-        (!estimated || within_step(lo, hi)).then_some(2.0 * hi)
+        (!estimated || within_step(rule, lo, hi)).then_some(2.0 * hi)
     };
     let runs: Vec<Option<Vec<Vec<f64>>>> = sets
         .iter()
@@ -71,11 +72,11 @@ pub(super) fn mark_equivalences(
     }
 }
 
-/// Whether two estimated bounds `lo <= hi` lie within one rule step ([`PER_PARAMETER`]): only
+/// Whether two estimated bounds `lo <= hi` lie within one rule step (the rule's `per_parameter`): only
 /// then can the data leave the two models alike ([`mark_equivalences`]); farther apart, at
 /// the smaller bound the other model is falsified.
-pub(super) fn within_step(lo: f64, hi: f64) -> bool {
-    lo >= PER_PARAMETER * hi
+pub(super) fn within_step(rule: &Rule, lo: f64, hi: f64) -> bool {
+    lo >= rule.per_parameter * hi
 }
 
 /// The estimated rule's order: the lower bound first, then fewer added parameters.

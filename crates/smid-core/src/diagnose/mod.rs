@@ -64,13 +64,9 @@ pub use screen::reproduced_by_base;
 pub use trying::{candidate_spec, training_fit, with_model};
 pub use verdict::{Choice, Column, Evidence, Round, Stopped, TrainVerdict};
 
-/// With an estimated noise bound, a candidate must lower the training bound to at most this
-/// fraction of the base model's per added parameter.
-pub const PER_PARAMETER: f64 = 0.9;
-
-/// With an estimated noise bound, a candidate's free-run fit on the training records may fall
-/// below the base model's by at most this many percentage points.
-pub const FIT_SLACK: f64 = 1.0;
+/// The choice rule's tunables, checked: the spec's `diagnosis` section
+/// ([`crate::spec::DiagnosisSpec`]).
+pub type Rule = crate::settings::Checked<crate::spec::DiagnosisSpec>;
 
 /// Options of a diagnosis.
 #[derive(Debug, Clone)]

@@ -8,7 +8,7 @@ use super::rule::{admissible_pick, estimated_pick};
 use super::screen::screen_reproduced;
 use super::trying::{candidate_spec, training_fit, try_model, with_model};
 use super::verdict::{best_fit, fit_of, Choice, Evidence, Round, TrainVerdict};
-use super::{Options, AS_DECLARED, FIT_SLACK, PER_PARAMETER};
+use super::{Options, Rule, AS_DECLARED};
 use crate::effect::{self, DataScale};
 use crate::error::{Result, SmidError};
 use crate::model::ModelSet;
@@ -122,6 +122,7 @@ fn steady_as_stage1_reads(spec: &Spec, training: &ExperimentData) -> Option<Stea
 /// its equivalents.
 #[allow(clippy::too_many_arguments)]
 fn rounds(
+    tunables: &Rule,
     spec: &Spec,
     full: &CellSpec,
     training: &ExperimentData,
@@ -146,6 +147,7 @@ fn rounds(
             }
         }
         let mut sets = try_candidates(
+            tunables,
             spec,
             full,
             &mut cands,
@@ -155,10 +157,10 @@ fn rounds(
             spec.noise.to_estimate().then_some(&base_train),
             progress,
         );
-        let slack = fit_slack(training);
+        let slack = fit_slack(tunables, training);
         let pick_of = |cands: &[(ModelSpec, Evidence)]| {
             if estimated {
-                estimated_pick(cands, &base_train)
+                estimated_pick(tunables, cands, &base_train)
             } else {
                 admissible_pick(cands, slack)
             }
@@ -184,6 +186,7 @@ fn rounds(
             candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
         };
         mark_equivalences(
+            tunables,
             &mut round.candidates,
             &sets,
             base_set.as_ref().filter(|_| base_train.admissible()),
@@ -221,13 +224,19 @@ fn rounds(
         // records cannot tell apart from it (an output offset on a backlash is a shift of its
         // plays); none is added.
         let mut cands = candidates(&base, scale, opts, steady.as_ref());
-        let sets = try_candidates(spec, full, &mut cands, training, None, progress);
+        let sets = try_candidates(tunables, spec, full, &mut cands, training, None, progress);
         let mut round = Round {
             base: base.label(),
             base_train: base_train.clone(),
             candidates: cands.iter().map(|(_, e)| e.clone()).collect(),
         };
-        mark_equivalences(&mut round.candidates, &sets, base_set.as_ref(), estimated);
+        mark_equivalences(
+            tunables,
+            &mut round.candidates,
+            &sets,
+            base_set.as_ref(),
+            estimated,
+        );
         equivalent_models = round
             .candidates
             .iter()
@@ -253,9 +262,9 @@ fn rounds(
 /// How far (in fit points) a candidate's training free run may fall below the best one's and
 /// still count as simulating as well: what the noise alone can account for,
 /// `100 · ‖Δη‖ / ‖y - ȳ‖` over the training records (the pooled norms of [`validate::Fit`]),
-/// at most [`FIT_SLACK`]. Near 100 % a fixed slack would let a model with several times the
-/// best one's error win on parameter count.
-fn fit_slack(training: &ExperimentData) -> f64 {
+/// at most the rule's `fit_slack`. Near 100 % a fixed slack would let a model with several
+/// times the best one's error win on parameter count.
+fn fit_slack(tunables: &Rule, training: &ExperimentData) -> f64 {
     // The fit's own norms, of an output that misses each sample by its whole noise bound.
     let off: Vec<Vec<f64>> = training
         .records
@@ -270,9 +279,9 @@ fn fit_slack(training: &ExperimentData) -> f64 {
         .collect();
     let floor = 100.0 * validate::Fit::of(&pairs).nrmse;
     if floor.is_finite() {
-        floor.min(FIT_SLACK)
+        floor.min(tunables.fit_slack)
     } else {
-        FIT_SLACK
+        tunables.fit_slack
     }
 }
 
@@ -308,6 +317,8 @@ pub fn choose(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Choice> {
     check_only(&opts.only)?;
+    let tunables = spec.diagnosis.check()?;
+    let (per_parameter, fit_slack_most) = (tunables.per_parameter, tunables.fit_slack);
     let mut scale = data_scale(training);
     if !spec.noise.estimated() {
         scale.noise = spec.noise.delta().ok();
@@ -336,13 +347,14 @@ pub fn choose(
     });
     let estimated = spec.noise.estimated();
     let rule = if estimated {
-        format!("the noise bound is estimated per model (the smallest bound consistent with the training records, × margin), so every model is admissible: a candidate is kept when its bound falls below {PER_PARAMETER} × the base model's bound per added parameter (an information criterion on the training data, in the ℓ∞ sense) and its free-run fit on the training records is no worse than the base model's (by more than {FIT_SLACK} points: a candidate that explains samples away, as a saturation that swallows the worst ones, does not simulate better), the lowest bound first; a candidate the training data falsify at that bar is not bracketed further (\"inconsistent at the bar\"), and one whose bound lies more than a step above the pick's is not identified (\"bracketed, not identified\")")
+        format!("the noise bound is estimated per model (the smallest bound consistent with the training records, × margin), so every model is admissible: a candidate is kept when its bound falls below {per_parameter} × the base model's bound per added parameter (an information criterion on the training data, in the ℓ∞ sense) and its free-run fit on the training records is no worse than the base model's (by more than {fit_slack_most} points: a candidate that explains samples away, as a saturation that swallows the worst ones, does not simulate better), the lowest bound first; a candidate the training data falsify at that bar is not bracketed further (\"inconsistent at the bar\"), and one whose bound lies more than a step above the pick's is not identified (\"bracketed, not identified\")")
     } else {
-        format!("admissible (training data consistent with the declared noise bound) and simulating the training records as well as the best admissible candidate (free-run fit within {:.3} point(s): what the noise bound accounts for, at most {FIT_SLACK}), the fewest added parameters, then the best fit; when none is admissible, the one whose first contradiction comes latest is extended in a further round", fit_slack(training))
+        format!("admissible (training data consistent with the declared noise bound) and simulating the training records as well as the best admissible candidate (free-run fit within {:.3} point(s): what the noise bound accounts for, at most {fit_slack_most}), the fewest added parameters, then the best fit; when none is admissible, the one whose first contradiction comes latest is extended in a further round", fit_slack(&tunables, training))
     };
     let (reached, before_identified) = rayon::join(
         || {
             rounds(
+                &tunables,
                 spec,
                 &full,
                 training,

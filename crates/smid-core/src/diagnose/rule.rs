@@ -2,13 +2,13 @@
 //! ([`estimated_pick`], under each candidate's [`bar`]).
 use super::equivalence::by_bound;
 use super::verdict::{best_fit, bound_of, fit_of, Evidence, TrainVerdict};
-use super::{FIT_SLACK, PER_PARAMETER};
+use super::Rule;
 use crate::spec::ModelSpec;
 
 /// The largest estimated bound a candidate adding `added` parameters may have to be kept,
 /// against a base model estimated at `base_bound`.
-pub(super) fn bar(base_bound: f64, added: usize) -> f64 {
-    base_bound * PER_PARAMETER.powi(added.max(1) as i32)
+pub(super) fn bar(rule: &Rule, base_bound: f64, added: usize) -> f64 {
+    base_bound * rule.per_parameter.powi(added.max(1) as i32)
 }
 
 /// The rule's pick at a declared bound: among the admissible candidates whose members simulate
@@ -32,16 +32,18 @@ pub(super) fn admissible_pick(cands: &[(ModelSpec, Evidence)], slack: f64) -> Op
 }
 
 /// The rule's pick at an estimated bound: the lowest bound among the candidates under their
-/// [`bar`] that simulate no worse than the base model (by [`FIT_SLACK`]).
+/// [`bar`] that simulate no worse than the base model (by the rule's `fit_slack`).
 pub(super) fn estimated_pick(
+    rule: &Rule,
     cands: &[(ModelSpec, Evidence)],
     base_train: &TrainVerdict,
 ) -> Option<usize> {
-    estimated_pick_of(cands.iter().map(|(_, e)| e), base_train)
+    estimated_pick_of(rule, cands.iter().map(|(_, e)| e), base_train)
 }
 
 /// [`estimated_pick`] over the candidates' evidence.
 pub(super) fn estimated_pick_of<'a>(
+    rule: &Rule,
     evidence: impl Iterator<Item = &'a Evidence>,
     base_train: &TrainVerdict,
 ) -> Option<usize> {
@@ -52,8 +54,8 @@ pub(super) fn estimated_pick_of<'a>(
             // Admissible first: with a base that is not consistent the bar is infinite, and a
             // failed candidate's infinite bound would clear it.
             e.train.admissible()
-                && bound_of(&e.train) <= bar(base_bound, e.added_parameters)
-                && fit_of(&e.train) >= fit_of(base_train) - FIT_SLACK
+                && bound_of(&e.train) <= bar(rule, base_bound, e.added_parameters)
+                && fit_of(&e.train) >= fit_of(base_train) - rule.fit_slack
         })
         .min_by(|(_, a), (_, b)| {
             by_bound(
@@ -68,6 +70,11 @@ pub(super) fn estimated_pick_of<'a>(
 mod tests {
     use super::*;
     use crate::diagnose::verdict::tests::evidence;
+    use crate::settings::Check;
+
+    fn rule() -> Rule {
+        crate::spec::DiagnosisSpec::default().check().unwrap()
+    }
 
     /// The estimated rule picks only a consistent candidate, also when the base model is not
     /// consistent itself (its bar is then infinite, and so is a failed candidate's bound).
@@ -77,18 +84,67 @@ mod tests {
             message: "the data do not bound the noise bound".into(),
         };
         let mut ev = [evidence("a", 1, None), evidence("b", 2, None)];
-        assert_eq!(estimated_pick_of(ev.iter(), &failed), None);
+        assert_eq!(estimated_pick_of(&rule(), ev.iter(), &failed), None);
         ev[1].train = TrainVerdict::Consistent {
             fit_percent: 50.0,
             bound: 0.3,
             unsettled: None,
             within: None,
         };
-        assert_eq!(estimated_pick_of(ev.iter(), &failed), Some(1));
+        assert_eq!(estimated_pick_of(&rule(), ev.iter(), &failed), Some(1));
         ev[0].train = TrainVerdict::Bracketed {
             bound: 0.1,
             at_least: false,
         };
-        assert_eq!(estimated_pick_of(ev.iter(), &failed), Some(1));
+        assert_eq!(estimated_pick_of(&rule(), ev.iter(), &failed), Some(1));
+    }
+
+    /// The estimated rule reads its tunables from the spec's `diagnosis` section: a candidate
+    /// one parameter larger whose bound is 0.85 of the base's clears the default bar (0.9) but
+    /// not a stricter one (0.8), and one whose fit falls two points clears a `fit_slack` of 3
+    /// but not the default (1).
+    #[test]
+    fn the_estimated_pick_follows_the_rules_settings() {
+        let consistent = |bound: f64, fit: f64| TrainVerdict::Consistent {
+            fit_percent: fit,
+            bound,
+            unsettled: None,
+            within: None,
+        };
+        let base = consistent(1.0, 80.0);
+        let with = |per_parameter: f64, fit_slack: f64| {
+            crate::spec::DiagnosisSpec {
+                per_parameter,
+                fit_slack,
+            }
+            .check()
+            .unwrap()
+        };
+        let mut ev = [evidence("a", 1, None)];
+        ev[0].train = consistent(0.85, 80.0);
+        assert_eq!(estimated_pick_of(&rule(), ev.iter(), &base), Some(0));
+        assert_eq!(estimated_pick_of(&with(0.8, 1.0), ev.iter(), &base), None);
+        ev[0].train = consistent(0.85, 78.0);
+        assert_eq!(estimated_pick_of(&rule(), ev.iter(), &base), None);
+        assert_eq!(
+            estimated_pick_of(&with(0.9, 3.0), ev.iter(), &base),
+            Some(0)
+        );
+        for bad in [0.0, 1.0, f64::NAN] {
+            let e = crate::spec::DiagnosisSpec {
+                per_parameter: bad,
+                fit_slack: 1.0,
+            }
+            .check()
+            .unwrap_err();
+            assert!(e.to_string().contains("diagnosis.per_parameter"), "{e}");
+        }
+        let e = crate::spec::DiagnosisSpec {
+            per_parameter: 0.9,
+            fit_slack: -1.0,
+        }
+        .check()
+        .unwrap_err();
+        assert!(e.to_string().contains("diagnosis.fit_slack"), "{e}");
     }
 }

@@ -3,13 +3,14 @@
 use super::equivalence::{by_bound, within_step};
 use super::rule::estimated_pick_of;
 use super::verdict::{bound_of, Evidence, TrainVerdict};
+use super::Rule;
 use crate::pipeline::Bracket;
 
 /// The candidates of an estimated-bound round that the rule needs identified whole, each by
 /// `identify(i, evidence, bracket)` (its verdict; also for a bracket that ends in a finding):
 /// in the order of their bracketed bounds (`order`: index and bracket; then fewer added
 /// parameters, then candidate order), until the rule's pick ([`estimated_pick`]) is found,
-/// and beyond it while a bound lies within one rule step ([`PER_PARAMETER`]) of the pick's
+/// and beyond it while a bound lies within one rule step (the rule's `per_parameter`) of the pick's
 /// (close enough to be marked equivalent to it, [`mark_equivalences`]). Every other candidate
 /// of `order` is left [`TrainVerdict::Bracketed`].
 ///
@@ -27,10 +28,10 @@ use crate::pipeline::Bracket;
 /// bracket first gives: on the tanks the input saturation's narrowing, where each falsified
 /// verdict proves every cell empty, is costly in every round and decides nothing.
 ///
-/// [`PER_PARAMETER`]: super::PER_PARAMETER
 /// [`estimated_pick`]: super::rule::estimated_pick
 /// [`mark_equivalences`]: super::equivalence::mark_equivalences
 pub(super) fn identify_needed(
+    rule: &Rule,
     evidence: &mut [Evidence],
     order: Vec<(usize, Bracket)>,
     base: &TrainVerdict,
@@ -58,10 +59,10 @@ pub(super) fn identify_needed(
         }
         // Past a pick, a place whose floor is more than a step above it stays bracketed.
         if let Some(pick) =
-            estimated_pick_of(evidence.iter(), base).map(|p| bound_of(&evidence[p].train))
+            estimated_pick_of(rule, evidence.iter(), base).map(|p| bound_of(&evidence[p].train))
         {
             left.retain(|(i, b)| {
-                let keep = within_step(pick, floor(b));
+                let keep = within_step(rule, pick, floor(b));
                 if !keep {
                     evidence[*i].train = TrainVerdict::Bracketed {
                         bound: floor(b),
@@ -132,7 +133,10 @@ pub(super) fn identify_needed(
 mod tests {
     use super::*;
     use crate::diagnose::verdict::tests::evidence;
-    use crate::diagnose::PER_PARAMETER;
+    use crate::settings::Check;
+    fn rule() -> crate::diagnose::Rule {
+        crate::spec::DiagnosisSpec::default().check().unwrap()
+    }
     use crate::error::Stage;
     use crate::outcome::Falsification;
 
@@ -163,6 +167,7 @@ mod tests {
             panic!("every bound is narrowed")
         };
         identify_needed(
+            &rule(),
             &mut ev,
             order,
             &base,
@@ -186,7 +191,7 @@ mod tests {
         assert!(
             matches!(ev[0].train, TrainVerdict::Bracketed { bound, at_least: false } if bound == 0.8)
         );
-        let pick = estimated_pick_of(ev.iter(), &base);
+        let pick = estimated_pick_of(&rule(), ev.iter(), &base);
         assert_eq!(pick, Some(3));
     }
 
@@ -239,12 +244,12 @@ mod tests {
                 .collect()
         };
         let mut asked = Vec::new();
-        identify_needed(&mut ev, order, &base, &advance, &mut |i, _, b| {
+        identify_needed(&rule(), &mut ev, order, &base, &advance, &mut |i, _, b| {
             asked.push(i);
             verdict_of(b, Some(90.0))
         });
         assert_eq!(asked, vec![1, 0]);
-        assert_eq!(estimated_pick_of(ev.iter(), &base), Some(1));
+        assert_eq!(estimated_pick_of(&rule(), ev.iter(), &base), Some(1));
     }
 
     /// Probes asked of a random round's started brackets, and how many of them were falsified.
@@ -397,6 +402,7 @@ mod tests {
             };
             let mut asked = Vec::new();
             identify_needed(
+                &rule(),
                 &mut lazy,
                 self.start.iter().cloned().enumerate().collect(),
                 base,
@@ -428,8 +434,9 @@ mod tests {
                     .then(i.cmp(j))
             });
             for (k, d) in bounds {
-                let pick = estimated_pick_of(whole.iter(), base).map(|p| bound_of(&whole[p].train));
-                whole[k].train = if pick.is_none_or(|p| p >= PER_PARAMETER * d) {
+                let pick = estimated_pick_of(&rule(), whole.iter(), base)
+                    .map(|p| bound_of(&whole[p].train));
+                whole[k].train = if pick.is_none_or(|p| p >= rule().per_parameter * d) {
                     asked_whole.push((k, Some(d)));
                     verdict_of(Bracket::At(d), self.fits[k])
                 } else {
@@ -481,7 +488,7 @@ mod tests {
                         }
                         let p = bound_of(&lazy[pick.expect("a pick")].train);
                         assert!(
-                            p < PER_PARAMETER * bound,
+                            p < rule().per_parameter * bound,
                             "case {case}: c{k} within a step of the pick"
                         );
                     }
@@ -523,8 +530,12 @@ mod tests {
                 at_bounds, asked_whole,
                 "case {case}: the candidates identified"
             );
-            let pick = estimated_pick_of(lazy.iter(), &base);
-            assert_eq!(pick, estimated_pick_of(whole.iter(), &base), "case {case}");
+            let pick = estimated_pick_of(&rule(), lazy.iter(), &base);
+            assert_eq!(
+                pick,
+                estimated_pick_of(&rule(), whole.iter(), &base),
+                "case {case}"
+            );
             let (started, coarse) = round.left_unfinished(case, &lazy, &whole, pick);
             left_started += started;
             left_coarse += coarse;

@@ -50,7 +50,7 @@ pub enum TrainVerdict {
     AboveBar(crate::pipeline::AboveBar),
     /// With an estimated bound: bracketed, not identified. The bound it would be identified
     /// with ([`crate::pipeline::bracket_below`], with the diagnosis's cell budget) is above the
-    /// chosen candidate's by more than the rule's step ([`PER_PARAMETER`]): at that bound the
+    /// chosen candidate's by more than the rule's step (its `per_parameter`): at that bound the
     /// rule could neither choose it nor find it equivalent to the choice, so it has no set, no
     /// member and no fit. (A candidate whose coarse cells leave `θ` unbounded is bracketed
     /// again with the spec's own budget when it is identified, which may move its bound; one
@@ -59,8 +59,6 @@ pub enum TrainVerdict {
     /// estimate, or the margin times a bound the method proves inconsistent), and the bound it
     /// would be identified with, if finishing it found one (it may end falsified, or above its
     /// bar), is at least that, already more than the rule's step above the choice's.
-    ///
-    /// [`PER_PARAMETER`]: super::PER_PARAMETER
     Bracketed {
         /// The bound it would be identified with (with `at_least`: a floor of it).
         bound: f64,

@@ -45,6 +45,62 @@ pub struct Spec {
     /// budgets of the searches.
     #[serde(default)]
     pub method: MethodSpec,
+    /// The choice rule of `smid diagnose`: how much an added candidate must lower an estimated
+    /// noise bound, and how much training fit it may give up.
+    #[serde(default)]
+    pub diagnosis: DiagnosisSpec,
+}
+
+/// The tunables of the diagnosis's choice rule ([`crate::diagnose`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DiagnosisSpec {
+    /// With an estimated noise bound, a candidate must lower the training bound to at most
+    /// this fraction of the base model's per added parameter (an information criterion in
+    /// the ℓ∞ sense); bounds within this fraction of each other are a step apart at most
+    /// (`0 < per_parameter < 1`).
+    #[serde(default = "d_per_parameter")]
+    pub per_parameter: f64,
+    /// With an estimated noise bound, a candidate's free-run fit on the training records may
+    /// fall below the base model's by at most this many percentage points; at a declared
+    /// bound, the most by which fits within what the noise accounts for may differ (`>= 0`).
+    #[serde(default = "d_fit_slack")]
+    pub fit_slack: f64,
+}
+
+fn d_per_parameter() -> f64 {
+    0.9
+}
+fn d_fit_slack() -> f64 {
+    1.0
+}
+
+impl Default for DiagnosisSpec {
+    fn default() -> Self {
+        DiagnosisSpec {
+            per_parameter: d_per_parameter(),
+            fit_slack: d_fit_slack(),
+        }
+    }
+}
+
+impl crate::settings::Check for DiagnosisSpec {
+    const PLACE: &'static str = "diagnosis";
+    fn invalid(&self) -> Option<(&'static str, String)> {
+        if !(self.per_parameter > 0.0 && self.per_parameter < 1.0) {
+            return Some((
+                "per_parameter",
+                format!("expected 0 < per_parameter < 1, got {}", self.per_parameter),
+            ));
+        }
+        if !(self.fit_slack.is_finite() && self.fit_slack >= 0.0) {
+            return Some((
+                "fit_slack",
+                format!("expected a finite fit_slack >= 0, got {}", self.fit_slack),
+            ));
+        }
+        None
+    }
 }
 
 /// The plant: exactly one of `simulator`, `data` or `fmu`; the other fields belong to `fmu`,

@@ -232,7 +232,8 @@ impl Spec {
             Some((_, field, message)) => Err(SmidError::invalid(field, message)),
             None => {
                 use crate::settings::Check;
-                self.method.member.check().map(|_| ())
+                self.method.member.check()?;
+                self.diagnosis.check().map(|_| ())
             }
         }
     }
