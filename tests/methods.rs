@@ -129,8 +129,23 @@ fn rounds_stopped_at_their_cap_are_reported() {
     )
     .unwrap();
     assert!(v.warnings.contains(&warning), "{:?}", v.warnings);
-    // The diagnosis's verdicts carry it too: the model as declared, consistent on its training
-    // records only as far as one round can tell.
+    // A certified member proves the set non-empty: the warning says so, and the diagnosis's
+    // verdict on the model as declared is settled (not undecided), its rounds capped or not.
+    let certified = one
+        .model
+        .simulation_member
+        .as_ref()
+        .is_some_and(|m| m.certified);
+    assert!(certified, "the paper's member at one round is certified");
+    assert!(warning.contains("it is not empty"), "{warning}");
+    assert_eq!(one.model.undecided(), None);
+    let mut without = one.model.duplicate();
+    without.simulation_member = None;
+    assert!(without.undecided().is_some_and(|g| g >= 0.03));
+    assert!(without.unsettled_warning().unwrap().contains("or empty"));
+    // Without the member, the verdict on the training records themselves is undecided.
+    let c = smid::core::validate::consistency(&without, &one.model.training.records).unwrap();
+    assert_eq!(c.verdict, smid::core::validate::Verdict::Undecided, "{c:?}");
     let mut src = smid::closeloop::Source {
         spec: paper_with("  eiv: shared\n  options: { max_rounds: 1 }\n").unwrap(),
         base: base.clone(),
@@ -142,12 +157,12 @@ fn rounds_stopped_at_their_cap_are_reported() {
         ..Default::default()
     };
     let c = smid::core::diagnose::choose(&src.spec, &data, &only, &|_, _| {}).unwrap();
-    match &c.rounds[0].base_train {
-        smid::core::diagnose::TrainVerdict::Consistent { unsettled, .. } => {
-            assert!(unsettled.is_some_and(|g| g >= 0.03), "{unsettled:?}")
-        }
-        other => panic!("the paper's data falsify its model: {other:?}"),
-    }
+    let verdict = &c.rounds[0].base_train;
+    assert!(
+        verdict.admissible(),
+        "the paper's data falsify its model: {verdict:?}"
+    );
+    assert_eq!(verdict.undecided(), None, "{verdict:?}");
     for settled in ["  eiv: shared\n", "  eiv: classical\n"] {
         let id = run(settled);
         assert_eq!(id.model.unsettled_warning(), None, "{settled}");

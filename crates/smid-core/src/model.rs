@@ -766,6 +766,14 @@ impl ModelSet {
         })
     }
 
+    /// [`ModelSet::unsettled`] unless a certified simulation member proves the set non-empty:
+    /// the last-round shrinkage of a set that may be empty, so that a verdict resting on it is
+    /// undecided. `None` when every cell settled, or the member is certified.
+    pub fn undecided(&self) -> Option<f64> {
+        let certified = self.simulation_member.as_ref().is_some_and(|m| m.certified);
+        self.unsettled().filter(|_| !certified)
+    }
+
     /// The largest last-round shrinkage over the cells whose stage-3 rounds stopped at their
     /// cap before they settled ([`CellSet::unsettled`]); `None` when every cell settled.
     pub fn unsettled(&self) -> Option<f64> {

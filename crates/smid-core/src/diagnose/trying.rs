@@ -105,13 +105,7 @@ fn try_model_with(
                 TrainVerdict::Consistent {
                     fit_percent: fit,
                     bound,
-                    // A certified member proves the set non-empty: the verdict is settled.
-                    unsettled: id.model.unsettled().filter(|_| {
-                        !id.model
-                            .simulation_member
-                            .as_ref()
-                            .is_some_and(|m| m.certified)
-                    }),
+                    unsettled: id.model.undecided(),
                     within: id.model.simulation_member.as_ref().and_then(|m| m.within),
                 },
                 Some(id),

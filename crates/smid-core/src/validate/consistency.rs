@@ -284,7 +284,7 @@ pub fn consistency(model: &ModelSet, fresh: &[Record]) -> Result<Consistency> {
         }
     }
     // Not proven: a verdict resting on a set that may be empty is undecided.
-    match model.unsettled().filter(|_| member.is_none()) {
+    match model.undecided() {
         Some(shrink) if relaxed.verdict == Verdict::Consistent => Ok(Consistency::of(
             Verdict::Undecided,
             Some(Undecided::SetUnsettled { shrink }),
