@@ -66,7 +66,7 @@ fn a_proven_verdict_is_never_contradicted_and_the_truth_is_never_falsified() {
                     let mut joint = model.training.records.clone();
                     joint.push(fresh.clone());
                     let opts = model.method.member.check().unwrap();
-                    let s = members::certificate_on(model, m, &joint, &opts).unwrap();
+                    let s = members::certificate_on(model, m, &joint, &opts, true).unwrap();
                     if c.verdict == Verdict::Falsified {
                         assert!(
                             s.is_none_or(|s| s > CERTIFIED),

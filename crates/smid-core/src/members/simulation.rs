@@ -277,7 +277,8 @@ fn seeded_members<'s>(
 /// training records followed by the fresh ones): the exact consistency measure
 /// ([`consistency_at`]: stage 2 at the point's nonlinearity and bisected parameters, then the
 /// LP at its fixed `θ`) of the member itself, and where it is above [`CERTIFIED`], of the
-/// point phase 1 reaches from it (one run of `opts`' Nelder-Mead budget). At most
+/// point phase 1 reaches from it (one run of `opts`' Nelder-Mead budget; with `search_on`
+/// only). At most
 /// [`CERTIFIED`], the point satisfies every equation of `records` inside their noise bounds.
 /// `None` when the member's cell has no searchable point.
 pub fn certificate_on(
@@ -285,6 +286,7 @@ pub fn certificate_on(
     m: &SimulationMember,
     records: &[crate::model::Record],
     opts: &Checked<Options>,
+    search_on: bool,
 ) -> Result<Option<f64>> {
     let mut on = set.duplicate();
     on.training.records = records.to_vec();
@@ -320,7 +322,7 @@ pub fn certificate_on(
     let (g, mut th) = split_values(&search, &sp, &m.values);
     search.fix_gain(&mut th);
     let at_member = measure(&g, &th);
-    if at_member <= CERTIFIED {
+    if at_member <= CERTIFIED || !search_on {
         return Ok(Some(at_member));
     }
     let z = search.coordinates(&sp, &g, &th);

@@ -263,17 +263,27 @@ fn joint(model: &ModelSet, fresh: &[Record]) -> Vec<Record> {
 /// looked for from the certified simulation member and checked exactly on the joint records,
 /// which proves the verdict where it holds.
 pub fn consistency(model: &ModelSet, fresh: &[Record]) -> Result<Consistency> {
+    consistency_with(model, fresh, true)
+}
+
+/// [`consistency`], where the relaxation's verdict is settled (CONSISTENT) searching for a
+/// proving point only with `prove` (else checking the simulation member itself there); where
+/// it would be undecided the search always runs.
+pub fn consistency_with(model: &ModelSet, fresh: &[Record], prove: bool) -> Result<Consistency> {
+    let clock = std::time::Instant::now();
     let relaxed = consistency_located(model, fresh, true)?;
+    log::debug!(target: "smid::validate", "the relaxation's verdict {:?}: {:.2} s", relaxed.verdict, clock.elapsed().as_secs_f64());
+    let clock = std::time::Instant::now();
     if relaxed.verdict == Verdict::Falsified {
         return Ok(relaxed);
     }
     let member = model.simulation_member.as_ref().filter(|m| m.certified);
     if let Some(m) = member {
-        let measure = members::certificate_on(model, m, &joint(model, fresh), &model.method.member.check()?).unwrap_or_else(|e| {
+        let measure = members::certificate_on(model, m, &joint(model, fresh), &model.method.member.check()?, prove || relaxed.verdict != Verdict::Consistent).unwrap_or_else(|e| {
             log::info!(target: "smid::validate", "the simulation member was not checked on the joint records: {e}");
             None
         });
-        log::debug!(target: "smid::validate", "the simulation member on the joint records: consistency measure {measure:?}");
+        log::debug!(target: "smid::validate", "a point from the simulation member on the joint records: consistency measure {measure:?}, {:.2} s", clock.elapsed().as_secs_f64());
         if measure.is_some_and(|s| s <= CERTIFIED) {
             return Ok(Consistency::of(
                 Verdict::Proven,

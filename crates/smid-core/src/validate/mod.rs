@@ -33,7 +33,8 @@ use serde::Serialize;
 mod consistency;
 
 pub use consistency::{
-    consistency, smallest_bound, Consistency, Falsification, Undecided, Verdict, VACUOUS_BELOW,
+    consistency, consistency_with, smallest_bound, Consistency, Falsification, Undecided, Verdict,
+    VACUOUS_BELOW,
 };
 
 /// Largest lag of the correlation analysis.
@@ -50,6 +51,10 @@ pub struct Options {
     pub bound_resolution: f64,
     /// Compute the guaranteed one-step band of the whole set ([`crate::band`]).
     pub band: bool,
+    /// Where the relaxation's verdict is settled (CONSISTENT), still search for a point of the
+    /// set that proves it ([`consistency_with`]); `false`: only the simulation member itself
+    /// is checked there, and the search runs only where the verdict would be undecided.
+    pub prove: bool,
 }
 
 impl Default for Options {
@@ -58,6 +63,7 @@ impl Default for Options {
             k: 5,
             bound_resolution: 0.02,
             band: true,
+            prove: true,
         }
     }
 }
@@ -320,7 +326,7 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     check_fresh(o, fresh)?;
     let fresh: Vec<Record> = fresh.iter().map(|r| r.with_bound(model.delta)).collect();
     let clock = std::time::Instant::now();
-    let consistency = consistency(model, &fresh)?;
+    let consistency = consistency_with(model, &fresh, opts.prove)?;
     log::info!(target: "smid::validate", "consistency: {:.2} s", clock.elapsed().as_secs_f64());
     let clock = std::time::Instant::now();
     let smallest = smallest_bound(
