@@ -277,21 +277,15 @@ pub fn consistency_with(model: &ModelSet, fresh: &[Record], prove: bool) -> Resu
     if relaxed.verdict == Verdict::Falsified {
         return Ok(relaxed);
     }
-    let member = model.simulation_member.as_ref().filter(|m| m.certified);
-    if let Some(m) = member {
-        let measure = members::certificate_on(model, m, &joint(model, fresh), &model.method.member.check()?, prove || relaxed.verdict != Verdict::Consistent).unwrap_or_else(|e| {
-            log::info!(target: "smid::validate", "the simulation member was not checked on the joint records: {e}");
-            None
-        });
-        log::debug!(target: "smid::validate", "a point from the simulation member on the joint records: consistency measure {measure:?}, {:.2} s", clock.elapsed().as_secs_f64());
-        if measure.is_some_and(|s| s <= CERTIFIED) {
-            return Ok(Consistency::of(
-                Verdict::Proven,
-                None,
-                None,
-                relaxed.unchecked,
-            ));
-        }
+    let search = prove || relaxed.verdict != Verdict::Consistent;
+    if proof(model, fresh, search)?.is_some_and(|s| s <= CERTIFIED) {
+        log::debug!(target: "smid::validate", "proven: {:.2} s", clock.elapsed().as_secs_f64());
+        return Ok(Consistency::of(
+            Verdict::Proven,
+            None,
+            None,
+            relaxed.unchecked,
+        ));
     }
     // Not proven: a verdict resting on a set that may be empty is undecided.
     match model.undecided() {
@@ -303,6 +297,23 @@ pub fn consistency_with(model: &ModelSet, fresh: &[Record], prove: bool) -> Resu
         )),
         _ => Ok(relaxed),
     }
+}
+
+/// The consistency measure of a point of the set on the joint records, found from the
+/// certified simulation member (with `search`, by the member search's phase 1, else the member
+/// itself): `None` without a certified member, or when it could not be checked (logged; a
+/// proof not found is no verdict). Invalid member settings are an error.
+fn proof(model: &ModelSet, fresh: &[Record], search: bool) -> Result<Option<f64>> {
+    let Some(m) = model.simulation_member.as_ref().filter(|m| m.certified) else {
+        return Ok(None);
+    };
+    let opts = model.method.member.check()?;
+    let measure = members::certificate_on(model, m, &joint(model, fresh), &opts, search);
+    log::debug!(target: "smid::validate", "a point from the simulation member on the joint records: {measure:?}");
+    Ok(measure.unwrap_or_else(|e| {
+        log::info!(target: "smid::validate", "the simulation member was not checked on the joint records: {e}");
+        None
+    }))
 }
 
 /// The relaxation's verdict ([`consistency`] without the member's proof and without the
