@@ -167,6 +167,118 @@ impl SparseLp {
     }
 }
 
+impl SparseLp {
+    /// The minimum of column `s` when the other columns fall into blocks that only `s` couples
+    /// (a long record's fixed-`θ` LP: one block per chain of equations), and raising `s` only
+    /// relaxes (`s` in no equality, with a coefficient `<= 0` in every inequality): then the
+    /// smallest `s` of the whole LP is the largest of the blocks' smallest ones, and each
+    /// block is a small LP (the low-dimensional simplex's vertex value at up to `dense_max`
+    /// columns, else Clarabel's guaranteed lower bound). `None` when the LP has at most
+    /// `above` inequality rows or is not of that shape (solve it whole); a block with no
+    /// conclusion gives [`Optimum::Unknown`], an empty one [`Optimum::Infeasible`].
+    pub fn minimise_by_blocks(
+        &self,
+        s: usize,
+        dense_max: usize,
+        above: usize,
+    ) -> Result<Option<Optimum>> {
+        if self.le.len() <= above
+            || self.eq.iter().any(|(e, _)| e.iter().any(|&(k, _)| k == s))
+            || self
+                .le
+                .iter()
+                .any(|(g, _)| g.iter().any(|&(k, v)| k == s && v > 0.0))
+        {
+            return Ok(None);
+        }
+        let mut root: Vec<usize> = (0..self.n).collect();
+        fn find(root: &mut [usize], mut k: usize) -> usize {
+            while root[k] != k {
+                root[k] = root[root[k]];
+                k = root[k];
+            }
+            k
+        }
+        for (g, _) in self.le.iter().chain(&self.eq) {
+            let mut cols = g.iter().map(|e| e.0).filter(|&k| k != s);
+            if let Some(first) = cols.next() {
+                let r0 = find(&mut root, first);
+                for k in cols {
+                    let rk = find(&mut root, k);
+                    root[rk] = r0;
+                }
+            }
+        }
+        // Block of each column (s excluded), numbered in order of appearance.
+        let mut block_of = vec![usize::MAX; self.n];
+        let mut blocks: Vec<Vec<usize>> = Vec::new();
+        let mut index_of_root = std::collections::HashMap::new();
+        for k in (0..self.n).filter(|&k| k != s) {
+            let r = find(&mut root, k);
+            let b = *index_of_root.entry(r).or_insert_with(|| {
+                blocks.push(Vec::new());
+                blocks.len() - 1
+            });
+            block_of[k] = b;
+            blocks[b].push(k);
+        }
+        if blocks.len() < 2 {
+            return Ok(None);
+        }
+        // Each block's LP: its columns (local numbering), then `s`; rows of `s` alone go to
+        // every block (they bound `s`).
+        let mut local = vec![usize::MAX; self.n];
+        for cols in &blocks {
+            for (i, &k) in cols.iter().enumerate() {
+                local[k] = i;
+            }
+        }
+        let mut lps: Vec<SparseLp> = blocks.iter().map(|c| SparseLp::new(c.len() + 1)).collect();
+        let mut alone: Vec<(Vec<(usize, f64)>, f64)> = Vec::new();
+        let to_local = |g: &[(usize, f64)], n_b: usize| -> Vec<(usize, f64)> {
+            g.iter()
+                .map(|&(k, v)| (if k == s { n_b } else { local[k] }, v))
+                .collect()
+        };
+        for (g, h) in &self.le {
+            match g.iter().find(|e| e.0 != s) {
+                Some(&(k, _)) => {
+                    let b = block_of[k];
+                    let n_b = blocks[b].len();
+                    lps[b].le.push((to_local(g, n_b), *h));
+                }
+                None => alone.push((g.clone(), *h)),
+            }
+        }
+        for (e, f) in &self.eq {
+            if let Some(&(k, _)) = e.first() {
+                let b = block_of[k];
+                let n_b = blocks[b].len();
+                lps[b].eq.push((to_local(e, n_b), *f));
+            } else if f.abs() > ROW_PAD {
+                return Ok(Some(Optimum::Infeasible));
+            }
+        }
+        let mut worst = f64::NEG_INFINITY;
+        for (b, mut lp) in lps.into_iter().enumerate() {
+            let n_b = blocks[b].len();
+            lp.le
+                .extend(alone.iter().map(|(g, h)| (to_local(g, n_b), *h)));
+            let mut c = vec![0.0; lp.n];
+            c[n_b] = 1.0;
+            let v = match lp.dense(dense_max).and_then(|p| p.vertex_optimum(&c)) {
+                Some(v) => v,
+                None => match lp.solver()?.minimise(n_b)? {
+                    Optimum::Value(v) => v,
+                    o => return Ok(Some(o)),
+                },
+            };
+            worst = worst.max(v);
+        }
+        Ok(Some(Optimum::Value(worst)))
+    }
+}
+
 /// The linear rows of a conic program in clarabel's column form: the `g·z <= h` rows first,
 /// each right-hand side relaxed outward by [`ROW_PAD`] `· (1 + |h|)` (invariant 1: the solved
 /// feasible set contains the exact one), then the `e·z = f` rows as given, with their cones.
@@ -326,5 +438,73 @@ mod tests {
         let mut s = lp.solver().unwrap();
         assert_eq!(s.feasible().unwrap(), Some(false));
         assert_eq!(s.maximise(1).unwrap(), Optimum::Infeasible);
+    }
+
+    /// A random LP of the fixed-`θ` certificate's shape: `blocks` chains of `len` samples, each
+    /// sample an affine function of its chain's two starts (a decaying recursion) and of `nb`
+    /// shared columns, inside its box scaled by `1 + s` (a few boxes narrow, so that some
+    /// chains need a positive `s`); `s >= -1`, the shared columns in `[-2, 2]`.
+    fn chains_lp(seed: u64, blocks: usize, len: usize, nb: usize) -> (SparseLp, usize) {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let n = nb + 2 * blocks + 1;
+        let s = n - 1;
+        let mut lp = SparseLp::new(n);
+        let a = rng.gen_range(-0.9..0.9);
+        for b in 0..blocks {
+            let z = nb + 2 * b;
+            // The sample's coefficients on the two starts, `(p, q)_t = -a (p, q)_{t-1} - 0.2
+            // (p, q)_{t-2}` from `(1, 0)` and `(0, 1)`.
+            let (mut now, mut before) = ([1.0, 0.0], [0.0, 1.0]);
+            for _ in 0..len {
+                let mut row = vec![(z, now[0]), (z + 1, now[1])];
+                for k in 0..nb {
+                    row.push((k, rng.gen_range(-1.0..1.0)));
+                }
+                let c: f64 = rng.gen_range(-0.5..0.5);
+                let r = if rng.gen_bool(0.05) {
+                    0.01
+                } else {
+                    rng.gen_range(0.2..1.0)
+                };
+                let mut up = row.clone();
+                up.push((s, -r));
+                lp.le(up, r - c);
+                let mut down: Vec<(usize, f64)> = row.iter().map(|&(k, v)| (k, -v)).collect();
+                down.push((s, -r));
+                lp.le(down, r + c);
+                let next = [-a * now[0] - 0.2 * before[0], -a * now[1] - 0.2 * before[1]];
+                (before, now) = (now, next);
+            }
+        }
+        lp.le(vec![(s, -1.0)], 1.0);
+        for k in 0..nb {
+            lp.bound(k, -2.0, 2.0);
+        }
+        (lp, s)
+    }
+
+    /// Blocks coupled only by the slack: the largest of the blocks' smallest slacks is the
+    /// whole LP's smallest slack; a shared column couples the blocks into one, and the LP is
+    /// then left to be solved whole.
+    #[test]
+    fn blocks_coupled_by_the_slack_alone_give_the_whole_minimum() {
+        for seed in 0..6 {
+            let (lp, s) = chains_lp(seed, 9, 30, 0);
+            let Optimum::Value(w) = lp.solver().unwrap().minimise(s).unwrap() else {
+                panic!("feasible")
+            };
+            let Some(Optimum::Value(b)) = lp.minimise_by_blocks(s, 24, 0).unwrap() else {
+                panic!("seed {seed}: blocks")
+            };
+            assert!(
+                (w - b).abs() <= 1e-6 * (1.0 + w.abs()),
+                "seed {seed}: whole {w}, blocks {b}"
+            );
+            let (shared, s) = chains_lp(seed, 9, 30, 1);
+            assert_eq!(shared.minimise_by_blocks(s, 24, 0).unwrap(), None);
+            // At or below the threshold the blocks are not taken apart.
+            assert_eq!(lp.minimise_by_blocks(s, 24, lp.le.len()).unwrap(), None);
+        }
     }
 }
