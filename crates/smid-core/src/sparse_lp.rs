@@ -191,76 +191,51 @@ impl SparseLp {
         {
             return Ok(None);
         }
-        let mut root: Vec<usize> = (0..self.n).collect();
-        fn find(root: &mut [usize], mut k: usize) -> usize {
-            while root[k] != k {
-                root[k] = root[root[k]];
-                k = root[k];
-            }
-            k
-        }
-        for (g, _) in self.le.iter().chain(&self.eq) {
-            let mut cols = g.iter().map(|e| e.0).filter(|&k| k != s);
-            if let Some(first) = cols.next() {
-                let r0 = find(&mut root, first);
-                for k in cols {
-                    let rk = find(&mut root, k);
-                    root[rk] = r0;
-                }
-            }
-        }
-        // Block of each column (s excluded), numbered in order of appearance.
-        let mut block_of = vec![usize::MAX; self.n];
-        let mut blocks: Vec<Vec<usize>> = Vec::new();
-        let mut index_of_root = std::collections::HashMap::new();
-        for k in (0..self.n).filter(|&k| k != s) {
-            let r = find(&mut root, k);
-            let b = *index_of_root.entry(r).or_insert_with(|| {
-                blocks.push(Vec::new());
-                blocks.len() - 1
-            });
-            block_of[k] = b;
-            blocks[b].push(k);
-        }
+        let (block_of, blocks) = self.blocks_apart_from(s);
         if blocks.len() < 2 {
             return Ok(None);
         }
-        // Each block's LP: its columns (local numbering), then `s`; rows of `s` alone go to
-        // every block (they bound `s`).
+        // Each block's LP: its columns (local numbering), then `s`; the rows of `s` alone go
+        // to every block (they bound `s`).
         let mut local = vec![usize::MAX; self.n];
         for cols in &blocks {
             for (i, &k) in cols.iter().enumerate() {
                 local[k] = i;
             }
         }
-        let mut lps: Vec<SparseLp> = blocks.iter().map(|c| SparseLp::new(c.len() + 1)).collect();
-        let mut alone: Vec<(Vec<(usize, f64)>, f64)> = Vec::new();
         let to_local = |g: &[(usize, f64)], n_b: usize| -> Vec<(usize, f64)> {
             g.iter()
                 .map(|&(k, v)| (if k == s { n_b } else { local[k] }, v))
                 .collect()
         };
-        for (g, h) in &self.le {
-            match g.iter().find(|e| e.0 != s) {
+        let mut lps: Vec<SparseLp> = blocks.iter().map(|c| SparseLp::new(c.len() + 1)).collect();
+        let mut alone: Vec<&(Vec<(usize, f64)>, f64)> = Vec::new();
+        for row in &self.le {
+            match row.0.iter().find(|e| e.0 != s) {
                 Some(&(k, _)) => {
                     let b = block_of[k];
-                    let n_b = blocks[b].len();
-                    lps[b].le.push((to_local(g, n_b), *h));
+                    lps[b].le.push((to_local(&row.0, blocks[b].len()), row.1));
                 }
-                None => alone.push((g.clone(), *h)),
+                None => alone.push(row),
             }
         }
         for (e, f) in &self.eq {
-            if let Some(&(k, _)) = e.first() {
-                let b = block_of[k];
-                let n_b = blocks[b].len();
-                lps[b].eq.push((to_local(e, n_b), *f));
-            } else if f.abs() > ROW_PAD {
-                return Ok(Some(Optimum::Infeasible));
+            match e.first() {
+                Some(&(k, _)) => {
+                    let b = block_of[k];
+                    lps[b].eq.push((to_local(e, blocks[b].len()), *f));
+                }
+                None if f.abs() > ROW_PAD => return Ok(Some(Optimum::Infeasible)),
+                None => {}
             }
         }
+        // A block without rows of its own only repeats the rows of `s` alone, which every
+        // other block has too.
         let mut worst = f64::NEG_INFINITY;
         for (b, mut lp) in lps.into_iter().enumerate() {
+            if lp.le.is_empty() && lp.eq.is_empty() {
+                continue;
+            }
             let n_b = blocks[b].len();
             lp.le
                 .extend(alone.iter().map(|(g, h)| (to_local(g, n_b), *h)));
@@ -275,7 +250,44 @@ impl SparseLp {
             };
             worst = worst.max(v);
         }
-        Ok(Some(Optimum::Value(worst)))
+        // No block with rows of its own: nothing to take apart.
+        Ok((worst > f64::NEG_INFINITY).then_some(Optimum::Value(worst)))
+    }
+
+    /// The columns other than `s` in blocks that share no row apart from `s` (union-find over
+    /// the rows): each column's block, and each block's columns, in order of first column.
+    fn blocks_apart_from(&self, s: usize) -> (Vec<usize>, Vec<Vec<usize>>) {
+        fn find(root: &mut [usize], mut k: usize) -> usize {
+            while root[k] != k {
+                root[k] = root[root[k]];
+                k = root[k];
+            }
+            k
+        }
+        let mut root: Vec<usize> = (0..self.n).collect();
+        for (g, _) in self.le.iter().chain(&self.eq) {
+            let mut cols = g.iter().map(|e| e.0).filter(|&k| k != s);
+            if let Some(first) = cols.next() {
+                let r0 = find(&mut root, first);
+                for k in cols {
+                    let rk = find(&mut root, k);
+                    root[rk] = r0;
+                }
+            }
+        }
+        let mut block_of = vec![usize::MAX; self.n];
+        let mut block_of_root = vec![usize::MAX; self.n];
+        let mut blocks: Vec<Vec<usize>> = Vec::new();
+        for k in (0..self.n).filter(|&k| k != s) {
+            let r = find(&mut root, k);
+            if block_of_root[r] == usize::MAX {
+                block_of_root[r] = blocks.len();
+                blocks.push(Vec::new());
+            }
+            block_of[k] = block_of_root[r];
+            blocks[block_of[k]].push(k);
+        }
+        (block_of, blocks)
     }
 }
 
