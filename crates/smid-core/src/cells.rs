@@ -100,6 +100,9 @@ pub struct Search<T> {
     /// Undecided cells halved further after the first evaluation (each refinement evaluates
     /// two halves).
     pub refined: usize,
+    /// Whether the leaves' values are the screen's ([`search_screened`]): some leaf stayed
+    /// undecided under the screen, so the finish was not run.
+    pub screened: bool,
 }
 
 impl<T> Search<T> {
@@ -278,6 +281,7 @@ fn run<T: Send + Sync>(
                         discarded: tally.discarded,
                         budget_stopped: stopped,
                         refined: refine.refined,
+                        screened: false,
                     }));
                 }
                 Err(undecided) => undecided,
@@ -287,12 +291,29 @@ fn run<T: Send + Sync>(
         };
         round = refine.cells(undecided, &budget, &mut leaves);
     }
+    Ok(concluded(
+        prior,
+        tally,
+        Search {
+            leaves,
+            evaluated: 0,
+            discarded: 0,
+            budget_stopped: stopped,
+            refined: refine.refined,
+            screened: false,
+        },
+    ))
+}
+
+/// The outcome of a search whose surviving cells are `search.leaves` and whose counts are
+/// `tally`'s: `Falsified` at the latest contradiction when no cell survived.
+fn concluded<T>(prior: &[Interval], tally: Tally, search: Search<T>) -> Outcome<Search<T>> {
     let Tally {
         evaluated,
         discarded,
         worst,
     } = tally;
-    if leaves.is_empty() {
+    if search.leaves.is_empty() {
         let f = match worst {
             // No parameter bisected: the stages' own finding.
             Some(f) if prior.is_empty() => f,
@@ -309,15 +330,80 @@ fn run<T: Send + Sync>(
                 "every cell of the prior box was discarded",
             ),
         };
-        return Ok(Outcome::Falsified(f));
+        return Outcome::Falsified(f);
     }
-    Ok(Outcome::Consistent(Search {
-        leaves,
+    Outcome::Consistent(Search {
         evaluated,
         discarded,
-        budget_stopped: stopped,
-        refined: refine.refined,
-    }))
+        ..search
+    })
+}
+
+/// [`search`] with a cheaper finish first: the search runs with `screen`, whose verdicts
+/// must match `finish`'s where they matter: a cell `screen` leaves undecided, `finish` leaves
+/// undecided too, and `finish`'s value over a cell lies inside `screen`'s (`finish` starts
+/// from `screen`'s result, as a stage-3 method from its [`start`](crate::stage3::Stage3Method::start)).
+/// When every surviving cell has a value, each is finished again by `finish` (in parallel;
+/// `finish` may discard one more), which gives what [`search`] with `finish` gives. When a
+/// cell stays undecided, its undecided value covers every result over it whatever the finish,
+/// so `finish` is not run: the leaves keep `screen`'s values, and the outcome says so
+/// ([`Search::screened`]).
+pub fn search_screened<T: Send + Sync>(
+    prior: &[Interval],
+    budget: Budget,
+    test: &(dyn Fn(&[Interval]) -> Result<Verdict<()>> + Sync),
+    screen: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
+    finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
+    progress: &(dyn Fn(&Progress) + Sync),
+) -> Result<Outcome<Search<T>>> {
+    let screened = match run(prior, budget, test, screen, progress, false)? {
+        Outcome::Consistent(s) => s,
+        falsified => return Ok(falsified),
+    };
+    if screened.leaves.iter().any(|l| l.value.is_none()) {
+        return Ok(Outcome::Consistent(Search {
+            screened: true,
+            ..screened
+        }));
+    }
+    let mut tally = Tally {
+        evaluated: screened.evaluated,
+        discarded: screened.discarded,
+        worst: None,
+    };
+    let done: Vec<Result<Verdict<T>>> = screened
+        .leaves
+        .par_iter()
+        .map(|l| finish(&l.cell))
+        .collect();
+    let mut leaves = Vec::with_capacity(done.len());
+    for (leaf, v) in screened.leaves.into_iter().zip(done) {
+        match v? {
+            Verdict::Infeasible(e) => tally.discard(e),
+            Verdict::Feasible(t) => leaves.push(Leaf {
+                cell: leaf.cell,
+                value: Some(t),
+                cause: None,
+            }),
+            Verdict::Undecided(cause, detail) => leaves.push(Leaf {
+                cell: leaf.cell,
+                value: None,
+                cause: Some((cause, detail)),
+            }),
+        }
+    }
+    Ok(concluded(
+        prior,
+        tally,
+        Search {
+            leaves,
+            evaluated: 0,
+            discarded: 0,
+            budget_stopped: screened.budget_stopped,
+            refined: screened.refined,
+            screened: false,
+        },
+    ))
 }
 
 /// The counts of a search and its latest contradiction.
@@ -631,6 +717,111 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The screened search agrees with the full one on random discs: a screen looser than
+    /// the finish (it discards less and gives other values), undecided exactly where the
+    /// finish is. Without an undecided leaf it gives the full search's outcome, leaf by leaf;
+    /// with one, the full search has one too, the outcome says it was screened, and its
+    /// leaves cover every leaf the full search keeps.
+    #[test]
+    fn the_screened_search_agrees_with_the_full_search() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let (mut screened_seen, mut finished_seen) = (0, 0);
+        for trial in 0..200 {
+            let (cx, cy): (f64, f64) = (rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0));
+            let r: f64 = rng.gen_range(0.01..0.8);
+            let band: f64 = if rng.gen_bool(0.5) {
+                0.0
+            } else {
+                rng.gen_range(0.0..0.3)
+            };
+            let dist2 = move |c: &[Interval]| {
+                let d = |i: Interval, m: f64| {
+                    if i.lo <= m && i.hi >= m {
+                        0.0
+                    } else {
+                        (i.lo - m).abs().min((i.hi - m).abs()).powi(2)
+                    }
+                };
+                d(c[0], cx) + d(c[1], cy)
+            };
+            let test = move |c: &[Interval]| -> Result<Verdict<()>> {
+                Ok(if dist2(c) > (r + 0.3).powi(2) {
+                    Verdict::Infeasible(incons(1))
+                } else {
+                    Verdict::Feasible(())
+                })
+            };
+            let undecided = move |c: &[Interval]| band > 0.0 && c[0].center() < cx - r + band;
+            let judged = move |c: &[Interval], reach: f64, scale: f64| -> Result<Verdict<f64>> {
+                Ok(if undecided(c) {
+                    Verdict::Undecided(UndecidedCause::Unbounded, "left part".into())
+                } else if dist2(c) > reach * reach {
+                    Verdict::Infeasible(incons(2))
+                } else {
+                    Verdict::Feasible(scale * dist2(c))
+                })
+            };
+            let finish = move |c: &[Interval]| judged(c, r, 1.0);
+            let screen = move |c: &[Interval]| judged(c, r + 0.15, 0.5);
+            let budget = || Budget {
+                resolution: vec![0.25, 0.25],
+                depth: 12,
+                max_cells: 400,
+                max_leaves: 16,
+            };
+            let prior = [Interval::new(-2.0, 2.0), Interval::new(-2.0, 2.0)];
+            let full = search(&prior, budget(), &test, &finish, &|_| {}).unwrap();
+            let quick =
+                search_screened(&prior, budget(), &test, &screen, &finish, &|_| {}).unwrap();
+            let (full, quick) = match (full, quick) {
+                (Outcome::Consistent(f), Outcome::Consistent(q)) => (f, q),
+                (Outcome::Falsified(_), Outcome::Falsified(_)) => continue,
+                (f, q) => panic!(
+                    "trial {trial}: full consistent {}, screened consistent {}",
+                    f.is_consistent(),
+                    q.is_consistent()
+                ),
+            };
+            let undecided_leaf = |s: &Search<f64>| s.leaves.iter().any(|l| l.value.is_none());
+            if quick.screened {
+                screened_seen += 1;
+                assert!(
+                    undecided_leaf(&quick) && undecided_leaf(&full),
+                    "trial {trial}"
+                );
+                for l in &full.leaves {
+                    let c = [l.cell[0].center(), l.cell[1].center()];
+                    assert!(
+                        quick
+                            .leaves
+                            .iter()
+                            .any(|q| q.cell[0].contains(c[0]) && q.cell[1].contains(c[1])),
+                        "trial {trial}: a kept cell of the full search is not covered"
+                    );
+                }
+            } else {
+                finished_seen += 1;
+                assert!(!undecided_leaf(&full), "trial {trial}");
+                let key = |s: &Search<f64>| {
+                    let mut v: Vec<(Vec<Interval>, Option<f64>)> =
+                        s.leaves.iter().map(|l| (l.cell.clone(), l.value)).collect();
+                    v.sort_by(|a, b| {
+                        let k = |x: &(Vec<Interval>, Option<f64>)| (x.0[0].lo, x.0[1].lo);
+                        k(a).partial_cmp(&k(b)).unwrap()
+                    });
+                    v
+                };
+                assert_eq!(key(&full), key(&quick), "trial {trial}");
+                assert_eq!(full.discarded, quick.discarded, "trial {trial}");
+            }
+        }
+        assert!(
+            screened_seen > 10 && finished_seen > 10,
+            "{screened_seen} {finished_seen}"
+        );
     }
 
     #[test]

@@ -15,7 +15,7 @@ use crate::effect::{self, Orders, Signals};
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
 use crate::nonlinearity::{tag_of_model, NonlinearitySet, SteadyStateData, Structure};
-use crate::spec::{MethodSpec, ModelSpec};
+use crate::spec::{EivMethod, MethodSpec, ModelSpec};
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
 
@@ -718,6 +718,13 @@ pub struct SearchSummary {
     /// `θ = (-∞, ∞)` (every θ bound is then infinite; the bisected parameters stay bounded).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub unbounded: Vec<UnboundedCell>,
+    /// The stage-3 method whose θ bounds the cells carry, when it is not the spec's: the
+    /// spec's method starts from it, and some cell stayed unbounded under it (so under the
+    /// spec's method too), which leaves every θ bound infinite whatever the tighter method
+    /// finds over the other cells; it was not run. `None`: the cells carry the spec's method's
+    /// bounds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub screened_by: Option<EivMethod>,
 }
 
 fn is_zero(n: &usize) -> bool {

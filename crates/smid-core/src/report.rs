@@ -135,6 +135,15 @@ pub fn table(id: &Identification) -> String {
                 m.search.unbounded[0].detail
             );
         }
+        if let Some(screen) = m.search.screened_by {
+            let _ = writeln!(
+                s,
+                "the cells' θ bounds are `{}`'s: `{}` starts from them and cannot bound the cells \
+                 they leave unbounded, so it cannot change a θ bound, and was not run",
+                screen.name(),
+                m.method.eiv.name()
+            );
+        }
     }
     if let Some(all) = id.all_contain_truth() {
         let _ = writeln!(

@@ -505,8 +505,14 @@ pub fn identify_at_estimate(
     let label = spec.model.label();
     let mut quiet = with_bound(spec, d);
     quiet.method.member.search = false;
+    // `noise.from: free_run` asks the set at `d` only for the simulator that raises the bound:
+    // the set of the method's start (wider, as guaranteed) gives its search box, and the
+    // method's own set at `d` is identified only where the bound stays at `d`.
+    let screen = super::search::screen_of(&quiet.method).filter(|_| spec.noise.from_free_run());
+    let mut probe = with_bound(spec, d);
+    probe.method = screen.clone().unwrap_or_else(|| quiet.method.clone());
     let t0 = std::time::Instant::now();
-    let mut best = identify_with(&quiet, data_with_bound(data, d), truth, progress);
+    let mut best = identify_with(&probe, data_with_bound(data, d), truth, progress);
     log_step(&label, d, "an answer", &best, t0);
     // `noise.from: free_run`: the bound is raised to the margin times the free-run distance
     // from the training records of the best simulator over the set's outer bounds, where that
@@ -524,6 +530,11 @@ pub fn identify_at_estimate(
         }
         _ => None,
     };
+    if raised.is_none() && screen.is_some() {
+        let t0 = std::time::Instant::now();
+        best = identify_with(&quiet, data_with_bound(data, d), truth, progress);
+        log_step(&label, d, "an answer by the method", &best, t0);
+    }
     if let (None, Ok(Outcome::Consistent(id))) = (&raised, best.as_mut()) {
         id.model.method.member = spec.method.member;
         id.model.simulation_member =

@@ -16,7 +16,7 @@ use crate::noise;
 use crate::nonlinearity::{NonlinearitySet, Structure, UnboundedSet};
 use crate::outcome::{Falsification, Outcome};
 use crate::settings::Check;
-use crate::spec::{AlphaSpec, ModelSpec, Spec};
+use crate::spec::{AlphaSpec, MethodSpec, ModelSpec, Spec};
 
 /// Result of a whole identification: the model set and the run's artifacts.
 #[derive(Debug)]
@@ -154,7 +154,12 @@ pub fn identify_with(
     let delta = spec.noise.delta()?;
     let model = &spec.model;
     let method = &spec.method;
-    let (kept, summary) = kept_cells(model, &layout, &training, search)?;
+    let screened_by = search
+        .screened
+        .then(|| screen_of(method).map(|m| m.eiv))
+        .flatten();
+    let (kept, mut summary) = kept_cells(model, &layout, &training, search)?;
+    summary.screened_by = screened_by;
     let truth_of = |n: &str| truth.iter().find(|(k, _)| k == n).map(|(_, v)| *v);
     let (parameters, gnames) = hulls(&layout, &kept, &truth_of);
     let (representative, truth_in_set) = representative_cell(&layout, &kept, &gnames, &truth_of);
@@ -211,6 +216,7 @@ fn kept_cells(
         budget_stopped: search.budget_stopped,
         refined: search.refined,
         unbounded: Vec::new(),
+        screened_by: None,
     };
     // A leaf left undecided when the refinement budget was spent keeps its stage-1 set (the
     // bisected parameters stay bounded) with θ unbounded, and the summary says which and why.
@@ -475,12 +481,37 @@ fn searched(
         max_cells: method.cells.max_cells,
         max_leaves: method.cells.max_leaves,
     };
-    let search = if first_value {
-        cells::search_consistent(&prior, budget, &test, &eval)?
-    } else {
-        cells::search(&prior, budget, &test, &eval, progress)?
+    let search = match screen_of(method).filter(|_| !first_value && !layout.dims.is_empty()) {
+        _ if first_value => cells::search_consistent(&prior, budget, &test, &eval)?,
+        None => cells::search(&prior, budget, &test, &eval, progress)?,
+        Some(cheap) => {
+            let screen =
+                |cell: &[Interval]| evaluate_cell(model, &layout, &cheap, &training, cell, locate);
+            cells::search_screened(&prior, budget, &test, &screen, &eval, progress)?
+        }
     };
     Ok(search.map(|s| (layout, training, s)))
+}
+
+/// The screen of the branch and bound's finish for `method`: the same options with the
+/// stage-3 method its chosen one starts from, through every start (registered defaults, the same equations: band
+/// samples as the chosen method uses them), or `None` for a method that starts from the
+/// problem alone. A cell the start leaves unbounded the chosen method leaves unbounded too
+/// (its start fails there), and its bounds over a cell lie inside the start's.
+pub(super) fn screen_of(method: &MethodSpec) -> Option<MethodSpec> {
+    // The root of the chain of starts: every method on it starts from the one below.
+    let mut start = crate::stage3::configured(method.eiv, &method.options)
+        .ok()?
+        .start()?;
+    while let Some(below) = crate::stage3::method(start).start() {
+        start = below;
+    }
+    Some(MethodSpec {
+        eiv: start,
+        options: serde_json::Map::new(),
+        band_samples: Some(method.use_band_samples()),
+        ..method.clone()
+    })
 }
 
 /// Whether the spec's stage-3 method finds the data consistent at the spec's declared bound,
