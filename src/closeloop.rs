@@ -355,10 +355,14 @@ pub fn format_validation(v: &Validation, records: &[Record]) -> String {
         Some(b) => {
             let _ = writeln!(
                 s,
-                "guaranteed one-step band (every member of the set, from the past outputs; {} of each of {} cell(s), {} of them proven empty): finite at {}/{} samples, mean width {:.4e}; measured outputs outside band ± Δη: {}{}",
+                "guaranteed one-step band (every member of the set, from the past outputs; {} of each of {} cell(s), {} of them proven empty{}): finite at {}/{} samples, mean width {:.4e}; measured outputs outside band ± Δη: {}{}",
                 if b.lp { "LPs over the θ polytope" } else { "interval arithmetic over the θ box" },
                 b.cells,
                 b.empty_cells,
+                match b.unevaluated {
+                    0 => String::new(),
+                    k => format!(", {k} not evaluated: a cell with θ unbounded bounds no sample"),
+                },
                 b.finite,
                 b.samples,
                 b.mean_width,

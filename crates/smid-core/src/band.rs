@@ -30,7 +30,7 @@
 //! them inside their measurement boxes (`y ± Δ` less the sensor terms) instead of inverting.
 //!
 //! The band is the hull over the cells; a cell whose `θ` the budget left unbounded makes it
-//! unbounded. Guarantee: with the training and the record's noise inside their bounds, the true
+//! unbounded (such cells are evaluated first: one that bounds no sample ends the work). Guarantee: with the training and the record's noise inside their bounds, the true
 //! parameters lie in some cell, in its polytope and its nonlinearity set, so the true output at
 //! `t` passes every test above.
 use crate::chain;
@@ -73,6 +73,9 @@ pub struct Band {
     /// Whether the prediction's range came from the LPs over each cell's polytope (else from
     /// its `θ` box, see [`LP_CELLS`]).
     pub lp: bool,
+    /// Cells not evaluated: a cell with `θ` unbounded already left the band unbounded at
+    /// every sample (0 when every cell was evaluated).
+    pub unevaluated: usize,
 }
 
 impl Band {
@@ -100,10 +103,35 @@ pub fn one_step_band(set: &ModelSet, rec: &Record) -> Result<Band> {
     let layout = set.layout()?;
     let n = rec.y.len();
     let lp = set.cells.len() <= LP_CELLS;
-    let per_cell: Vec<Option<Vec<Interval>>> = (0..set.cells.len())
-        .into_par_iter()
-        .map(|k| cell_band(set, layout, k, rec, lp))
-        .collect::<Result<_>>()?;
+    let band_of = |cells: &[usize]| -> Result<Vec<Option<Vec<Interval>>>> {
+        cells
+            .par_iter()
+            .map(|&k| cell_band(set, layout, k, rec, lp))
+            .collect()
+    };
+    // The cells whose θ the search left unbounded first: one that is not proven empty and
+    // guarantees nothing at any sample makes the hull unbounded everywhere, whatever the
+    // other cells give, and they are not evaluated.
+    let (open, bounded): (Vec<usize>, Vec<usize>) =
+        (0..set.cells.len()).partition(|&k| set.cells[k].theta.iter().any(|i| !i.is_finite()));
+    let mut per_cell = band_of(&open)?;
+    let nowhere = |b: &Option<Vec<Interval>>| {
+        b.as_ref().is_some_and(|b| {
+            b.iter()
+                .all(|i| i.lo == f64::NEG_INFINITY && i.hi == f64::INFINITY)
+        })
+    };
+    if per_cell.iter().any(nowhere) {
+        return Ok(Band {
+            lower: vec![f64::NEG_INFINITY; n],
+            upper: vec![f64::INFINITY; n],
+            cells: set.cells.len(),
+            empty_cells: per_cell.iter().filter(|b| b.is_none()).count(),
+            lp,
+            unevaluated: bounded.len(),
+        });
+    }
+    per_cell.extend(band_of(&bounded)?);
     let mut lower = vec![f64::INFINITY; n];
     let mut upper = vec![f64::NEG_INFINITY; n];
     let mut empty = 0;
@@ -129,6 +157,7 @@ pub fn one_step_band(set: &ModelSet, rec: &Record) -> Result<Band> {
         cells: per_cell.len(),
         empty_cells: empty,
         lp,
+        unevaluated: 0,
     })
 }
 

@@ -202,6 +202,9 @@ pub struct BandSummary {
     pub cells: usize,
     /// How many of those cells the training equations prove empty.
     pub empty_cells: usize,
+    /// Cells not evaluated: a cell whose `θ` is unbounded already left the band unbounded at
+    /// every sample.
+    pub unevaluated: usize,
     /// The prediction's range by LPs over each cell's `θ` polytope (else over its `θ` box:
     /// more than [`crate::band::LP_CELLS`] cells).
     pub lp: bool,
@@ -514,6 +517,7 @@ fn add_to_band_summary(
         let sum = BandSummary {
             cells: b.cells,
             empty_cells: b.empty_cells,
+            unevaluated: b.unevaluated,
             lp: b.lp,
             samples: 0,
             finite: 0,
