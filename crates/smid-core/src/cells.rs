@@ -216,7 +216,7 @@ pub fn search<T: Send + Sync>(
     finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
     progress: &(dyn Fn(&Progress) + Sync),
 ) -> Result<Outcome<Search<T>>> {
-    run(prior, budget, test, finish, progress, false)
+    Ok(run(prior, budget, test, finish, progress, false)?.concluded(prior))
 }
 
 /// Whether the data are consistent, by the same search as [`search`], stopping at the first
@@ -230,7 +230,7 @@ pub fn search_consistent<T: Send + Sync>(
     test: &(dyn Fn(&[Interval]) -> Result<Verdict<()>> + Sync),
     finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
 ) -> Result<Outcome<Search<T>>> {
-    run(prior, budget, test, finish, &|_| {}, true)
+    Ok(run(prior, budget, test, finish, &|_| {}, true)?.concluded(prior))
 }
 
 /// The search of [`search`] and [`search_consistent`] (`first_value`): the levels of tests
@@ -243,7 +243,7 @@ fn run<T: Send + Sync>(
     finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
     progress: &(dyn Fn(&Progress) + Sync),
     first_value: bool,
-) -> Result<Outcome<Search<T>>> {
+) -> Result<Ran<T>> {
     for (k, p) in prior.iter().enumerate() {
         if !(p.lo.is_finite() && p.hi.is_finite() && p.lo <= p.hi) {
             return Err(SmidError::invalid(
@@ -275,7 +275,7 @@ fn run<T: Send + Sync>(
         let undecided = if first_value {
             match finish_first(round, finish, &mut tally)? {
                 Ok(leaf) => {
-                    return Ok(Outcome::Consistent(Search {
+                    return Ok(Ran::First(Search {
                         leaves: vec![leaf],
                         evaluated: tally.evaluated,
                         discarded: tally.discarded,
@@ -291,52 +291,74 @@ fn run<T: Send + Sync>(
         };
         round = refine.cells(undecided, &budget, &mut leaves);
     }
-    Ok(concluded(
-        prior,
+    Ok(Ran::All(Finished {
+        leaves,
         tally,
-        Search {
-            leaves,
-            evaluated: 0,
-            discarded: 0,
-            budget_stopped: stopped,
-            refined: refine.refined,
-            screened: false,
-        },
-    ))
+        budget_stopped: stopped,
+        refined: refine.refined,
+    }))
 }
 
-/// The outcome of a search whose surviving cells are `search.leaves` and whose counts are
-/// `tally`'s: `Falsified` at the latest contradiction when no cell survived.
-fn concluded<T>(prior: &[Interval], tally: Tally, search: Search<T>) -> Outcome<Search<T>> {
-    let Tally {
-        evaluated,
-        discarded,
-        worst,
-    } = tally;
-    if search.leaves.is_empty() {
-        let f = match worst {
-            // No parameter bisected: the stages' own finding.
-            Some(f) if prior.is_empty() => f,
-            Some(f) => Falsification {
-                detail: format!(
-                    "no value in the prior box of the bisected parameters fits ({evaluated} cells tried); the latest contradiction: {}",
-                    f.detail
-                ),
-                ..f
-            },
-            None => Falsification::new(
-                Stage::Linear,
-                0,
-                "every cell of the prior box was discarded",
-            ),
-        };
-        return Outcome::Falsified(f);
+/// What [`run`] ends with: the first leaf with a value (`first_value`), or every surviving
+/// leaf with the search's counts, to be concluded.
+enum Ran<T> {
+    First(Search<T>),
+    All(Finished<T>),
+}
+
+impl<T> Ran<T> {
+    fn concluded(self, prior: &[Interval]) -> Outcome<Search<T>> {
+        match self {
+            Ran::First(s) => Outcome::Consistent(s),
+            Ran::All(f) => f.concluded(prior),
+        }
     }
-    Outcome::Consistent(Search {
-        evaluated,
-        discarded,
-        ..search
-    })
+}
+
+/// The surviving leaves of a whole search, its counts and latest contradiction.
+struct Finished<T> {
+    leaves: Vec<Leaf<T>>,
+    tally: Tally,
+    budget_stopped: bool,
+    refined: usize,
+}
+
+impl<T> Finished<T> {
+    /// `Falsified` at the latest contradiction when no cell survived, else the search.
+    fn concluded(self, prior: &[Interval]) -> Outcome<Search<T>> {
+        let Tally {
+            evaluated,
+            discarded,
+            worst,
+        } = self.tally;
+        if self.leaves.is_empty() {
+            let f = match worst {
+                // No parameter bisected: the stages' own finding.
+                Some(f) if prior.is_empty() => f,
+                Some(f) => Falsification {
+                    detail: format!(
+                        "no value in the prior box of the bisected parameters fits ({evaluated} cells tried); the latest contradiction: {}",
+                        f.detail
+                    ),
+                    ..f
+                },
+                None => Falsification::new(
+                    Stage::Linear,
+                    0,
+                    "every cell of the prior box was discarded",
+                ),
+            };
+            return Outcome::Falsified(f);
+        }
+        Outcome::Consistent(Search {
+            leaves: self.leaves,
+            evaluated,
+            discarded,
+            budget_stopped: self.budget_stopped,
+            refined: self.refined,
+            screened: false,
+        })
+    }
 }
 
 /// [`search`] with a cheaper finish first: the search runs with `screen`, whose verdicts
@@ -344,10 +366,10 @@ fn concluded<T>(prior: &[Interval], tally: Tally, search: Search<T>) -> Outcome<
 /// undecided too, and `finish`'s value over a cell lies inside `screen`'s (`finish` starts
 /// from `screen`'s result, as a stage-3 method from its [`start`](crate::stage3::Stage3Method::start)).
 /// When every surviving cell has a value, each is finished again by `finish` (in parallel;
-/// `finish` may discard one more), which gives what [`search`] with `finish` gives. When a
-/// cell stays undecided, its undecided value covers every result over it whatever the finish,
-/// so `finish` is not run: the leaves keep `screen`'s values, and the outcome says so
-/// ([`Search::screened`]).
+/// `finish` may discard one more), which gives what [`search`] with `finish` gives, the
+/// screen's discards counted in the latest contradiction. When a cell stays undecided, its
+/// undecided value covers every result over it whatever the finish, so `finish` is not run:
+/// the leaves keep `screen`'s values, and the outcome says so ([`Search::screened`]).
 pub fn search_screened<T: Send + Sync>(
     prior: &[Interval],
     budget: Budget,
@@ -356,54 +378,34 @@ pub fn search_screened<T: Send + Sync>(
     finish: &(dyn Fn(&[Interval]) -> Result<Verdict<T>> + Sync),
     progress: &(dyn Fn(&Progress) + Sync),
 ) -> Result<Outcome<Search<T>>> {
-    let screened = match run(prior, budget, test, screen, progress, false)? {
-        Outcome::Consistent(s) => s,
-        falsified => return Ok(falsified),
+    let mut ran = match run(prior, budget, test, screen, progress, false)? {
+        Ran::All(f) => f,
+        first => return Ok(first.concluded(prior)),
     };
-    if screened.leaves.iter().any(|l| l.value.is_none()) {
-        return Ok(Outcome::Consistent(Search {
+    if ran.leaves.iter().any(|l| l.value.is_none()) {
+        return Ok(ran.concluded(prior).map(|s| Search {
             screened: true,
-            ..screened
+            ..s
         }));
     }
-    let mut tally = Tally {
-        evaluated: screened.evaluated,
-        discarded: screened.discarded,
-        worst: None,
-    };
-    let done: Vec<Result<Verdict<T>>> = screened
-        .leaves
-        .par_iter()
-        .map(|l| finish(&l.cell))
+    // The same cells again, not new ones: the count stays the screen's.
+    let evaluated = ran.tally.evaluated;
+    let round: Vec<(Vec<Interval>, Vec<u32>)> = std::mem::take(&mut ran.leaves)
+        .into_iter()
+        .map(|l| {
+            let d = depth_of(&l.cell, prior);
+            (l.cell, d)
+        })
         .collect();
-    let mut leaves = Vec::with_capacity(done.len());
-    for (leaf, v) in screened.leaves.into_iter().zip(done) {
-        match v? {
-            Verdict::Infeasible(e) => tally.discard(e),
-            Verdict::Feasible(t) => leaves.push(Leaf {
-                cell: leaf.cell,
-                value: Some(t),
-                cause: None,
-            }),
-            Verdict::Undecided(cause, detail) => leaves.push(Leaf {
-                cell: leaf.cell,
-                value: None,
-                cause: Some((cause, detail)),
-            }),
-        }
-    }
-    Ok(concluded(
-        prior,
-        tally,
-        Search {
-            leaves,
-            evaluated: 0,
-            discarded: 0,
-            budget_stopped: screened.budget_stopped,
-            refined: screened.refined,
-            screened: false,
-        },
-    ))
+    let undecided = finish_all(round, finish, &mut ran.tally, &mut ran.leaves)?;
+    ran.tally.evaluated = evaluated;
+    ran.leaves
+        .extend(undecided.into_iter().map(|(cell, _, why)| Leaf {
+            cell,
+            value: None,
+            cause: Some(why),
+        }));
+    Ok(ran.concluded(prior))
 }
 
 /// The counts of a search and its latest contradiction.

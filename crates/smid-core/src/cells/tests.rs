@@ -84,7 +84,7 @@ fn the_verdict_search_agrees_with_the_full_search() {
 fn the_screened_search_agrees_with_the_full_search() {
     use rand::{Rng, SeedableRng};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
-    let (mut screened_seen, mut finished_seen) = (0, 0);
+    let (mut screened_seen, mut finished_seen, mut falsified_seen) = (0, 0, 0);
     for trial in 0..200 {
         let (cx, cy): (f64, f64) = (rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0));
         let r: f64 = rng.gen_range(0.01..0.8);
@@ -106,7 +106,9 @@ fn the_screened_search_agrees_with_the_full_search() {
             Ok(if undecided(c) {
                 Verdict::Undecided(UndecidedCause::Unbounded, "left part".into())
             } else if dist2(c) > reach * reach {
-                Verdict::Infeasible(incons(2))
+                // Each cell contradicted at its own sample, so the latest one is the union's
+                // only when every discarded cell is counted.
+                Verdict::Infeasible(incons(((c[0].lo + 3.0) * 1000.0) as usize))
             } else {
                 Verdict::Feasible(scale * dist2(c))
             })
@@ -124,7 +126,14 @@ fn the_screened_search_agrees_with_the_full_search() {
         let quick = search_screened(&prior, budget(), &test, &screen, &finish, &|_| {}).unwrap();
         let (full, quick) = match (full, quick) {
             (Outcome::Consistent(f), Outcome::Consistent(q)) => (f, q),
-            (Outcome::Falsified(_), Outcome::Falsified(_)) => continue,
+            (Outcome::Falsified(f), Outcome::Falsified(q)) => {
+                falsified_seen += 1;
+                assert_eq!(
+                    f.sample, q.sample,
+                    "trial {trial}: the latest contradiction"
+                );
+                continue;
+            }
             (f, q) => panic!(
                 "trial {trial}: full consistent {}, screened consistent {}",
                 f.is_consistent(),
@@ -165,8 +174,8 @@ fn the_screened_search_agrees_with_the_full_search() {
         }
     }
     assert!(
-        screened_seen > 10 && finished_seen > 10,
-        "{screened_seen} {finished_seen}"
+        screened_seen > 10 && finished_seen > 10 && falsified_seen > 10,
+        "{screened_seen} {finished_seen} {falsified_seen}"
     );
 }
 

@@ -481,13 +481,17 @@ fn searched(
         max_cells: method.cells.max_cells,
         max_leaves: method.cells.max_leaves,
     };
-    let search = match screen_of(method).filter(|_| !first_value && !layout.dims.is_empty()) {
-        _ if first_value => cells::search_consistent(&prior, budget, &test, &eval)?,
-        None => cells::search(&prior, budget, &test, &eval, progress)?,
-        Some(cheap) => {
-            let screen =
-                |cell: &[Interval]| evaluate_cell(model, &layout, &cheap, &training, cell, locate);
-            cells::search_screened(&prior, budget, &test, &screen, &eval, progress)?
+    let search = if first_value {
+        cells::search_consistent(&prior, budget, &test, &eval)?
+    } else {
+        match screen_of(method).filter(|_| !layout.dims.is_empty()) {
+            None => cells::search(&prior, budget, &test, &eval, progress)?,
+            Some(cheap) => {
+                let screen = |cell: &[Interval]| {
+                    evaluate_cell(model, &layout, &cheap, &training, cell, locate)
+                };
+                cells::search_screened(&prior, budget, &test, &screen, &eval, progress)?
+            }
         }
     };
     Ok(search.map(|s| (layout, training, s)))
@@ -499,7 +503,8 @@ fn searched(
 /// problem alone. A cell the start leaves unbounded the chosen method leaves unbounded too
 /// (its start fails there), and its bounds over a cell lie inside the start's.
 pub(super) fn screen_of(method: &MethodSpec) -> Option<MethodSpec> {
-    // The root of the chain of starts: every method on it starts from the one below.
+    // The root of the chain of starts: every method on it starts from the one below. Options
+    // the method refuses give no screen here; the method itself reports them on the first cell.
     let mut start = crate::stage3::configured(method.eiv, &method.options)
         .ok()?
         .start()?;
