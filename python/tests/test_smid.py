@@ -422,13 +422,14 @@ def test_a_chain_identifies_validates_and_simulates_like_the_cli(tmp_path):
 
 def test_measured_tanks_identify_from_arrays_with_the_default_method():
     """`noise: estimate` with the default stage-3 method on a measured record (the cascaded
-    tanks' training rows): without a stable declaration the error says what to change; with
-    `stable: true` the answer is bounded."""
+    tanks' first 300 training rows): without a stable declaration the error says what to
+    change; with `stable: true` the answer is bounded (the bounds alone: the member search is
+    another test's)."""
     data = ROOT.parent / "shared" / "data" / "cascaded-tanks" / "tanks_estimation.csv"
     if not data.exists():
         pytest.skip(f"{data} is absent")
     with data.open() as f:
-        rows = list(csv.DictReader(f))[:683]
+        rows = list(csv.DictReader(f))[:300]
     u = np.array([float(r["u_V"]) for r in rows])
     y = np.array([float(r["y_V"]) for r in rows])
     model = {"structure": "wiener", "nonlinearity": {"type": "linear"}, "na": 3, "nb": 3, "nk": 1,
@@ -436,7 +437,8 @@ def test_measured_tanks_identify_from_arrays_with_the_default_method():
     with pytest.raises(smid.UnboundedError) as e:
         smid.identify_arrays(u, y, model=model, noise={"estimate": 1.1}, dt=4.0)
     assert "model.stable: true" in str(e.value) and "method.eiv: classical" in str(e.value)
-    r = smid.identify_arrays(u, y, model={**model, "stable": True}, noise={"estimate": 1.1}, dt=4.0)
+    r = smid.identify_arrays(u, y, model={**model, "stable": True}, noise={"estimate": 1.1}, dt=4.0,
+                             method={"member": {"search": False}})
     assert r.consistent
     assert all(math.isfinite(p.lower) and math.isfinite(p.upper) for p in r.parameters)
 

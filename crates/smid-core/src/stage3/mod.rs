@@ -33,7 +33,6 @@ mod method;
 mod problem;
 pub mod relax;
 pub mod shared;
-#[cfg(any(test, feature = "testutil"))]
 pub mod testutil;
 pub(crate) mod working_set;
 

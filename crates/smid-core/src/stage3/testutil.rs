@@ -1,7 +1,8 @@
 //! Test helpers of the stage-3 methods: random stable linear blocks (with or without extra
 //! regressor columns) with interval-valued inner signals whose bounds contain the truth
-//! (eqs 28-30), and the EIV problem over them. Compiled for the core's own tests and, with the
-//! feature `testutil`, for the tests of a stage-3 method in a crate of its own.
+//! (eqs 28-30), and the EIV problem over them: the cases the core's methods are tested on, for
+//! the tests of a stage-3 method in a crate of its own too. Always compiled, so that a test
+//! build and a release build of the core are one build (no feature splits it in two).
 use super::{EivProblem, Regressor};
 use crate::interval::Interval;
 use crate::inversion::{InnerBound, InnerKind};
