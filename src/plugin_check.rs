@@ -56,6 +56,9 @@ pub struct PluginTrial {
     pub steady: (f64, f64),
     /// Amplitude of the dynamic record (PRBS).
     pub amplitude: f64,
+    /// Input levels of the dynamic record (the plugin's
+    /// [`NonlinearityModel::check_levels`]; 2: the binary PRBS).
+    pub levels: usize,
 }
 
 impl PluginTrial {
@@ -73,7 +76,9 @@ impl PluginTrial {
                 format!("`{}` offered no random trial for seed {seed}", case.name),
             )
         })?;
+        let levels = draw.model.check_levels(case.structure);
         Ok(PluginTrial {
+            levels,
             plugin: case.name,
             structure: case.structure,
             linear,
@@ -99,6 +104,7 @@ impl PluginTrial {
         experiment.steady_state.amplitudes = 20;
         experiment.dynamic.length = 100;
         experiment.dynamic.amplitude = self.amplitude;
+        experiment.dynamic.levels = self.levels;
         let spec = Spec {
             name: Some(format!("{}-trial-{}", self.plugin, self.seed)),
             plant: PlantSpec::default(),

@@ -142,6 +142,19 @@ pub fn backward(blocks: &[&dyn NonlinearitySet], y: &[f64], dy: &[f64]) -> Resul
 
 /// Invert `block` from interval outputs, run by run between unknown samples.
 fn invert_runs(block: &dyn NonlinearitySet, w: &[InnerBound]) -> Result<Vec<InnerBound>> {
+    // A two-sided preimage (a sample behind `|·|`) enters the next block as its hull.
+    let w: Vec<InnerBound> = w
+        .iter()
+        .map(|b| InnerBound {
+            interval: b.hull(),
+            kind: if b.kind == InnerKind::Mirrored {
+                InnerKind::Band
+            } else {
+                b.kind
+            },
+        })
+        .collect();
+    let w = &w[..];
     let mut out = vec![InnerBound::unknown(); w.len()];
     let mut t = 0;
     while t < w.len() {

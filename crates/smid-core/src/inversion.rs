@@ -81,6 +81,13 @@ pub enum InnerKind {
     Band,
     /// Nothing is known (e.g. the first sample).
     Unknown,
+    /// The measurement has a preimage of two intervals, mirror images of each other: the
+    /// sample lies in `interval` or in `-interval` (behind `|·|` or another even map, where
+    /// the output cannot tell the sign of its input). Stage 3 takes such samples as unusable
+    /// (every bound it computes without them holds); the pipeline's sign search
+    /// ([`crate::pipeline::signs`]) decides their signs branch by branch and bounds each
+    /// surviving pattern. Anything that needs one interval takes [`InnerBound::hull`].
+    Mirrored,
 }
 
 /// A guaranteed bound on one inner-signal sample.
@@ -98,6 +105,49 @@ impl InnerBound {
         InnerBound {
             interval: Interval::entire(),
             kind: InnerKind::Unknown,
+        }
+    }
+
+    /// A sample that lies in `interval` or in `-interval` ([`InnerKind::Mirrored`]).
+    pub fn mirrored(interval: Interval) -> Self {
+        InnerBound {
+            interval,
+            kind: InnerKind::Mirrored,
+        }
+    }
+
+    /// One interval that holds the sample: the interval itself, or for a mirrored sample the
+    /// hull of `interval` and `-interval`.
+    pub fn hull(&self) -> Interval {
+        match self.kind {
+            InnerKind::Mirrored => Interval::new(
+                self.interval.lo.min(-self.interval.hi),
+                self.interval.hi.max(-self.interval.lo),
+            ),
+            _ => self.interval,
+        }
+    }
+
+    /// Whether the bound holds `v`: inside `interval`, or for a mirrored sample inside its
+    /// mirror image too.
+    pub fn contains(&self, v: f64) -> bool {
+        self.interval.contains(v)
+            || (self.kind == InnerKind::Mirrored && self.interval.contains(-v))
+    }
+
+    /// The sample with the sign of a mirrored one decided: `interval` (`positive`) or
+    /// `-interval`, as an inverted sample. Any other sample is returned unchanged.
+    pub fn with_sign(&self, positive: bool) -> Self {
+        match self.kind {
+            InnerKind::Mirrored if positive => InnerBound {
+                interval: self.interval,
+                kind: InnerKind::Inverted,
+            },
+            InnerKind::Mirrored => InnerBound {
+                interval: Interval::new(-self.interval.hi, -self.interval.lo),
+                kind: InnerKind::Inverted,
+            },
+            _ => *self,
         }
     }
 }

@@ -436,6 +436,12 @@ pub trait NonlinearityModel: Debug + Send + Sync {
     fn check_draw(&self, _structure: Structure, _rng: &mut dyn RngCore) -> Option<CheckDraw> {
         None
     }
+    /// The number of input levels of the containment trial's dynamic record in `structure`
+    /// (`experiment.dynamic.levels`). Default: 2, the binary PRBS. A block that maps `±a` to
+    /// one value (an even map on the input side) needs more, or its output is constant.
+    fn check_levels(&self, _structure: Structure) -> usize {
+        2
+    }
 }
 
 /// Share of its input's range that a branch offset (`c_l`, `c_r`) of a
@@ -605,7 +611,7 @@ pub trait NonlinearitySet: Debug + Send + Sync {
     /// Default: the inversion of that one sample (without history, as [`NonlinearitySet::invert`]
     /// must allow for). A unit-gain filter returns `[y - dy, y + dy]`.
     fn invert_steady(&self, y: f64, dy: f64) -> Result<Interval> {
-        Ok(self.invert(&[y], &[dy])?[0].interval)
+        Ok(self.invert(&[y], &[dy])?[0].hull())
     }
     /// The block's input at the end of a step during which that input moved **monotonically**
     /// (up when `rising`) from one steady state to another, from the steady outputs before

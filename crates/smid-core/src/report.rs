@@ -87,14 +87,16 @@ pub fn table(id: &Identification) -> String {
     if let Some(w) = id.model.unsettled_warning() {
         let _ = writeln!(s, "warning: {w}");
     }
-    let inverted = id
-        .inner
-        .iter()
-        .filter(|b| b.kind == InnerKind::Inverted)
-        .count();
+    let count = |k: InnerKind| id.inner.iter().filter(|b| b.kind == k).count();
+    let (inverted, mirrored) = (count(InnerKind::Inverted), count(InnerKind::Mirrored));
+    let signs = if mirrored > 0 {
+        format!(" ({mirrored} more up to their sign, decided by the sign search)")
+    } else {
+        String::new()
+    };
     let _ = writeln!(
         s,
-        "inner signal: {inverted} of {} samples inverted; {} equations in stage 3",
+        "inner signal: {inverted} of {} samples inverted{signs}; {} equations in stage 3",
         id.inner.len(),
         id.equations.len()
     );
@@ -173,6 +175,7 @@ pub fn result_json(id: &Identification) -> serde_json::Value {
         "inner_signal": {
             "samples": id.inner.len(),
             "inverted": id.inner.iter().filter(|b| b.kind == InnerKind::Inverted).count(),
+            "mirrored": id.inner.iter().filter(|b| b.kind == InnerKind::Mirrored).count(),
             "truth_violations": id.inner_violations,
             "bounds": id.inner,
         },

@@ -12,12 +12,14 @@
 //!
 //! The private files, one concern each: `acquire` (data), `stages` (stages 1-3 over a cell),
 //! `search` (the branch and bound and the hulls), `estimate` (the noise bound from the data),
-//! `bracket` (the bracket of an estimated bound and the identification at the bound it keeps).
+//! `bracket` (the bracket of an estimated bound and the identification at the bound it keeps),
+//! `signs` (stage 3 over the sign patterns of samples with a two-sided preimage).
 //! Everything is re-exported here, so callers name `pipeline::stage2`, `pipeline::identify`...
 mod acquire;
 mod bracket;
 mod estimate;
 mod search;
+pub mod signs;
 mod stages;
 
 pub use acquire::*;

@@ -351,7 +351,12 @@ fn representative_artifacts(
         &training.records,
     )?;
     // The equations stage 3 used (every method uses every usable one): listed, not re-solved.
-    let equations = eiv_problem(model, layout, method, &sig, None).equation_times();
+    // Samples of two-sided preimage with a sign decided: every pattern uses the same ones.
+    let listed = StageSignals {
+        output: sig.output.iter().map(|b| b.with_sign(true)).collect(),
+        ..sig.clone()
+    };
+    let equations = eiv_problem(model, layout, method, &listed, None).equation_times();
     let first_len = training.records[0].y.len();
     // The inner signal: the nonlinearity's input (Wiener) or output (Hammerstein).
     let inner: Vec<InnerBound> = match model.structure {
@@ -365,7 +370,7 @@ fn representative_artifacts(
     let inner_violations = training.records[0].x.as_ref().map(|x| {
         x.iter()
             .zip(&inner)
-            .filter(|(v, b)| b.interval.is_finite() && !b.interval.contains(**v))
+            .filter(|(v, b)| b.interval.is_finite() && !b.contains(**v))
             .count()
     });
     Ok((inner, equations, inner_violations))

@@ -8,7 +8,7 @@ use crate::chain::{self, Side};
 use crate::effect::{self, Signals};
 use crate::error::{Result, SmidError, Stage};
 use crate::interval::Interval;
-use crate::inversion::InnerBound;
+use crate::inversion::{InnerBound, InnerKind};
 use crate::model::{CellSet, Layout, Training};
 use crate::nonlinearity::{NonlinearitySet, SteadyStateData, Structure};
 use crate::spec::{MethodSpec, ModelSpec};
@@ -594,7 +594,7 @@ pub fn stage2(
         }));
         let xs: Vec<Interval> = out.output[out.output.len() - n..]
             .iter()
-            .map(|b| b.interval)
+            .map(|b| b.hull())
             .collect();
         let cols = effect::regressors(
             &model.effects,
@@ -637,7 +637,23 @@ pub fn eiv_problem<'a>(
 /// Stage 3 on stage-2 signals, with an optional prior box on `θ`. An inconsistency names the
 /// sample in the concatenation (see [`relabel`]): the first offending one with `locate`, else
 /// the last equation, marked not located ([`EivProblem::locate`]: a verdict saves the search).
+/// Samples of two-sided preimage go through the sign search ([`super::signs`]).
 pub fn stage3(
+    model: &ModelSpec,
+    layout: &Layout,
+    method: &MethodSpec,
+    sig: &StageSignals,
+    prior: Option<&[Interval]>,
+    locate: bool,
+) -> Result<EivResult> {
+    if sig.output.iter().any(|b| b.kind == InnerKind::Mirrored) {
+        return super::signs::stage3_over_signs(model, layout, method, sig, prior, locate);
+    }
+    stage3_decided(model, layout, method, sig, prior, locate)
+}
+
+/// [`stage3`] on signals whose every sample has one interval.
+pub(crate) fn stage3_decided(
     model: &ModelSpec,
     layout: &Layout,
     method: &MethodSpec,
@@ -735,7 +751,12 @@ pub fn test_cell(
         let set = stage1(model, layout, training.steady.as_ref(), cell)?;
         let sig = stage2(model, layout, set.as_ref(), cell, &training.records)?;
         let problem = eiv_problem(model, layout, method, &sig, None);
-        if crate::stage3::feasible(&problem)? {
+        let holds = if problem.has_mirrored() {
+            super::signs::feasible_over_signs(model, layout, method, &sig)?
+        } else {
+            crate::stage3::feasible(&problem)?
+        };
+        if holds {
             Ok(())
         } else {
             // Named in its record (the concatenation's last sample).

@@ -650,6 +650,51 @@ pub struct MethodSpec {
     /// fits the training records best.
     #[serde(default)]
     pub member: MemberSpec,
+    /// Budget of the sign search over samples whose preimage is two intervals (behind `|·|`).
+    #[serde(default, skip_serializing_if = "SignSpec::is_default")]
+    pub signs: SignSpec,
+}
+
+/// Budget of the sign search ([`crate::pipeline::signs`]): where a block cannot tell the sign
+/// of its input (`|·|`), each sample's sign is decided by a depth-first search over the
+/// patterns, a node per decided sample, each node one feasibility LP. Past the budget the
+/// patterns left are reported unexplored (the set is then unbounded), never dropped.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SignSpec {
+    /// Most nodes of the search (1 to 10000000; default 200000).
+    #[serde(default = "d_sign_nodes")]
+    pub nodes: usize,
+}
+
+fn d_sign_nodes() -> usize {
+    200_000
+}
+
+impl Default for SignSpec {
+    fn default() -> Self {
+        SignSpec {
+            nodes: d_sign_nodes(),
+        }
+    }
+}
+
+impl SignSpec {
+    fn is_default(&self) -> bool {
+        *self == SignSpec::default()
+    }
+}
+
+impl crate::settings::Check for SignSpec {
+    const PLACE: &'static str = "method.signs";
+    fn invalid(&self) -> Option<(&'static str, String)> {
+        (!(1..=10_000_000).contains(&self.nodes)).then(|| {
+            (
+                "nodes",
+                format!("expected 1 <= nodes <= 10000000, got {}", self.nodes),
+            )
+        })
+    }
 }
 
 /// Budget of the search for the simulation member ([`crate::members::simulation`]), a point

@@ -233,6 +233,7 @@ impl Spec {
             None => {
                 use crate::settings::Check;
                 self.method.member.check()?;
+                self.method.signs.check()?;
                 self.diagnosis.check().map(|_| ())
             }
         }

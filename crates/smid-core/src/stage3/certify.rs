@@ -46,6 +46,11 @@ const BLOCKS_ABOVE: usize = 20_000;
 /// the unit gain (eq 8) or the solver gave no conclusion. Uncertain extra columns are refused
 /// (as by the method).
 pub fn consistency_at(prob: &EivProblem, theta: &[f64]) -> Result<f64> {
+    if prob.has_mirrored() {
+        // A sample whose sign is undecided constrains the equations only through its sign
+        // pattern: no certificate here (the member search decides the signs first).
+        return Ok(f64::INFINITY);
+    }
     let times = lp_times(prob);
     check_extras(prob, &times)?;
     if prob.unit_gain {
@@ -103,6 +108,9 @@ fn point_at_a(
     a: &[f64],
     objective: Option<(usize, bool)>,
 ) -> Result<(f64, Option<Vec<f64>>)> {
+    if prob.has_mirrored() {
+        return Ok((f64::INFINITY, None));
+    }
     let times = lp_times(prob);
     check_extras(prob, &times)?;
     let dims: Vec<usize> = (0..prob.na).filter(|&k| prob.fixed[k].is_none()).collect();

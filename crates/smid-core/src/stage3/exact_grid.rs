@@ -458,6 +458,13 @@ pub fn solve_from(
     mut tick: impl FnMut(),
 ) -> Result<ExactResult> {
     prob.validate()?;
+    if prob.has_mirrored() {
+        // Its inner hull certifies points, and a sample of undecided sign certifies nothing.
+        return Err(SmidError::Unsupported {
+            plugin: NAME.into(),
+            what: "samples of undecided sign (a two-sided preimage): the pipeline's sign search decides them first".into(),
+        });
+    }
     let model = SharedModel::new(prob, start.equations.clone());
     let dims = gridded(prob, &model)?;
     let mut db = model.initial_deltas();

@@ -173,6 +173,13 @@ impl EivProblem<'_> {
         }
     }
 
+    /// Whether a sample has a two-sided preimage ([`InnerKind::Mirrored`]): such a sample
+    /// is unusable here, so a bound holds without it, but a certificate (a point proved
+    /// consistent) needs its sign decided first.
+    pub fn has_mirrored(&self) -> bool {
+        self.output.iter().any(|b| b.kind == InnerKind::Mirrored)
+    }
+
     fn usable(&self, b: &InnerBound) -> bool {
         b.interval.is_finite()
             && (b.kind == InnerKind::Inverted

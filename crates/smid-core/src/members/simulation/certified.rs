@@ -257,6 +257,7 @@ impl Search<'_> {
         }
         // The `b` and extra-coefficient extremes at the member's `a`.
         if let Some(sig) = self.signals_at(sp, g) {
+            let sig = self.decided(sig, th);
             let prob = self.problem(&sig);
             let a: Vec<f64> = a_free.iter().map(|&i| th[i]).collect();
             let o = self.layout.orders;

@@ -270,14 +270,19 @@ impl<'s> Search<'s> {
             return (f64::INFINITY, None);
         };
         let input = realised_input(self.set, &self.values_of(sp, &g, &sp.theta0), &sig);
-        let mut prob = self.problem(&sig);
-        prob.input = &input;
         let a: Vec<f64> = self
             .a_free()
             .iter()
             .zip(&z[split..])
             .map(|(&i, zi)| sp.theta0[i] + sp.theta_scale(i, &sp.theta0) * zi)
             .collect();
+        let mut at = sp.theta0.clone();
+        for (&i, v) in self.a_free().iter().zip(&a) {
+            at[i] = *v;
+        }
+        let sig = self.decided(sig, &at);
+        let mut prob = self.problem(&sig);
+        prob.input = &input;
         best_at_a(&prob, &sp.cell.theta, &a).unwrap_or((f64::INFINITY, None))
     }
 
@@ -287,8 +292,27 @@ impl<'s> Search<'s> {
         let Some(sig) = self.signals_at(sp, g) else {
             return f64::INFINITY;
         };
+        let sig = self.decided(sig, th);
         let prob = self.problem(&sig);
         consistency_at(&prob, th).unwrap_or(f64::INFINITY)
+    }
+
+    /// `sig` with the signs of samples of two-sided preimage taken from the free run at `th`
+    /// ([`crate::pipeline::signs::decided_by_run`]): a certificate holds under that pattern.
+    pub(super) fn decided(
+        &self,
+        sig: crate::pipeline::StageSignals,
+        th: &[f64],
+    ) -> crate::pipeline::StageSignals {
+        if !sig
+            .output
+            .iter()
+            .any(|b| b.kind == crate::inversion::InnerKind::Mirrored)
+        {
+            return sig;
+        }
+        let o = self.layout.orders;
+        crate::pipeline::signs::decided_by_run(&sig, o.na, o.nb, th)
     }
 
     /// `θ` with the unit gain (eq 8) made exact through the last free `b`; that `b`'s index.

@@ -1,0 +1,169 @@
+//! The sign search behind `|·|` (the `abs` plugin on the output side): random stable linear
+//! blocks of random orders, records of random length and levels, noise uniform in a random
+//! bound, with and without the unit gain. Every bound holds the true `θ` (under `|·|` the
+//! mirror `(a, -b)` is as consistent as the truth without the unit gain, and its hull is
+//! reported); a certified member lies inside the bounds; and a budget too small to settle
+//! the search gives no bound, never a wrong one.
+use rand::{Rng, SeedableRng};
+use smid::core::outcome::Outcome;
+use smid::core::spec::Spec;
+use std::path::Path;
+
+/// Coefficients `a1..a_n` of `Π (1 - r q⁻¹)`.
+fn poly(roots: &[f64]) -> Vec<f64> {
+    let mut c = vec![1.0];
+    for &r in roots {
+        let mut next = vec![0.0; c.len() + 1];
+        for (i, v) in c.iter().enumerate() {
+            next[i] += v;
+            next[i + 1] -= r * v;
+        }
+        c = next;
+    }
+    c[1..].to_vec()
+}
+
+/// A random trial: the spec's text and the true `θ` (`a`, then `b0..b_nb`).
+fn trial(seed: u64, nodes: Option<usize>) -> (String, Vec<f64>, bool) {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let na = rng.gen_range(1..=3usize);
+    let nb = rng.gen_range(1..=2usize);
+    let roots: Vec<f64> = (0..na).map(|_| rng.gen_range(-0.7..0.7)).collect();
+    let a = poly(&roots);
+    let mut b: Vec<f64> = (0..nb)
+        .map(|_| rng.gen_range(0.3..1.5) * if rng.gen_bool(0.5) { 1.0 } else { -1.0 })
+        .collect();
+    let unit_gain = rng.gen_bool(0.5);
+    let gain = (1.0 + a.iter().sum::<f64>()) / b.iter().sum::<f64>();
+    if unit_gain {
+        if !(gain.is_finite() && gain.abs() < 20.0) {
+            b = vec![1.0 + a.iter().sum::<f64>(); 1];
+            b.resize(nb, 0.0);
+        } else {
+            b.iter_mut().for_each(|v| *v *= gain);
+        }
+    }
+    let length = rng.gen_range(80..240usize);
+    let levels = [2usize, 4, 8][rng.gen_range(0..3)];
+    let delta = rng.gen_range(0.002..0.03);
+    let list = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x:e}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let mut bfull = vec![0.0];
+    bfull.extend(&b);
+    let signs = nodes.map_or(String::new(), |n| format!("\n  signs: {{ nodes: {n} }}"));
+    let text = format!(
+        "name: abs-trial-{seed}
+plant:
+  simulator:
+    structure: wiener
+    a: [{}]
+    b: [{}]
+    nonlinearity: {{ type: abs }}
+noise:
+  delta: {delta:e}
+experiment:
+  seed: {seed}
+  steady_state: {{ skip: true }}
+  dynamic: {{ length: {length}, amplitude: 1.0, levels: {levels} }}
+model:
+  structure: wiener
+  nonlinearity: {{ type: abs }}
+  na: {na}
+  nb: {nb}
+  fixed: {{ b0: 0.0 }}
+  unit_gain: {unit_gain}
+  stable: true
+method:
+  eiv: classical
+  member: {{ spread: false }}{signs}
+",
+        list(&a),
+        list(&bfull),
+    );
+    let mut truth = a;
+    truth.extend(bfull);
+    (text, truth, unit_gain)
+}
+
+/// The number of `b` coefficients in the plant's line `b: [...]` of a trial's text.
+fn b_len(text: &str) -> usize {
+    let line = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("b: ["))
+        .unwrap();
+    line.matches(',').count() + 1
+}
+
+#[test]
+fn every_bound_behind_abs_holds_the_truth_on_random_plants() {
+    smid::link_plugins();
+    let (mut bounded, mut certified) = (0, 0);
+    for seed in 1..=24u64 {
+        let (text, truth, _) = trial(seed, None);
+        let spec = Spec::parse(&text, Path::new("abs-trial.yaml")).unwrap();
+        let id = match smid::core::pipeline::run(&spec, Path::new(".")) {
+            Ok(Outcome::Consistent(id)) => id,
+            Ok(Outcome::Falsified(f)) => {
+                panic!("seed {seed}: the truth's own data falsified: {f:?}\n{text}")
+            }
+            // A record that leaves θ unbounded is no wrong bound.
+            Err(smid::core::SmidError::Unbounded { .. }) => continue,
+            Err(e) => panic!("seed {seed}: {e}\n{text}"),
+        };
+        let na = truth.len() - b_len(&text);
+        for (k, t) in truth.iter().enumerate() {
+            let name = if k < na {
+                format!("a{}", k + 1)
+            } else {
+                format!("b{}", k - na)
+            };
+            let p = id
+                .parameter(&name)
+                .unwrap_or_else(|| panic!("seed {seed}: no parameter {name}"));
+            assert!(
+                p.interval().contains(*t),
+                "seed {seed}: {name} = {t} outside {:?}\n{text}",
+                p.interval()
+            );
+        }
+        assert!(
+            id.model.member_outside_bounds().is_empty(),
+            "seed {seed}: a certified member outside the bounds"
+        );
+        bounded += 1;
+        if id
+            .model
+            .simulation_member
+            .as_ref()
+            .is_some_and(|m| m.certified)
+        {
+            certified += 1;
+        }
+    }
+    eprintln!("{bounded} of 24 trials bounded, {certified} members certified");
+    assert!(bounded >= 18, "only {bounded} of 24 trials bounded");
+    assert!(
+        certified >= bounded / 2,
+        "{certified} of {bounded} members certified"
+    );
+}
+
+#[test]
+fn a_spent_sign_budget_gives_no_bound_and_says_why() {
+    smid::link_plugins();
+    let (text, _, _) = trial(3, Some(5));
+    let spec = Spec::parse(&text, Path::new("abs-trial.yaml")).unwrap();
+    match smid::core::pipeline::run(&spec, Path::new(".")) {
+        Err(smid::core::SmidError::Unbounded { message, .. }) => {
+            assert!(message.contains("method.signs.nodes"), "{message}")
+        }
+        other => panic!("expected an unbounded set, got {:?}", other.map(|_| ())),
+    }
+    let bad = text.replace("nodes: 5", "nodes: 0");
+    let e = Spec::parse(&bad, Path::new("abs-trial.yaml")).unwrap_err();
+    assert!(e.to_string().contains("method.signs.nodes"), "{e}");
+}
