@@ -240,7 +240,7 @@ fn cell_band(
             windows
                 .get(s + 1)
                 .and_then(|w| w.last())
-                .map_or_else(Interval::entire, |b| b.interval)
+                .map_or_else(Interval::entire, |b| b.hull())
         })
         .collect();
     let cols = effect::regressors(
@@ -279,7 +279,7 @@ fn cell_band(
             } else {
                 w.len()
                     .checked_sub(i)
-                    .map_or_else(Interval::entire, |j| w[j].interval)
+                    .map_or_else(Interval::entire, |j| w[j].hull())
             };
             take(i - 1, -1.0, iv, &mut g);
         }
@@ -387,7 +387,12 @@ enum Candidate {
 /// in `xhat` (see the module doc, step 3).
 fn output_band(blocks: &[&dyn NonlinearitySet], y: &[f64], dy: &[f64], xhat: Interval) -> Interval {
     if blocks.iter().any(|b| !b.monotone()) {
-        return Interval::entire();
+        // A block that is not monotone: its output range over `xhat` whatever its history,
+        // block by block, where each knows one.
+        return blocks
+            .iter()
+            .try_fold(xhat, |x, b| b.output_range(x))
+            .map_or_else(Interval::entire, |i| i.outward());
     }
     let last = y.len() - 1;
     let mut ys = y.to_vec();

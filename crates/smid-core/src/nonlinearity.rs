@@ -606,6 +606,13 @@ pub trait NonlinearitySet: Debug + Send + Sync {
             })
             .collect())
     }
+    /// The range of the block's output, over every member of the set and whatever its
+    /// history, when its input lies in `x`; `None` (default) when the block gives none (a
+    /// block with memory). The one-step band of a block that is not
+    /// [`NonlinearitySet::monotone`] is its output range over the prediction.
+    fn output_range(&self, _x: Interval) -> Option<Interval> {
+        None
+    }
     /// The block's input at steady state from its steady output `y ± dy` (stage 1 of a chain
     /// whose output side holds this block after the nonlinearity that steady-state data bound).
     /// Default: the inversion of that one sample (without history, as [`NonlinearitySet::invert`]

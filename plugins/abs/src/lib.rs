@@ -149,6 +149,10 @@ impl NonlinearitySet for AbsSet {
             })
             .collect())
     }
+    /// Memoryless: `|x|` over the interval.
+    fn output_range(&self, x: Interval) -> Option<Interval> {
+        Some(abs_of(x))
+    }
     /// The steady input is `±` the steady output: the hull of both.
     fn invert_steady(&self, y: f64, dy: f64) -> Result<Interval> {
         Ok(preimage(0, y - dy, y + dy)?.hull())
