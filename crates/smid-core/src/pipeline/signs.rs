@@ -3,18 +3,28 @@
 //! of the block's input).
 //!
 //! Each pattern of signs turns every such sample into one interval, and the equations hold
-//! for the truth under its own pattern. So the set is the union over patterns, and its hull
-//! is the hull of the patterns' bounds. The patterns are searched depth first in time order:
-//! a node decides the signs of the first `d` mirrored samples and leaves the rest unusable
-//! (stage 3 drops their equations, so every bound of the node holds for each pattern below
-//! it). A node whose outer set (the classical one) is empty is cut with everything below it;
-//! a complete pattern that survives is bounded by the spec's method. The same sign as the
-//! previous sample is tried first, so a run of one sign is followed to its end before a flip
-//! is tried.
+//! for the truth under its own pattern. So the set is the union over patterns, and any
+//! problem whose intervals hold every surviving pattern's bounds them all. The patterns are
+//! searched depth first in time order, once under each sign of the first sample: a node
+//! decides the signs of the first `d` mirrored samples and gives every later one the hull of
+//! its pair (an interval that holds it under either sign, so the node's outer set holds every
+//! pattern below it). A node whose outer set (the classical one) is empty is cut with
+//! everything below it. The same sign as the previous sample is tried first, so a run of one
+//! sign is followed to its end before a flip is tried.
 //!
-//! The search is sound at every budget: when `method.signs.nodes` is spent, the patterns left
-//! unexplored are reported (as an unbounded set, the bounds of what was explored not being a
-//! bound of the whole), never dropped.
+//! The complete patterns that survive are bounded together, once per sign of the first
+//! sample: a sample on which they all agree keeps that sign, any other takes its pair's hull
+//! ([`Agreement`]). One solve of the spec's method per subtree, however many patterns survive;
+//! the hull of the two results is the bound.
+//!
+//! A sample whose pair of intervals nearly meets at zero barely tells its sign; it takes the
+//! hull of its pair instead of a branch ([`branching`], `method.signs.hull_within`), which
+//! keeps every bound sound and the patterns that survive few.
+//!
+//! The search is sound at every budget: when `method.signs.nodes` is spent, the nodes still
+//! open join the agreement with their undecided samples at their hulls, so the bound covers
+//! the patterns below them too: looser, never dropped. ([`feasible_over_signs`], which proves
+//! a record inconsistent, reports a spent budget as an unbounded set instead: nothing proven.)
 use super::{stage3_decided, StageSignals};
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
@@ -31,6 +41,22 @@ pub fn mirrored(sig: &StageSignals) -> Vec<usize> {
         .filter(|(_, b)| b.kind == InnerKind::Mirrored)
         .map(|(t, _)| t)
         .collect()
+}
+
+/// `sig` with every mirrored sample that comes within `within × width` of zero replaced by
+/// the hull of its pair (an interval that holds the sample under either sign): the samples
+/// left mirrored are the ones the search branches on ([`crate::spec::SignSpec::hull_within`]).
+pub fn branching(sig: &StageSignals, within: f64) -> StageSignals {
+    let mut out = sig.clone();
+    for b in out.output.iter_mut() {
+        if b.kind == InnerKind::Mirrored && b.interval.lo < within * 2.0 * b.interval.radius() {
+            *b = crate::inversion::InnerBound {
+                interval: b.hull(),
+                kind: InnerKind::Inverted,
+            };
+        }
+    }
+    out
 }
 
 /// `sig` with the signs of its mirrored samples `idx[..signs.len()]` decided (`true`: the
@@ -74,7 +100,7 @@ fn may_hold(
     }
 }
 
-/// The error of a search the budget stopped with `open` patterns unexplored.
+/// The error of a feasibility search the budget stopped with `open` patterns unexplored.
 fn budget_spent(open: usize, n: usize, nodes: usize) -> SmidError {
     SmidError::Unbounded {
         parameter: "θ".into(),
@@ -85,8 +111,9 @@ fn budget_spent(open: usize, n: usize, nodes: usize) -> SmidError {
 }
 
 /// Stage 3 on `sig` over the sign patterns of its mirrored samples (see the module doc): the
-/// hull of the bounds of every pattern that survives. An inconsistency (every pattern cut)
-/// is named at the last sample, not located.
+/// hull of the bounds of the two subtrees (each sign of the first sample), each subtree
+/// bounded once, at the signs its surviving patterns agree on. An inconsistency (every
+/// pattern cut) is named at the last sample, not located.
 pub fn stage3_over_signs(
     model: &ModelSpec,
     layout: &Layout,
@@ -95,24 +122,15 @@ pub fn stage3_over_signs(
     prior: Option<&[Interval]>,
     locate: bool,
 ) -> Result<EivResult> {
+    let sig = &branching(sig, method.signs.hull_within);
     let idx = mirrored(sig);
-    let budget = method.signs.nodes;
-    let mut stack: Vec<Node> = vec![vec![false], vec![true]];
     let mut spent = 0usize;
     let mut hull: Option<EivResult> = None;
     let mut first_error: Option<SmidError> = None;
-    while let Some(node) = stack.pop() {
-        if spent >= budget {
-            return Err(budget_spent(stack.len() + 1, idx.len(), budget));
-        }
-        spent += 1;
-        let here = with_signs(sig, &idx, &node);
-        if node.len() < idx.len() {
-            if may_hold(model, layout, method, &here, prior)? {
-                stack.extend(children(&node));
-            }
-            continue;
-        }
+    for first in [true, false] {
+        let agreed = survivors(model, layout, method, sig, &idx, prior, first, &mut spent)?;
+        let Some(agreed) = agreed else { continue };
+        let here = agreed.apply(sig, &idx);
         match stage3_decided(model, layout, method, &here, prior, locate) {
             Ok(r) => {
                 hull = Some(match hull {
@@ -138,6 +156,93 @@ pub fn stage3_over_signs(
     }
 }
 
+/// What the patterns of a subtree say of one mirrored sample's sign: all positive, all
+/// negative, or both (the sample then takes its pair's hull).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Agreed {
+    Positive,
+    Negative,
+    Both,
+}
+
+/// The signs a set of patterns agrees on, sample by sample.
+struct Agreement(Vec<Option<Agreed>>);
+
+impl Agreement {
+    /// Adds a pattern whose first `node.len()` signs are decided, the rest open (both).
+    fn add(&mut self, node: &[bool]) {
+        for (k, slot) in self.0.iter_mut().enumerate() {
+            let here = match node.get(k) {
+                Some(true) => Agreed::Positive,
+                Some(false) => Agreed::Negative,
+                None => Agreed::Both,
+            };
+            *slot = match *slot {
+                None => Some(here),
+                Some(a) if a == here => Some(a),
+                Some(_) => Some(Agreed::Both),
+            };
+        }
+    }
+
+    /// `sig` with the agreed signs decided and every other mirrored sample at its hull: an
+    /// outer bound of every pattern added.
+    fn apply(&self, sig: &StageSignals, idx: &[usize]) -> StageSignals {
+        let mut out = sig.clone();
+        for (&t, a) in idx.iter().zip(&self.0) {
+            out.output[t] = match a {
+                Some(Agreed::Positive) => sig.output[t].with_sign(true),
+                Some(Agreed::Negative) => sig.output[t].with_sign(false),
+                _ => crate::inversion::InnerBound {
+                    interval: sig.output[t].hull(),
+                    kind: InnerKind::Inverted,
+                },
+            };
+        }
+        out
+    }
+}
+
+/// The agreement of the patterns whose first mirrored sample has the sign `first` and whose
+/// outer sets survive (`None`: every one is cut): depth first, each node one feasibility LP
+/// with its later samples at their hulls. Once the shared node budget is spent, the nodes
+/// still open join the agreement with their undecided samples open, so the bound covers them.
+#[allow(clippy::too_many_arguments)]
+fn survivors(
+    model: &ModelSpec,
+    layout: &Layout,
+    method: &MethodSpec,
+    sig: &StageSignals,
+    idx: &[usize],
+    prior: Option<&[Interval]>,
+    first: bool,
+    spent: &mut usize,
+) -> Result<Option<Agreement>> {
+    let mut stack: Vec<Node> = vec![vec![first]];
+    let mut agreed = Agreement(vec![None; idx.len()]);
+    let mut any = false;
+    while let Some(node) = stack.pop() {
+        if *spent >= method.signs.nodes {
+            log::debug!(target: "smid::stage3", "sign search: node budget spent, {} open patterns bounded with the rest", stack.len() + 1);
+            agreed.add(&node);
+            stack.iter().for_each(|n| agreed.add(n));
+            return Ok(Some(agreed));
+        }
+        *spent += 1;
+        let here = branching(&with_signs(sig, idx, &node), f64::INFINITY);
+        if !may_hold(model, layout, method, &here, prior)? {
+            continue;
+        }
+        if node.len() < idx.len() {
+            stack.extend(children(&node));
+        } else {
+            any = true;
+            agreed.add(&node);
+        }
+    }
+    Ok(any.then_some(agreed))
+}
+
 /// Whether some sign pattern of `sig`'s mirrored samples may fit the equations: `false` is a
 /// proof (every pattern's classical outer set is empty); the first pattern whose outer set
 /// holds a point ends the search. A spent budget is an `Unbounded` error (nothing proven).
@@ -147,6 +252,7 @@ pub fn feasible_over_signs(
     method: &MethodSpec,
     sig: &StageSignals,
 ) -> Result<bool> {
+    let sig = &branching(sig, method.signs.hull_within);
     let idx = mirrored(sig);
     let budget = method.signs.nodes;
     let mut stack: Vec<Node> = vec![vec![false], vec![true]];
@@ -156,7 +262,7 @@ pub fn feasible_over_signs(
             return Err(budget_spent(stack.len() + 1, idx.len(), budget));
         }
         spent += 1;
-        let here = with_signs(sig, &idx, &node);
+        let here = branching(&with_signs(sig, &idx, &node), f64::INFINITY);
         if may_hold(model, layout, method, &here, None)? {
             if node.len() == idx.len() {
                 return Ok(true);

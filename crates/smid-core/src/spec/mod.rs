@@ -657,14 +657,26 @@ pub struct MethodSpec {
 
 /// Budget of the sign search ([`crate::pipeline::signs`]): where a block cannot tell the sign
 /// of its input (`|·|`), each sample's sign is decided by a depth-first search over the
-/// patterns, a node per decided sample, each node one feasibility LP. Past the budget the
-/// patterns left are reported unexplored (the set is then unbounded), never dropped.
+/// patterns, a node per decided sample, each node one feasibility LP; the patterns that
+/// survive are bounded together at the signs they agree on. Past the node budget the patterns
+/// still open join them with their undecided samples at their hulls: looser, never dropped.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SignSpec {
     /// Most nodes of the search (1 to 10000000; default 200000).
     #[serde(default = "d_sign_nodes")]
     pub nodes: usize,
+    /// A sample whose interval `[lo, hi]` (the positive one of its pair) comes within
+    /// `hull_within × (hi - lo)` of zero (`lo < hull_within·(hi - lo)`) is not branched on: it
+    /// takes the hull `[-hi, hi]` of its pair, at most `1 + 2·hull_within` times as wide. Such
+    /// samples barely tell their signs apart, and each would double the patterns that survive
+    /// (`>= 0`, finite; 0 branches on every sample; default 0.5).
+    #[serde(default = "d_hull_within")]
+    pub hull_within: f64,
+}
+
+fn d_hull_within() -> f64 {
+    0.5
 }
 
 fn d_sign_nodes() -> usize {
@@ -675,6 +687,7 @@ impl Default for SignSpec {
     fn default() -> Self {
         SignSpec {
             nodes: d_sign_nodes(),
+            hull_within: d_hull_within(),
         }
     }
 }
@@ -688,10 +701,19 @@ impl SignSpec {
 impl crate::settings::Check for SignSpec {
     const PLACE: &'static str = "method.signs";
     fn invalid(&self) -> Option<(&'static str, String)> {
-        (!(1..=10_000_000).contains(&self.nodes)).then(|| {
-            (
+        if !(1..=10_000_000).contains(&self.nodes) {
+            return Some((
                 "nodes",
                 format!("expected 1 <= nodes <= 10000000, got {}", self.nodes),
+            ));
+        }
+        (!(self.hull_within.is_finite() && self.hull_within >= 0.0)).then(|| {
+            (
+                "hull_within",
+                format!(
+                    "expected a finite hull_within >= 0, got {}",
+                    self.hull_within
+                ),
             )
         })
     }
