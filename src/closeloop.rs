@@ -132,27 +132,103 @@ pub fn fresh_records(
 ) -> Result<Vec<Record>> {
     let delta = fresh_bound(spec)?;
     if !csvs.is_empty() {
-        let (template, dt) = match &spec.plant.data {
-            Some(d) => (d.dynamic.items()[0].clone(), d.dt.unwrap_or(1.0)),
-            None => (smid_core::spec::CsvColumns::uy(PathBuf::new()), 1.0),
-        };
-        return csvs
-            .iter()
-            .map(|f| {
-                let mut c = template.clone();
-                let (file, rows) = split_rows(f)?;
-                c.file = file;
-                c.rows = rows;
-                c.part = None;
-                smid_core::data::read_record(Path::new("."), &c, delta, dt)
-            })
-            .collect();
+        let mut out = Vec::new();
+        for f in csvs {
+            out.extend(records_of_file(spec, f, delta)?);
+        }
+        return Ok(out);
     }
     with_plant(spec, base, |plant| {
         (0..count as u64)
             .map(|k| pipeline::fresh_record(spec, plant, seed + k, length))
             .collect()
     })
+}
+
+/// The fresh records of one CSV file (`PATH` or `PATH@START..END`): one per distinct pair of
+/// input and output columns of the spec's dynamic records that the file holds (the columns `u`
+/// and `y` as `smid simulate` writes them without measured data), read as those records are
+/// (`decimate`), the rows before `START` kept as input history where `plant.data.initial` is
+/// `input_history`.
+fn records_of_file(spec: &Spec, arg: &Path, delta: f64) -> Result<Vec<Record>> {
+    use smid_core::spec::{CsvColumns, InitialState};
+    let (templates, dt, initial) = match &spec.plant.data {
+        Some(d) => {
+            let mut t: Vec<CsvColumns> = Vec::new();
+            for c in d.dynamic.items() {
+                if !t.iter().any(|k| k.u == c.u && k.y == c.y) {
+                    t.push(c.clone());
+                }
+            }
+            (t, d.dt.unwrap_or(1.0), d.initial)
+        }
+        None => (
+            vec![CsvColumns::uy(PathBuf::new())],
+            1.0,
+            InitialState::Measured,
+        ),
+    };
+    let (file, rows) = split_rows(arg)?;
+    let header = smid_core::data::read_header(&file)?;
+    let held: Vec<&CsvColumns> = templates
+        .iter()
+        .filter(|c| header.contains(&c.u) && header.contains(&c.y))
+        .collect();
+    if held.is_empty() {
+        return Err(SmidError::Data {
+            file: file.clone(),
+            location: "header".into(),
+            message: format!(
+                "expected the input and output columns of one of the spec's records ({}); columns are: {}",
+                templates
+                    .iter()
+                    .map(|c| format!("`{}` and `{}`", c.u, c.y))
+                    .collect::<Vec<_>>()
+                    .join(", or "),
+                header.join(", ")
+            ),
+        });
+    }
+    let several = held.len() > 1;
+    held.into_iter()
+        .map(|t| {
+            let mut c = t.clone();
+            c.file = file.clone();
+            c.part = None;
+            let k = c.decimate.unwrap_or(1);
+            let history = match (initial, rows) {
+                (InitialState::InputHistory, Some([a, b])) if a > 0 => {
+                    if a % k != 0 {
+                        return Err(SmidError::Data {
+                            file: file.clone(),
+                            location: format!("rows {a}..{b}"),
+                            message: format!(
+                                "with `plant.data.initial: input_history` the start row must be a multiple of `decimate` ({k}), got {a}"
+                            ),
+                        });
+                    }
+                    c.rows = Some([0, b]);
+                    a / k
+                }
+                _ => {
+                    c.rows = rows;
+                    0
+                }
+            };
+            let mut r = smid_core::data::read_record(Path::new("."), &c, delta, dt)?;
+            if let (true, Some([a, b])) = (history > 0, rows) {
+                let stem = file
+                    .file_name()
+                    .map_or_else(|| file.display().to_string(), |f| f.to_string_lossy().into_owned());
+                r.name = format!("{stem} rows {a}..{b} (input history from row 0)");
+            }
+            if several {
+                r.name = format!("{} ({} -> {})", r.name, c.u, c.y);
+            }
+            r.history = history;
+            Ok(r)
+        })
+        .collect()
 }
 
 /// The noise bound a fresh record gets when read: the spec's Δη (validation bounds fresh
@@ -246,7 +322,14 @@ pub fn format_validation(v: &Validation, records: &[Record]) -> String {
         records.len(),
         records
             .iter()
-            .map(|r| format!("{} ({} samples)", r.name, r.y.len()))
+            .map(|r| match r.history {
+                0 => format!("{} ({} samples)", r.name, r.y.len()),
+                h => format!(
+                    "{} ({} samples after {h} of input history)",
+                    r.name,
+                    r.y.len().saturating_sub(h)
+                ),
+            })
             .collect::<Vec<_>>()
             .join("; ")
     );

@@ -587,7 +587,10 @@ fn real_main() -> Result<()> {
             let length = src.spec.experiment.dynamic.length;
             let held =
                 smid::closeloop::fresh_records(&src.spec, &src.base, &holdout, seed, length, 2)
-                    .context("reading the held-out records")?;
+                    .context("reading the held-out records")?
+                    .iter()
+                    .map(smid::core::model::Record::without_history)
+                    .collect::<Vec<_>>();
             smid::core::validate::check_fresh(src.spec.model.layout()?.orders, &held)
                 .context("checking the held-out records")?;
             let pb = progress(1, "candidates (training data)");

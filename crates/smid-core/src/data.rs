@@ -21,6 +21,24 @@ pub fn read_column(file: &Path, name: &str, part: Option<&str>) -> Result<Vec<f6
     Ok(read_table(file, &[name], part)?.pop().expect("one column"))
 }
 
+/// The column headers of a CSV file (its first row).
+pub fn read_header(file: &Path) -> Result<Vec<String>> {
+    let data_err = |location: &str, message: String| SmidError::Data {
+        file: file.to_path_buf(),
+        location: location.into(),
+        message,
+    };
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .comment(Some(b'#'))
+        .from_path(file)
+        .map_err(|e| data_err("opening", e.to_string()))?;
+    let headers = rdr
+        .headers()
+        .map_err(|e| data_err("header", e.to_string()))?;
+    Ok(headers.iter().map(str::to_string).collect())
+}
+
 /// The numeric columns `names` of a CSV file (rows whose `part` column equals `part`, when
 /// given); errors name the file, row and column.
 pub fn read_table(file: &Path, names: &[&str], part: Option<&str>) -> Result<Vec<Vec<f64>>> {

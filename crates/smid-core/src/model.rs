@@ -435,6 +435,10 @@ pub struct Record {
     /// The noise `η_t = y_t - w_t` that was added, when simulated.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise: Option<Vec<f64>>,
+    /// Leading samples that only set the initial state (an input history): validation
+    /// simulates through them from rest and leaves them out of every figure and test.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub history: usize,
 }
 
 impl Record {
@@ -454,6 +458,22 @@ impl Record {
             dy: vec![delta; n],
             dt,
             ..Default::default()
+        }
+    }
+    /// The record without its input history: the samples from `history` on.
+    pub fn without_history(&self) -> Record {
+        let h = self.history.min(self.y.len());
+        let tail = |v: &Vec<f64>| v[h.min(v.len())..].to_vec();
+        Record {
+            name: self.name.clone(),
+            u: tail(&self.u),
+            y: tail(&self.y),
+            dy: tail(&self.dy),
+            dt: self.dt,
+            w: self.w.as_ref().map(tail),
+            x: self.x.as_ref().map(tail),
+            noise: self.noise.as_ref().map(tail),
+            history: 0,
         }
     }
     /// The same record with another noise bound.

@@ -291,6 +291,33 @@ pub struct DataSpec {
     /// Sample time of the raw data in seconds (default 1); decimation multiplies it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dt: Option<f64>,
+    /// How a fresh record `PATH@START..END` of `smid validate --data` sets the model's initial
+    /// state (default `measured`).
+    #[serde(default, skip_serializing_if = "InitialState::is_measured")]
+    pub initial: InitialState,
+}
+
+/// How validation sets a fresh record's initial state.
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum InitialState {
+    /// The first `na + nb + nk` measured samples of the record give the initial condition, as
+    /// MATLAB's `compare` estimates one; the figures leave them out.
+    #[default]
+    Measured,
+    /// The rows before `START` are the input history: the model runs from rest at the file's
+    /// first row on the input alone, and only the rows `START..END` count. No measured output
+    /// sets the state (a benchmark's protocol for a test part that follows its estimation
+    /// part). `START` must be a multiple of the record's `decimate`.
+    InputHistory,
+}
+
+impl InitialState {
+    fn is_measured(&self) -> bool {
+        *self == InitialState::Measured
+    }
 }
 
 fn d_seed() -> u64 {

@@ -285,8 +285,8 @@ fn member_fit(model: &ModelSet, centre: &members::ModelPoint, records: &[Record]
     let warm = o.na + o.nb + o.nk;
     let mut sims = Vec::new();
     for rec in records {
-        let w0 = warm.min(rec.y.len());
-        let free = members::free_run(model, centre, rec, w0)?;
+        let (w0, seeded) = start_of(rec, warm);
+        let free = members::free_run(model, centre, rec, seeded)?;
         sims.push((rec.y[w0..].to_vec(), free[w0..].to_vec()));
     }
     let pairs: Vec<(&[f64], &[f64])> = sims
@@ -294,6 +294,18 @@ fn member_fit(model: &ModelSet, centre: &members::ModelPoint, records: &[Record]
         .map(|(a, b)| (a.as_slice(), b.as_slice()))
         .collect();
     Ok(Fit::of(&pairs))
+}
+
+/// Where the figures of the fresh record `rec` start, and how many of its measured samples set
+/// the initial state: after an input history, its end and none (the model runs from rest on
+/// the input alone); else the first `warm` samples, both.
+fn start_of(rec: &Record, warm: usize) -> (usize, usize) {
+    if rec.history > 0 {
+        (rec.history.min(rec.y.len()), 0)
+    } else {
+        let w = warm.min(rec.y.len());
+        (w, w)
+    }
 }
 
 /// Fresh records a model of orders `o` can be validated on: well formed, and each with at
@@ -328,13 +340,15 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     let o = layout.orders;
     check_fresh(o, fresh)?;
     let fresh: Vec<Record> = fresh.iter().map(|r| r.with_bound(model.delta)).collect();
+    // The tests read each record after its input history only.
+    let tested: Vec<Record> = fresh.iter().map(Record::without_history).collect();
     let clock = std::time::Instant::now();
-    let consistency = consistency_with(model, &fresh, opts.prove)?;
+    let consistency = consistency_with(model, &tested, opts.prove)?;
     log::info!(target: "smid::validate", "consistency: {:.2} s", clock.elapsed().as_secs_f64());
     let clock = std::time::Instant::now();
     let smallest = smallest_bound(
         model,
-        &fresh,
+        &tested,
         opts.bound_resolution,
         Some(consistency.verdict != Verdict::Falsified),
     )?;
@@ -352,21 +366,25 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     let mut residuals = Vec::new();
     let mut inputs = Vec::new();
     // The first `warm` samples give the initial condition (measured), as MATLAB's `compare`
-    // estimates one; the figures are over the rest.
+    // estimates one, or an input history does ([`start_of`]); the figures are over the rest.
     let warm = o.na + o.nb + o.nk;
     // The band's summary over the records, and the sum of its finite widths.
     let mut band_sum: Option<(BandSummary, f64)> = None;
     for rec in &fresh {
         let n = rec.y.len();
-        let w0 = warm.min(n);
+        let (w0, seeded) = start_of(rec, warm);
         let xd = members::inner_estimate(model, &centre, rec)?;
-        let free = centre.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y;
-        let one = centre.predict(&rec.u, Some(&xd), rec.dt, 1, w0).y;
-        let kst = centre.predict(&rec.u, Some(&xd), rec.dt, opts.k, w0).y;
+        let free = centre
+            .predict(&rec.u, Some(&xd), rec.dt, usize::MAX, seeded)
+            .y;
+        let one = centre.predict(&rec.u, Some(&xd), rec.dt, 1, seeded).y;
+        let kst = centre.predict(&rec.u, Some(&xd), rec.dt, opts.k, seeded).y;
         let (lo, hi) = members::envelope(&free, &members, |m| {
-            m.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, w0).y
+            m.predict(&rec.u, Some(&xd), rec.dt, usize::MAX, seeded).y
         });
-        let base = arx.as_ref().map(|a| a.simulate_from(&rec.u, &rec.y, w0));
+        let base = arx
+            .as_ref()
+            .map(|a| a.simulate_from(&rec.u, &rec.y, seeded));
         let band = if opts.band {
             let clock = std::time::Instant::now();
             let b = crate::band::one_step_band(model, rec)?;
@@ -397,13 +415,12 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
         sum.mean_width = width / sum.finite.max(1) as f64;
         sum
     });
+    let starts: Vec<usize> = fresh.iter().map(|r| start_of(r, warm).0).collect();
     let pairs = |f: &dyn Fn(&Series) -> &[f64]| -> Fit {
         let v: Vec<(&[f64], &[f64])> = series
             .iter()
-            .map(|s| {
-                let w0 = warm.min(s.y.len());
-                (&s.y[w0..], &f(s)[w0..])
-            })
+            .zip(&starts)
+            .map(|(s, &w0)| (&s.y[w0..], &f(s)[w0..]))
             .collect();
         Fit::of(&v)
     };
@@ -417,10 +434,8 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
     let baseline = arx.as_ref().map(|_| {
         let v: Vec<(&[f64], &[f64])> = series
             .iter()
-            .filter_map(|s| {
-                let w0 = warm.min(s.y.len());
-                s.baseline.as_ref().map(|b| (&s.y[w0..], &b[w0..]))
-            })
+            .zip(&starts)
+            .filter_map(|(s, &w0)| s.baseline.as_ref().map(|b| (&s.y[w0..], &b[w0..])))
             .collect();
         Fit::of(&v)
     });
