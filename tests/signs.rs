@@ -174,7 +174,7 @@ fn holds_truth(text: &str, truth: &[f64]) -> Option<bool> {
 }
 
 #[test]
-fn a_spent_sign_budget_bounds_the_open_patterns_with_the_rest() {
+fn a_spent_budget_or_a_narrow_frontier_widens_the_bounds_and_keeps_the_truth() {
     smid::link_plugins();
     let mut bounded = 0;
     for seed in [3u64, 7, 11] {
@@ -185,6 +185,13 @@ fn a_spent_sign_budget_bounds_the_open_patterns_with_the_rest() {
             held,
             Some(false),
             "seed {seed}: a spent budget dropped the truth's pattern\n{text}"
+        );
+        // One node per sample (every disagreement merged at once): still sound.
+        let narrow = text.replace("nodes: 5", "nodes: 200000, width: 1");
+        assert_ne!(
+            holds_truth(&narrow, &truth),
+            Some(false),
+            "seed {seed}: a narrowed frontier dropped the truth\n{narrow}"
         );
         // Every sample hulled (no branching at all) is the loosest search: still sound.
         let hulled = text.replace("nodes: 5", "nodes: 5, hull_within: 1.0e9");
@@ -199,6 +206,9 @@ fn a_spent_sign_budget_bounds_the_open_patterns_with_the_rest() {
     let bad = text.replace("nodes: 5", "nodes: 0");
     let e = Spec::parse(&bad, Path::new("abs-trial.yaml")).unwrap_err();
     assert!(e.to_string().contains("method.signs.nodes"), "{e}");
+    let bad = text.replace("nodes: 5", "nodes: 5, width: 0");
+    let e = Spec::parse(&bad, Path::new("abs-trial.yaml")).unwrap_err();
+    assert!(e.to_string().contains("width"), "{e}");
     let bad = text.replace("nodes: 5", "nodes: 5, hull_within: -1");
     let e = Spec::parse(&bad, Path::new("abs-trial.yaml")).unwrap_err();
     assert!(e.to_string().contains("hull_within"), "{e}");

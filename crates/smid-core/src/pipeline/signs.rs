@@ -4,27 +4,30 @@
 //!
 //! Each pattern of signs turns every such sample into one interval, and the equations hold
 //! for the truth under its own pattern. So the set is the union over patterns, and any
-//! problem whose intervals hold every surviving pattern's bounds them all. The patterns are
-//! searched depth first in time order, once under each sign of the first sample: a node
-//! decides the signs of the first `d` mirrored samples and gives every later one the hull of
-//! its pair (an interval that holds it under either sign, so the node's outer set holds every
-//! pattern below it). A node whose outer set (the classical one) is empty is cut with
-//! everything below it. The same sign as the previous sample is tried first, so a run of one
-//! sign is followed to its end before a flip is tried.
+//! problem whose intervals hold every surviving pattern's bounds them all.
 //!
-//! The complete patterns that survive are bounded together, once per sign of the first
-//! sample: a sample on which they all agree keeps that sign, any other takes its pair's hull
-//! ([`Agreement`]). One solve of the spec's method per subtree, however many patterns survive;
-//! the hull of the two results is the bound.
+//! The search runs once under each sign of the first sample, breadth first over the samples
+//! in time order. A node decides the signs of the first `d` mirrored samples (each positive,
+//! negative, or both: see below) and gives every later one the hull of its pair, an interval
+//! that holds it under either sign, so the node's outer set holds every pattern below it. Each
+//! node of the frontier branches on the next sample, and a child whose outer set (the
+//! classical one) is empty is cut with every pattern below it.
+//!
+//! A frontier wider than `method.signs.width` is narrowed: the nodes that agree on their latest
+//! signs are merged into one node that is "both" wherever they differ, and such a sample takes
+//! its pair's hull. The merged node holds every pattern of the nodes it replaces, so the search
+//! stays sound at a cost of at most `2 · width` LPs per sample. At the end the frontier is
+//! merged the same way and bounded by the spec's method: one solve per sign of the first
+//! sample, and the hull of the two results is the bound. Where the surviving patterns never
+//! outnumber the width, that bound is the hull of their bounds' problem, exactly.
 //!
 //! A sample whose pair of intervals nearly meets at zero barely tells its sign; it takes the
-//! hull of its pair instead of a branch ([`branching`], `method.signs.hull_within`), which
-//! keeps every bound sound and the patterns that survive few.
+//! hull of its pair instead of a branch ([`branching`], `method.signs.hull_within`).
 //!
-//! The search is sound at every budget: when `method.signs.nodes` is spent, the nodes still
-//! open join the agreement with their undecided samples at their hulls, so the bound covers
-//! the patterns below them too: looser, never dropped. ([`feasible_over_signs`], which proves
-//! a record inconsistent, reports a spent budget as an unbounded set instead: nothing proven.)
+//! When `method.signs.nodes` is spent, the frontier is merged and every later sample keeps its
+//! hull: looser, never dropped. ([`feasible_over_signs`], which proves a record inconsistent,
+//! searches depth first and reports a spent budget as an unbounded set instead: nothing
+//! proven.)
 use super::{stage3_decided, StageSignals};
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
@@ -130,7 +133,8 @@ pub fn stage3_over_signs(
     for first in [true, false] {
         let agreed = survivors(model, layout, method, sig, &idx, prior, first, &mut spent)?;
         let Some(agreed) = agreed else { continue };
-        let here = agreed.apply(sig, &idx);
+        log::debug!(target: "smid::stage3", "sign search: {} of {} samples' signs agreed", agreed.iter().filter(|a| **a != Agreed::Both).count(), idx.len());
+        let here = apply(sig, &idx, &agreed);
         match stage3_decided(model, layout, method, &here, prior, locate) {
             Ok(r) => {
                 hull = Some(match hull {
@@ -156,57 +160,85 @@ pub fn stage3_over_signs(
     }
 }
 
-/// What the patterns of a subtree say of one mirrored sample's sign: all positive, all
-/// negative, or both (the sample then takes its pair's hull).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// What a node of the search says of one mirrored sample's sign: positive, negative, or
+/// both (the node stands for patterns of either sign there, and the sample takes its pair's
+/// hull).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 enum Agreed {
     Positive,
     Negative,
     Both,
 }
 
-/// The signs a set of patterns agrees on, sample by sample.
-struct Agreement(Vec<Option<Agreed>>);
-
-impl Agreement {
-    /// Adds a pattern whose first `node.len()` signs are decided, the rest open (both).
-    fn add(&mut self, node: &[bool]) {
-        for (k, slot) in self.0.iter_mut().enumerate() {
-            let here = match node.get(k) {
-                Some(true) => Agreed::Positive,
-                Some(false) => Agreed::Negative,
-                None => Agreed::Both,
-            };
-            *slot = match *slot {
-                None => Some(here),
-                Some(a) if a == here => Some(a),
-                Some(_) => Some(Agreed::Both),
-            };
-        }
+/// `sig` with the first `node.len()` mirrored samples as `node` says and every later one at
+/// its pair's hull: an outer bound of every pattern the node stands for.
+fn apply(sig: &StageSignals, idx: &[usize], node: &[Agreed]) -> StageSignals {
+    let mut out = sig.clone();
+    for (k, &t) in idx.iter().enumerate() {
+        out.output[t] = match node.get(k) {
+            Some(Agreed::Positive) => sig.output[t].with_sign(true),
+            Some(Agreed::Negative) => sig.output[t].with_sign(false),
+            _ => crate::inversion::InnerBound {
+                interval: sig.output[t].hull(),
+                kind: InnerKind::Inverted,
+            },
+        };
     }
-
-    /// `sig` with the agreed signs decided and every other mirrored sample at its hull: an
-    /// outer bound of every pattern added.
-    fn apply(&self, sig: &StageSignals, idx: &[usize]) -> StageSignals {
-        let mut out = sig.clone();
-        for (&t, a) in idx.iter().zip(&self.0) {
-            out.output[t] = match a {
-                Some(Agreed::Positive) => sig.output[t].with_sign(true),
-                Some(Agreed::Negative) => sig.output[t].with_sign(false),
-                _ => crate::inversion::InnerBound {
-                    interval: sig.output[t].hull(),
-                    kind: InnerKind::Inverted,
-                },
-            };
-        }
-        out
-    }
+    out
 }
 
-/// The agreement of the patterns whose first mirrored sample has the sign `first` and whose
-/// outer sets survive (`None`: every one is cut): depth first, each node one feasibility LP
-/// with its later samples at their hulls. Once the shared node budget is spent, the nodes
-/// still open join the agreement with their undecided samples open, so the bound covers them.
+/// The node that stands for every node of `nodes` (all of one depth): each sample's sign
+/// where they agree, both where they differ.
+fn agree(nodes: &[Vec<Agreed>]) -> Vec<Agreed> {
+    let mut out = nodes[0].clone();
+    for n in &nodes[1..] {
+        for (o, &a) in out.iter_mut().zip(n) {
+            if *o != a {
+                *o = Agreed::Both;
+            }
+        }
+    }
+    out
+}
+
+/// `frontier` narrowed to at most `width` nodes: the nodes that agree on their latest `k`
+/// samples merged into one ([`agree`]), with the longest such `k` that leaves `width` groups
+/// at most. The latest signs are the ones the next equations read.
+fn narrowed(frontier: Vec<Vec<Agreed>>, width: usize) -> Vec<Vec<Agreed>> {
+    if frontier.len() <= width {
+        return frontier;
+    }
+    let depth = frontier[0].len();
+    let groups_of = |k: usize| {
+        let mut groups: Vec<Vec<Vec<Agreed>>> = Vec::new();
+        let mut keys: std::collections::HashMap<&[Agreed], usize> = Default::default();
+        for n in &frontier {
+            let key = &n[depth - k..];
+            match keys.get(key) {
+                Some(&g) => groups[g].push(n.clone()),
+                None => {
+                    keys.insert(key, groups.len());
+                    groups.push(vec![n.clone()]);
+                }
+            }
+        }
+        groups
+    };
+    let mut k = depth;
+    let mut groups = groups_of(k);
+    while groups.len() > width && k > 0 {
+        k -= 1;
+        groups = groups_of(k);
+    }
+    groups.iter().map(|g| agree(g)).collect()
+}
+
+/// The node that stands for every pattern whose first mirrored sample has the sign `first`
+/// and whose outer set survives (`None`: every one is cut). Breadth first over the samples in
+/// time order: each node of the frontier branches on the next sample, each child is one
+/// feasibility LP with its later samples at their hulls, and a frontier wider than
+/// `method.signs.width` is narrowed by merging ([`narrowed`]). Once the shared node budget is
+/// spent, the frontier is merged and every later sample keeps its hull.
 #[allow(clippy::too_many_arguments)]
 fn survivors(
     model: &ModelSpec,
@@ -217,30 +249,43 @@ fn survivors(
     prior: Option<&[Interval]>,
     first: bool,
     spent: &mut usize,
-) -> Result<Option<Agreement>> {
-    let mut stack: Vec<Node> = vec![vec![first]];
-    let mut agreed = Agreement(vec![None; idx.len()]);
-    let mut any = false;
-    while let Some(node) = stack.pop() {
-        if *spent >= method.signs.nodes {
-            log::debug!(target: "smid::stage3", "sign search: node budget spent, {} open patterns bounded with the rest", stack.len() + 1);
-            agreed.add(&node);
-            stack.iter().for_each(|n| agreed.add(n));
-            return Ok(Some(agreed));
-        }
-        *spent += 1;
-        let here = branching(&with_signs(sig, idx, &node), f64::INFINITY);
-        if !may_hold(model, layout, method, &here, prior)? {
-            continue;
-        }
-        if node.len() < idx.len() {
-            stack.extend(children(&node));
-        } else {
-            any = true;
-            agreed.add(&node);
-        }
+) -> Result<Option<Vec<Agreed>>> {
+    let start = if first {
+        Agreed::Positive
+    } else {
+        Agreed::Negative
+    };
+    let mut frontier: Vec<Vec<Agreed>> = Vec::new();
+    *spent += 1;
+    if may_hold(model, layout, method, &apply(sig, idx, &[start]), prior)? {
+        frontier.push(vec![start]);
     }
-    Ok(any.then_some(agreed))
+    for _ in 1..idx.len() {
+        if frontier.is_empty() {
+            return Ok(None);
+        }
+        if *spent >= method.signs.nodes {
+            log::debug!(target: "smid::stage3", "sign search: node budget spent at depth {} of {}: the later samples keep their hulls", frontier[0].len(), idx.len());
+            return Ok(Some(agree(&frontier)));
+        }
+        let mut next = Vec::with_capacity(2 * frontier.len());
+        for node in &frontier {
+            let signs: &[Agreed] = match node.last() {
+                Some(Agreed::Negative) => &[Agreed::Negative, Agreed::Positive],
+                _ => &[Agreed::Positive, Agreed::Negative],
+            };
+            for &sgn in signs {
+                let mut child = node.clone();
+                child.push(sgn);
+                *spent += 1;
+                if may_hold(model, layout, method, &apply(sig, idx, &child), prior)? {
+                    next.push(child);
+                }
+            }
+        }
+        frontier = narrowed(next, method.signs.width);
+    }
+    Ok((!frontier.is_empty()).then(|| agree(&frontier)))
 }
 
 /// Whether some sign pattern of `sig`'s mirrored samples may fit the equations: `false` is a

@@ -683,10 +683,10 @@ pub struct MethodSpec {
 }
 
 /// Budget of the sign search ([`crate::pipeline::signs`]): where a block cannot tell the sign
-/// of its input (`|·|`), each sample's sign is decided by a depth-first search over the
-/// patterns, a node per decided sample, each node one feasibility LP; the patterns that
-/// survive are bounded together at the signs they agree on. Past the node budget the patterns
-/// still open join them with their undecided samples at their hulls: looser, never dropped.
+/// of its input (`|·|`), the sign patterns are searched sample by sample, each node one
+/// feasibility LP, at most `width` nodes kept per sample; the patterns that survive are
+/// bounded together at the signs they agree on. Past the node budget the later samples keep
+/// their hulls: looser, never dropped.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SignSpec {
@@ -700,6 +700,16 @@ pub struct SignSpec {
     /// (`>= 0`, finite; 0 branches on every sample; default 0.5).
     #[serde(default = "d_hull_within")]
     pub hull_within: f64,
+    /// Most nodes kept per decided sample (1 to 4096; default 16). Past it, nodes that agree on
+    /// their latest signs are merged into one that takes the hull wherever they differ: sound,
+    /// looser where the merged patterns differ. A record whose surviving patterns never
+    /// outnumber it gets the exact hull of their bounds.
+    #[serde(default = "d_sign_width")]
+    pub width: usize,
+}
+
+fn d_sign_width() -> usize {
+    16
 }
 
 fn d_hull_within() -> f64 {
@@ -715,6 +725,7 @@ impl Default for SignSpec {
         SignSpec {
             nodes: d_sign_nodes(),
             hull_within: d_hull_within(),
+            width: d_sign_width(),
         }
     }
 }
@@ -732,6 +743,12 @@ impl crate::settings::Check for SignSpec {
             return Some((
                 "nodes",
                 format!("expected 1 <= nodes <= 10000000, got {}", self.nodes),
+            ));
+        }
+        if !(1..=4096).contains(&self.width) {
+            return Some((
+                "width",
+                format!("expected 1 <= width <= 4096, got {}", self.width),
             ));
         }
         (!(self.hull_within.is_finite() && self.hull_within >= 0.0)).then(|| {
