@@ -196,31 +196,28 @@ fn records_of_file(spec: &Spec, arg: &Path, delta: f64) -> Result<Vec<Record>> {
             c.file = file.clone();
             c.part = None;
             let k = c.decimate.unwrap_or(1);
-            let history = match (initial, rows) {
-                (InitialState::InputHistory, Some([a, b])) if a > 0 => {
-                    if a % k != 0 {
-                        return Err(SmidError::Data {
-                            file: file.clone(),
-                            location: format!("rows {a}..{b}"),
-                            message: format!(
-                                "with `plant.data.initial: input_history` the start row must be a multiple of `decimate` ({k}), got {a}"
-                            ),
-                        });
-                    }
-                    c.rows = Some([0, b]);
-                    a / k
+            c.rows = rows;
+            let mut history = None;
+            if initial == InitialState::InputHistory {
+                // From rest at the file's first row: the rows before START are read too.
+                let a = rows.map_or(0, |[a, _]| a);
+                if a % k != 0 {
+                    return Err(SmidError::Data {
+                        file: file.clone(),
+                        location: format!("rows from {a}"),
+                        message: format!(
+                            "with `plant.data.initial: input_history` the start row must be a multiple of `decimate` ({k}), got {a}"
+                        ),
+                    });
                 }
-                _ => {
-                    c.rows = rows;
-                    0
-                }
-            };
+                c.rows = rows.map(|[_, b]| [0, b]);
+                history = Some(a / k);
+            }
             let mut r = smid_core::data::read_record(Path::new("."), &c, delta, dt)?;
-            if let (true, Some([a, b])) = (history > 0, rows) {
-                let stem = file
-                    .file_name()
-                    .map_or_else(|| file.display().to_string(), |f| f.to_string_lossy().into_owned());
-                r.name = format!("{stem} rows {a}..{b} (input history from row 0)");
+            if let (Some(_), Some([a, b])) = (history, rows) {
+                // Named by the rows that count (read from row 0).
+                let stem = file.file_name().unwrap_or(file.as_os_str()).to_string_lossy();
+                r.name = format!("{stem} rows {a}..{b}");
             }
             if several {
                 r.name = format!("{} ({} -> {})", r.name, c.u, c.y);
@@ -323,9 +320,9 @@ pub fn format_validation(v: &Validation, records: &[Record]) -> String {
         records
             .iter()
             .map(|r| match r.history {
-                0 => format!("{} ({} samples)", r.name, r.y.len()),
-                h => format!(
-                    "{} ({} samples after {h} of input history)",
+                None => format!("{} ({} samples)", r.name, r.y.len()),
+                Some(h) => format!(
+                    "{} ({} samples from rest, after {h} of input history)",
                     r.name,
                     r.y.len().saturating_sub(h)
                 ),

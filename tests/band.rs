@@ -58,7 +58,7 @@ fn the_guaranteed_band_holds_the_true_output_on_random_plants_of_every_plugin() 
                 w: Some(w.clone()),
                 x: None,
                 noise: Some(e),
-                history: 0,
+                history: None,
             };
             let band = one_step_band(&id.model, &rec).unwrap();
             for t in 0..n {

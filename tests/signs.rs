@@ -3,7 +3,8 @@
 //! bound, with and without the unit gain. Every bound holds the true `θ` (under `|·|` the
 //! mirror `(a, -b)` is as consistent as the truth without the unit gain, and its hull is
 //! reported); a certified member lies inside the bounds; and a budget too small to settle
-//! the search, or samples hulled instead of branched on, give looser bounds, never wrong ones.
+//! the search, a frontier of width 1, or samples hulled instead of branched on, give looser
+//! bounds, never wrong ones; with a bisected offset, the cell test keeps the truth's cell.
 use rand::{Rng, SeedableRng};
 use smid::core::outcome::Outcome;
 use smid::core::spec::Spec;
@@ -193,15 +194,30 @@ fn a_spent_budget_or_a_narrow_frontier_widens_the_bounds_and_keeps_the_truth() {
             Some(false),
             "seed {seed}: a narrowed frontier dropped the truth\n{narrow}"
         );
-        // Every sample hulled (no branching at all) is the loosest search: still sound.
+        // Every sample hulled (no branching at all) is one plain stage 3, the loosest: it
+        // still bounds the truth.
         let hulled = text.replace("nodes: 5", "nodes: 5, hull_within: 1.0e9");
-        assert_ne!(
+        assert_eq!(
             holds_truth(&hulled, &truth),
-            Some(false),
-            "seed {seed}: the hulled samples dropped the truth\n{hulled}"
+            Some(true),
+            "seed {seed}: every sample hulled\n{hulled}"
         );
     }
     assert!(bounded > 0, "no spent search gave a bound");
+    // A bisected sensor offset (true value 0): the branch and bound's cheap test of each cell
+    // runs the sign search for a proof of emptiness, and keeps the truth's cell.
+    for seed in [2u64, 5] {
+        let (text, truth, _) = trial(seed, None);
+        let with_offset = text.replace(
+            "  stable: true\n",
+            "  stable: true\n  effects: [ { type: offset } ]\n  prior: { offset: [-0.05, 0.05] }\n",
+        );
+        assert_eq!(
+            holds_truth(&with_offset, &truth),
+            Some(true),
+            "seed {seed}: a bisected offset\n{with_offset}"
+        );
+    }
     let (text, _, _) = trial(3, Some(5));
     let bad = text.replace("nodes: 5", "nodes: 0");
     let e = Spec::parse(&bad, Path::new("abs-trial.yaml")).unwrap_err();

@@ -78,32 +78,47 @@ fn at(csv: &Path, range: &str) -> PathBuf {
     PathBuf::from(format!("{}@{range}", csv.display()))
 }
 
+/// The fresh records of `arg` (a CSV path, with or without rows) under `spec`.
+fn fresh(spec: &Spec, arg: PathBuf) -> Vec<smid::core::model::Record> {
+    closeloop::fresh_records(spec, Path::new("/"), &[arg], 0, 0, 1).unwrap()
+}
+
 #[test]
 fn an_input_history_sets_the_state_and_only_the_held_out_rows_count() {
     smid::link_plugins();
     let dir = tempfile::tempdir().unwrap();
     let csv = write_csv(dir.path(), None);
     let (spec, model) = identified(&spec_text(&csv, "input_history"));
-    let fresh =
-        closeloop::fresh_records(&spec, Path::new("/"), &[at(&csv, "200..300")], 0, 0, 1).unwrap();
-    assert_eq!(fresh.len(), 2, "one fresh record per column pair");
-    assert!(fresh[0].name.contains("u1 -> y1") && fresh[1].name.contains("u2 -> y2"));
-    for r in &fresh {
-        assert_eq!((r.y.len(), r.history), (300, 200), "{}", r.name);
+    let records = fresh(&spec, at(&csv, "200..300"));
+    assert_eq!(records.len(), 2, "one fresh record per column pair");
+    assert!(records[0].name.contains("u1 -> y1") && records[1].name.contains("u2 -> y2"));
+    for r in &records {
+        assert_eq!((r.y.len(), r.history), (300, Some(200)), "{}", r.name);
     }
-    let v = validate::validate(&model, &fresh, &validate::Options::default()).unwrap();
+    let v = validate::validate(&model, &records, &validate::Options::default()).unwrap();
     assert_eq!(v.per_record.len(), 2);
     for (name, fit) in &v.per_record {
         assert_eq!(fit.samples, 100, "{name}: the held-out rows alone");
         assert!(fit.fit_percent > 95.0, "{name}: {fit:?}");
     }
+    // The band, like the other tests, starts after the history (and its own first sample).
+    assert_eq!(v.band.as_ref().map(|b| b.samples), Some(2 * 98));
+
+    // The whole file from rest: every row counts.
+    let whole = fresh(&spec, csv.clone());
+    assert!(whole
+        .iter()
+        .all(|r| r.y.len() == ROWS && r.history == Some(0)));
+    let v = validate::validate(&model, &whole, &validate::Options::default()).unwrap();
+    assert!(v.per_record.iter().all(|(_, f)| f.samples == ROWS));
 
     // Read as measured, the same range gives 100 rows, the first `na + nb + nk` setting the
     // state.
     let (spec_m, _) = identified(&spec_text(&csv, "measured"));
-    let plain = closeloop::fresh_records(&spec_m, Path::new("/"), &[at(&csv, "200..300")], 0, 0, 1)
-        .unwrap();
-    assert!(plain.iter().all(|r| r.y.len() == 100 && r.history == 0));
+    let plain = fresh(&spec_m, at(&csv, "200..300"));
+    assert!(plain
+        .iter()
+        .all(|r| r.y.len() == 100 && r.history.is_none()));
     let v = validate::validate(&model, &plain, &validate::Options::default()).unwrap();
     assert!(v.per_record.iter().all(|(_, f)| f.samples == 98));
 }
@@ -114,24 +129,31 @@ fn the_tests_read_no_output_of_the_history() {
     let dir = tempfile::tempdir().unwrap();
     let clean = write_csv(dir.path(), None);
     let (_, model) = identified(&spec_text(&clean, "input_history"));
-    let verdict = |row: usize| {
+    let validated = |row: usize| {
         let csv = write_csv(dir.path(), Some(row));
         let spec = Spec::parse(&spec_text(&csv, "input_history"), Path::new("h.yaml")).unwrap();
-        let fresh =
-            closeloop::fresh_records(&spec, Path::new("/"), &[at(&csv, "200..300")], 0, 0, 1)
-                .unwrap();
-        validate::validate(&model, &fresh, &validate::Options::default())
-            .unwrap()
-            .consistency
-            .verdict
+        validate::validate(
+            &model,
+            &fresh(&spec, at(&csv, "200..300")),
+            &validate::Options::default(),
+        )
+        .unwrap()
     };
+    let before = validated(120);
     assert_ne!(
-        verdict(120),
+        before.consistency.verdict,
         validate::Verdict::Falsified,
         "an outlier in the history"
     );
+    // The band is a test like the others: none over the history, finite after it.
+    let (lo, hi) = before.series[0].band.clone().expect("a band");
+    assert!(lo[..200].iter().chain(&hi[..200]).all(|v| v.is_infinite()));
+    assert!(lo[202..]
+        .iter()
+        .zip(&hi[202..])
+        .all(|(l, h)| l.is_finite() && h.is_finite()));
     assert_eq!(
-        verdict(250),
+        validated(250).consistency.verdict,
         validate::Verdict::Falsified,
         "an outlier in the held-out rows"
     );

@@ -435,10 +435,11 @@ pub struct Record {
     /// The noise `η_t = y_t - w_t` that was added, when simulated.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise: Option<Vec<f64>>,
-    /// Leading samples that only set the initial state (an input history): validation
-    /// simulates through them from rest and leaves them out of every figure and test.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub history: usize,
+    /// How validation sets the initial state. `Some(h)`: the model runs from rest at the
+    /// first sample on the input alone, and the first `h` samples are input history, left out
+    /// of every figure and test. `None`: the first `na + nb + nk` measured samples set it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub history: Option<usize>,
 }
 
 impl Record {
@@ -460,9 +461,10 @@ impl Record {
             ..Default::default()
         }
     }
-    /// The record without its input history: the samples from `history` on.
+    /// The record without its input history: the samples from `history` on, whose initial
+    /// state is then measured (they do not start at rest).
     pub fn without_history(&self) -> Record {
-        let h = self.history.min(self.y.len());
+        let h = self.history.unwrap_or(0).min(self.y.len());
         let tail = |v: &Vec<f64>| v[h.min(v.len())..].to_vec();
         Record {
             name: self.name.clone(),
@@ -473,7 +475,7 @@ impl Record {
             w: self.w.as_ref().map(tail),
             x: self.x.as_ref().map(tail),
             noise: self.noise.as_ref().map(tail),
-            history: 0,
+            history: None,
         }
     }
     /// The same record with another noise bound.

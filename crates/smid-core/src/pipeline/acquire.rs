@@ -80,7 +80,7 @@ pub fn dynamic_record(
         w: Some(w),
         x,
         noise: Some(eta),
-        history: 0,
+        history: None,
     })
 }
 

@@ -25,9 +25,8 @@
 //! hull of its pair instead of a branch ([`branching`], `method.signs.hull_within`).
 //!
 //! When `method.signs.nodes` is spent, the frontier is merged and every later sample keeps its
-//! hull: looser, never dropped. ([`feasible_over_signs`], which proves a record inconsistent,
-//! searches depth first and reports a spent budget as an unbounded set instead: nothing
-//! proven.)
+//! hull: looser, never dropped. [`feasible_over_signs`], the branch and bound's cheap test of a
+//! cell, runs the same search and calls a record inconsistent only when both subtrees are cut.
 use super::{stage3_decided, StageSignals};
 use crate::error::{Result, SmidError};
 use crate::interval::Interval;
@@ -72,51 +71,177 @@ pub fn with_signs(sig: &StageSignals, idx: &[usize], signs: &[bool]) -> StageSig
     out
 }
 
-/// A node of the search: the signs decided so far.
-type Node = Vec<bool>;
-
-/// The children of `node`, to push on the stack: the flip first, so that the same sign as the
-/// node's last decided sample is popped (tried) first.
-fn children(node: &Node) -> [Node; 2] {
-    let last = node.last().copied().unwrap_or(true);
-    let mut same = node.clone();
-    same.push(last);
-    let mut flip = node.clone();
-    flip.push(!last);
-    [flip, same]
+/// What a node of the search says of one mirrored sample's sign: positive, negative, or
+/// both (the node stands for patterns of either sign there, and the sample takes its pair's
+/// hull).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+enum Agreed {
+    Positive,
+    Negative,
+    Both,
 }
 
-/// Whether the node's outer set may be non-empty (a solver's failure or an unbounded set is
-/// no proof of emptiness: kept).
-fn may_hold(
-    model: &ModelSpec,
-    layout: &Layout,
-    method: &MethodSpec,
-    sig: &StageSignals,
-    prior: Option<&[Interval]>,
-) -> Result<bool> {
-    let problem = super::eiv_problem(model, layout, method, sig, prior);
-    match crate::stage3::feasible(&problem) {
-        Ok(v) => Ok(v),
-        Err(SmidError::Unbounded { .. } | SmidError::Solver(_)) => Ok(true),
-        Err(e) => Err(e),
+/// A node of the search: what it says of the first `len()` mirrored samples.
+type Node = Vec<Agreed>;
+
+/// The sign search over one record set's stage-2 signals: the problem every node is tested
+/// on, and the mirrored samples it branches on.
+struct Patterns<'a> {
+    model: &'a ModelSpec,
+    layout: &'a Layout,
+    method: &'a MethodSpec,
+    prior: Option<&'a [Interval]>,
+    /// The signals, the samples near zero already hulled ([`branching`]).
+    sig: StageSignals,
+    /// The indices of the samples left mirrored, in time order.
+    idx: Vec<usize>,
+}
+
+impl<'a> Patterns<'a> {
+    fn new(
+        model: &'a ModelSpec,
+        layout: &'a Layout,
+        method: &'a MethodSpec,
+        sig: &StageSignals,
+        prior: Option<&'a [Interval]>,
+    ) -> Self {
+        let sig = branching(sig, method.signs.hull_within);
+        let idx = mirrored(&sig);
+        Patterns {
+            model,
+            layout,
+            method,
+            prior,
+            sig,
+            idx,
+        }
+    }
+
+    /// The signals with the first `node.len()` mirrored samples as `node` says and every
+    /// later one at its pair's hull: an outer bound of every pattern the node stands for.
+    fn apply(&self, node: &[Agreed]) -> StageSignals {
+        let mut out = self.sig.clone();
+        for (k, &t) in self.idx.iter().enumerate() {
+            let b = &self.sig.output[t];
+            out.output[t] = match node.get(k) {
+                Some(Agreed::Positive) => b.with_sign(true),
+                Some(Agreed::Negative) => b.with_sign(false),
+                _ => crate::inversion::InnerBound {
+                    interval: b.hull(),
+                    kind: InnerKind::Inverted,
+                },
+            };
+        }
+        out
+    }
+
+    /// Whether the node's outer set (the classical one) may be non-empty: `false` is a proof
+    /// for every pattern the node stands for (a solver's failure or an unbounded set is no
+    /// proof of emptiness: kept).
+    fn may_hold(&self, node: &[Agreed]) -> Result<bool> {
+        let sig = self.apply(node);
+        let problem = super::eiv_problem(self.model, self.layout, self.method, &sig, self.prior);
+        match crate::stage3::feasible(&problem) {
+            Ok(v) => Ok(v),
+            Err(SmidError::Unbounded { .. } | SmidError::Solver(_)) => Ok(true),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// The node that stands for every pattern whose first mirrored sample has the sign
+    /// `first` and whose outer set survives (`None`: every one is cut, a proof). Breadth first
+    /// over the samples in time order: each node of the frontier branches on the next sample
+    /// (its last sign first), each child is one feasibility LP ([`Self::may_hold`]), and a
+    /// frontier wider than `method.signs.width` is narrowed by merging ([`narrowed`]). Once
+    /// the shared node budget is spent, the frontier is merged and every later sample keeps
+    /// its hull.
+    fn survivors(&self, first: Agreed, spent: &mut usize) -> Result<Option<Node>> {
+        *spent += 1;
+        if !self.may_hold(&[first])? {
+            return Ok(None);
+        }
+        let mut frontier: Vec<Node> = vec![vec![first]];
+        for depth in 1..self.idx.len() {
+            if *spent >= self.method.signs.nodes {
+                log::debug!(target: "smid::stage3", "sign search: node budget spent at depth {depth} of {}: the later samples keep their hulls", self.idx.len());
+                return Ok(Some(agree(&frontier)));
+            }
+            let mut next = Vec::with_capacity(2 * frontier.len());
+            for node in &frontier {
+                let signs = match node.last() {
+                    Some(Agreed::Negative) => [Agreed::Negative, Agreed::Positive],
+                    _ => [Agreed::Positive, Agreed::Negative],
+                };
+                for sign in signs {
+                    let mut child = node.clone();
+                    child.push(sign);
+                    *spent += 1;
+                    if self.may_hold(&child)? {
+                        next.push(child);
+                    }
+                }
+            }
+            if next.is_empty() {
+                return Ok(None);
+            }
+            frontier = narrowed(next, self.method.signs.width);
+        }
+        Ok(Some(agree(&frontier)))
     }
 }
 
-/// The error of a feasibility search the budget stopped with `open` patterns unexplored.
-fn budget_spent(open: usize, n: usize, nodes: usize) -> SmidError {
-    SmidError::Unbounded {
-        parameter: "θ".into(),
-        message: format!(
-            "the sign search over {n} samples of two-sided preimage spent its budget of {nodes} nodes (method.signs.nodes) with {open} pattern(s) unexplored: no bound covers them"
-        ),
+/// The node that stands for every node of `nodes` (all of one depth, at least one): each
+/// sample's sign where they agree, both where they differ.
+fn agree(nodes: &[Node]) -> Node {
+    let mut out = nodes[0].clone();
+    for n in &nodes[1..] {
+        for (o, &a) in out.iter_mut().zip(n) {
+            if *o != a {
+                *o = Agreed::Both;
+            }
+        }
     }
+    out
+}
+
+/// `frontier` (nodes of one depth) narrowed to at most `width` nodes: the nodes that agree on
+/// their latest `k` samples merged into one ([`agree`]), with the longest such `k` that leaves
+/// `width` groups at most. The latest signs are the ones the next equations read.
+fn narrowed(frontier: Vec<Node>, width: usize) -> Vec<Node> {
+    if frontier.len() <= width {
+        return frontier;
+    }
+    let depth = frontier[0].len();
+    let groups_of = |k: usize| {
+        let mut groups: Vec<Vec<Node>> = Vec::new();
+        let mut keys: std::collections::HashMap<&[Agreed], usize> = Default::default();
+        for n in &frontier {
+            let g = *keys.entry(&n[depth - k..]).or_insert(groups.len());
+            if g == groups.len() {
+                groups.push(Vec::new());
+            }
+            groups[g].push(n.clone());
+        }
+        groups
+    };
+    // The number of groups grows with `k` (0 gives one group): bisect for the longest `k`
+    // that gives `width` groups at most.
+    let (mut fits, mut over) = (0, depth);
+    while over - fits > 1 {
+        let mid = (fits + over) / 2;
+        if groups_of(mid).len() <= width {
+            fits = mid;
+        } else {
+            over = mid;
+        }
+    }
+    groups_of(fits).iter().map(|g| agree(g)).collect()
 }
 
 /// Stage 3 on `sig` over the sign patterns of its mirrored samples (see the module doc): the
-/// hull of the bounds of the two subtrees (each sign of the first sample), each subtree
-/// bounded once, at the signs its surviving patterns agree on. An inconsistency (every
-/// pattern cut) is named at the last sample, not located.
+/// hull of the bounds of the two subtrees (each sign of the first sample), each bounded once
+/// at the node that stands for its survivors. An inconsistency (every pattern cut) is named at
+/// the last sample, not located.
 pub fn stage3_over_signs(
     model: &ModelSpec,
     layout: &Layout,
@@ -125,17 +250,19 @@ pub fn stage3_over_signs(
     prior: Option<&[Interval]>,
     locate: bool,
 ) -> Result<EivResult> {
-    let sig = &branching(sig, method.signs.hull_within);
-    let idx = mirrored(sig);
+    let patterns = Patterns::new(model, layout, method, sig, prior);
+    if patterns.idx.is_empty() {
+        return stage3_decided(model, layout, method, &patterns.sig, prior, locate);
+    }
     let mut spent = 0usize;
     let mut hull: Option<EivResult> = None;
     let mut first_error: Option<SmidError> = None;
-    for first in [true, false] {
-        let agreed = survivors(model, layout, method, sig, &idx, prior, first, &mut spent)?;
-        let Some(agreed) = agreed else { continue };
-        log::debug!(target: "smid::stage3", "sign search: {} of {} samples' signs agreed", agreed.iter().filter(|a| **a != Agreed::Both).count(), idx.len());
-        let here = apply(sig, &idx, &agreed);
-        match stage3_decided(model, layout, method, &here, prior, locate) {
+    for first in [Agreed::Positive, Agreed::Negative] {
+        let Some(node) = patterns.survivors(first, &mut spent)? else {
+            continue;
+        };
+        log::debug!(target: "smid::stage3", "sign search: {} of {} samples' signs agreed", node.iter().filter(|a| **a != Agreed::Both).count(), patterns.idx.len());
+        match stage3_decided(model, layout, method, &patterns.apply(&node), prior, locate) {
             Ok(r) => {
                 hull = Some(match hull {
                     None => r,
@@ -148,7 +275,7 @@ pub fn stage3_over_signs(
             Err(e) => return Err(e),
         }
     }
-    log::debug!(target: "smid::stage3", "sign search: {} samples, {spent} nodes", idx.len());
+    log::debug!(target: "smid::stage3", "sign search: {} samples, {spent} nodes", patterns.idx.len());
     match (hull, first_error) {
         (Some(h), _) => Ok(h),
         (None, Some(e)) => Err(e),
@@ -160,159 +287,23 @@ pub fn stage3_over_signs(
     }
 }
 
-/// What a node of the search says of one mirrored sample's sign: positive, negative, or
-/// both (the node stands for patterns of either sign there, and the sample takes its pair's
-/// hull).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-enum Agreed {
-    Positive,
-    Negative,
-    Both,
-}
-
-/// `sig` with the first `node.len()` mirrored samples as `node` says and every later one at
-/// its pair's hull: an outer bound of every pattern the node stands for.
-fn apply(sig: &StageSignals, idx: &[usize], node: &[Agreed]) -> StageSignals {
-    let mut out = sig.clone();
-    for (k, &t) in idx.iter().enumerate() {
-        out.output[t] = match node.get(k) {
-            Some(Agreed::Positive) => sig.output[t].with_sign(true),
-            Some(Agreed::Negative) => sig.output[t].with_sign(false),
-            _ => crate::inversion::InnerBound {
-                interval: sig.output[t].hull(),
-                kind: InnerKind::Inverted,
-            },
-        };
-    }
-    out
-}
-
-/// The node that stands for every node of `nodes` (all of one depth): each sample's sign
-/// where they agree, both where they differ.
-fn agree(nodes: &[Vec<Agreed>]) -> Vec<Agreed> {
-    let mut out = nodes[0].clone();
-    for n in &nodes[1..] {
-        for (o, &a) in out.iter_mut().zip(n) {
-            if *o != a {
-                *o = Agreed::Both;
-            }
-        }
-    }
-    out
-}
-
-/// `frontier` narrowed to at most `width` nodes: the nodes that agree on their latest `k`
-/// samples merged into one ([`agree`]), with the longest such `k` that leaves `width` groups
-/// at most. The latest signs are the ones the next equations read.
-fn narrowed(frontier: Vec<Vec<Agreed>>, width: usize) -> Vec<Vec<Agreed>> {
-    if frontier.len() <= width {
-        return frontier;
-    }
-    let depth = frontier[0].len();
-    let groups_of = |k: usize| {
-        let mut groups: Vec<Vec<Vec<Agreed>>> = Vec::new();
-        let mut keys: std::collections::HashMap<&[Agreed], usize> = Default::default();
-        for n in &frontier {
-            let key = &n[depth - k..];
-            match keys.get(key) {
-                Some(&g) => groups[g].push(n.clone()),
-                None => {
-                    keys.insert(key, groups.len());
-                    groups.push(vec![n.clone()]);
-                }
-            }
-        }
-        groups
-    };
-    let mut k = depth;
-    let mut groups = groups_of(k);
-    while groups.len() > width && k > 0 {
-        k -= 1;
-        groups = groups_of(k);
-    }
-    groups.iter().map(|g| agree(g)).collect()
-}
-
-/// The node that stands for every pattern whose first mirrored sample has the sign `first`
-/// and whose outer set survives (`None`: every one is cut). Breadth first over the samples in
-/// time order: each node of the frontier branches on the next sample, each child is one
-/// feasibility LP with its later samples at their hulls, and a frontier wider than
-/// `method.signs.width` is narrowed by merging ([`narrowed`]). Once the shared node budget is
-/// spent, the frontier is merged and every later sample keeps its hull.
-#[allow(clippy::too_many_arguments)]
-fn survivors(
-    model: &ModelSpec,
-    layout: &Layout,
-    method: &MethodSpec,
-    sig: &StageSignals,
-    idx: &[usize],
-    prior: Option<&[Interval]>,
-    first: bool,
-    spent: &mut usize,
-) -> Result<Option<Vec<Agreed>>> {
-    let start = if first {
-        Agreed::Positive
-    } else {
-        Agreed::Negative
-    };
-    let mut frontier: Vec<Vec<Agreed>> = Vec::new();
-    *spent += 1;
-    if may_hold(model, layout, method, &apply(sig, idx, &[start]), prior)? {
-        frontier.push(vec![start]);
-    }
-    for _ in 1..idx.len() {
-        if frontier.is_empty() {
-            return Ok(None);
-        }
-        if *spent >= method.signs.nodes {
-            log::debug!(target: "smid::stage3", "sign search: node budget spent at depth {} of {}: the later samples keep their hulls", frontier[0].len(), idx.len());
-            return Ok(Some(agree(&frontier)));
-        }
-        let mut next = Vec::with_capacity(2 * frontier.len());
-        for node in &frontier {
-            let signs: &[Agreed] = match node.last() {
-                Some(Agreed::Negative) => &[Agreed::Negative, Agreed::Positive],
-                _ => &[Agreed::Positive, Agreed::Negative],
-            };
-            for &sgn in signs {
-                let mut child = node.clone();
-                child.push(sgn);
-                *spent += 1;
-                if may_hold(model, layout, method, &apply(sig, idx, &child), prior)? {
-                    next.push(child);
-                }
-            }
-        }
-        frontier = narrowed(next, method.signs.width);
-    }
-    Ok((!frontier.is_empty()).then(|| agree(&frontier)))
-}
-
 /// Whether some sign pattern of `sig`'s mirrored samples may fit the equations: `false` is a
-/// proof (every pattern's classical outer set is empty); the first pattern whose outer set
-/// holds a point ends the search. A spent budget is an `Unbounded` error (nothing proven).
+/// proof (every pattern's classical outer set is empty, by the same search as
+/// [`stage3_over_signs`]); a spent budget leaves the patterns open (`true`, nothing proven).
 pub fn feasible_over_signs(
     model: &ModelSpec,
     layout: &Layout,
     method: &MethodSpec,
     sig: &StageSignals,
 ) -> Result<bool> {
-    let sig = &branching(sig, method.signs.hull_within);
-    let idx = mirrored(sig);
-    let budget = method.signs.nodes;
-    let mut stack: Vec<Node> = vec![vec![false], vec![true]];
+    let patterns = Patterns::new(model, layout, method, sig, None);
+    if patterns.idx.is_empty() {
+        return patterns.may_hold(&[]);
+    }
     let mut spent = 0usize;
-    while let Some(node) = stack.pop() {
-        if spent >= budget {
-            return Err(budget_spent(stack.len() + 1, idx.len(), budget));
-        }
-        spent += 1;
-        let here = branching(&with_signs(sig, &idx, &node), f64::INFINITY);
-        if may_hold(model, layout, method, &here, None)? {
-            if node.len() == idx.len() {
-                return Ok(true);
-            }
-            stack.extend(children(&node));
+    for first in [Agreed::Positive, Agreed::Negative] {
+        if patterns.survivors(first, &mut spent)?.is_some() {
+            return Ok(true);
         }
     }
     Ok(false)

@@ -308,9 +308,10 @@ pub enum InitialState {
     #[default]
     Measured,
     /// The rows before `START` are the input history: the model runs from rest at the file's
-    /// first row on the input alone, and only the rows `START..END` count. No measured output
-    /// sets the state (a benchmark's protocol for a test part that follows its estimation
-    /// part). `START` must be a multiple of the record's `decimate`.
+    /// first row on the input alone, and only the rows `START..END` count (a plain `PATH`:
+    /// every row, from rest). No measured output sets the state (a benchmark's protocol for a
+    /// test part that follows its estimation part). `START` must be a multiple of the
+    /// record's `decimate`.
     InputHistory,
 }
 

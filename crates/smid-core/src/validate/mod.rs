@@ -297,15 +297,31 @@ fn member_fit(model: &ModelSet, centre: &members::ModelPoint, records: &[Record]
 }
 
 /// Where the figures of the fresh record `rec` start, and how many of its measured samples set
-/// the initial state: after an input history, its end and none (the model runs from rest on
-/// the input alone); else the first `warm` samples, both.
+/// the initial state: from rest, after its input history and none; else the first `warm`
+/// samples, both.
 fn start_of(rec: &Record, warm: usize) -> (usize, usize) {
-    if rec.history > 0 {
-        (rec.history.min(rec.y.len()), 0)
-    } else {
-        let w = warm.min(rec.y.len());
-        (w, w)
+    match rec.history {
+        Some(h) => (h.min(rec.y.len()), 0),
+        None => {
+            let w = warm.min(rec.y.len());
+            (w, w)
+        }
     }
+}
+
+/// The one-step band of `rec`, a test like the others: over the samples after its input
+/// history only, which read no output of the history (infinite at the history's samples).
+fn band_after_history(model: &ModelSet, rec: &Record) -> Result<crate::band::Band> {
+    let h = match rec.history {
+        Some(h) if h > 0 => h.min(rec.y.len()),
+        _ => return crate::band::one_step_band(model, rec),
+    };
+    let mut b = crate::band::one_step_band(model, &rec.without_history())?;
+    b.lower
+        .splice(0..0, std::iter::repeat_n(f64::NEG_INFINITY, h));
+    b.upper
+        .splice(0..0, std::iter::repeat_n(f64::INFINITY, h));
+    Ok(b)
 }
 
 /// Fresh records a model of orders `o` can be validated on: well formed, and each with at
@@ -387,14 +403,20 @@ pub fn validate(model: &ModelSet, fresh: &[Record], opts: &Options) -> Result<Va
             .map(|a| a.simulate_from(&rec.u, &rec.y, seeded));
         let band = if opts.band {
             let clock = std::time::Instant::now();
-            let b = crate::band::one_step_band(model, rec)?;
+            let b = band_after_history(model, rec)?;
             log::info!(target: "smid::validate", "band of `{}`: {:.2} s", rec.name, clock.elapsed().as_secs_f64());
             Some(b)
         } else {
             None
         };
         if let Some(b) = &band {
-            add_to_band_summary(&mut band_sum, b, rec, w0, series.len());
+            // After an input history, the band's own first samples have no past: skipped as
+            // a record's first `warm` are.
+            let from = match rec.history {
+                Some(h) => (h + warm).min(n),
+                None => w0,
+            };
+            add_to_band_summary(&mut band_sum, b, rec, from, series.len());
         }
         per_record.push((rec.name.clone(), Fit::of(&[(&rec.y[w0..], &free[w0..])])));
         let skip = (w0 + 1).min(n);
